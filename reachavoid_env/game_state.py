@@ -1,0 +1,65 @@
+"""The game's state as scripted policies and the renderer read it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+
+class AttackerStatus(str, Enum):
+    """Where an attacker stands in the game."""
+
+    ACTIVE = "active"
+    CAPTURED = "captured"
+    ARRIVED = "arrived"
+
+
+@dataclass(frozen=True, eq=False)
+class GameState:
+    """A snapshot of the game.
+
+    Positions are map units, ``(x, y)`` per row, float64, for every player of the scenario
+    in name order (``attacker_0..M-1``, ``defender_0..N-1``); a captured or arrived attacker
+    keeps the position where it left the game. ``time`` is seconds since reset.
+    The arrays are read-only copies.
+    """
+
+    time: float
+    step: int
+    attacker_positions: np.ndarray
+    defender_positions: np.ndarray
+    attacker_status: tuple[AttackerStatus, ...]
+    attacker_speed: float
+    defender_speed: float
+    capture_radius: float
+
+    def __post_init__(self) -> None:
+        for name in ("attacker_positions", "defender_positions"):
+            array = np.array(getattr(self, name), dtype=np.float64)
+            array.setflags(write=False)
+            object.__setattr__(self, name, array)
+
+    @property
+    def active_attackers(self) -> np.ndarray:
+        """Boolean mask ``(M,)`` of attackers still in the game."""
+        return np.array([s is AttackerStatus.ACTIVE for s in self.attacker_status], dtype=bool)
+
+    @property
+    def attacker_names(self) -> list[str]:
+        return [f"attacker_{i}" for i in range(len(self.attacker_status))]
+
+    @property
+    def defender_names(self) -> list[str]:
+        return [f"defender_{j}" for j in range(len(self.defender_positions))]
+
+    @property
+    def captured(self) -> list[str]:
+        return [n for n, s in zip(self.attacker_names, self.attacker_status, strict=True)
+                if s is AttackerStatus.CAPTURED]
+
+    @property
+    def arrived(self) -> list[str]:
+        return [n for n, s in zip(self.attacker_names, self.attacker_status, strict=True)
+                if s is AttackerStatus.ARRIVED]

@@ -1,0 +1,430 @@
+"""Game maps and scenarios: TOML load/save, validation, built-ins and random starts.
+
+Coordinates are map units, ``x`` then ``y``; times are seconds; speeds are map units per
+second. Point arrays have shape ``(..., 2)``. The TOML format is design.md section 5.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import tempfile
+from dataclasses import dataclass, field, replace
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tomli_w
+
+from reachavoid_env.shapes import Box, Circle, Polygon, ShapeError, shape_from_dict
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:
+    import tomli as tomllib
+
+ShapeT = Box | Circle | Polygon
+Point = tuple[float, float]
+
+
+class ScenarioError(ValueError):
+    """A scenario or map is invalid; the message starts with the offending field."""
+
+
+@dataclass(frozen=True)
+class GameMap:
+    """The playing field: a rectangular domain, a target (union of shapes) and obstacles.
+
+    ``domain`` is ``(xmin, xmax, ymin, ymax)``. Leaving the domain counts as entering an
+    obstacle wherever the game's sets are concerned.
+    """
+
+    domain: tuple[float, float, float, float]
+    target: tuple[ShapeT, ...]
+    obstacles: tuple[ShapeT, ...] = ()
+
+    def __post_init__(self) -> None:
+        xmin, xmax, ymin, ymax = self.domain
+        if not (xmax > xmin and ymax > ymin):
+            raise ScenarioError(f"map.domain: need xmin < xmax and ymin < ymax, got {self.domain}")
+        if not self.target:
+            raise ScenarioError("map.target: at least one target shape is required")
+        for i, shape in enumerate(self.target):
+            bx0, bx1, by0, by1 = shape.bounds()
+            if bx0 < xmin or bx1 > xmax or by0 < ymin or by1 > ymax:
+                raise ScenarioError(f"map.target[{i}]: extends outside the domain {self.domain}")
+            for k, obstacle in enumerate(self.obstacles):
+                if _shapes_overlap(shape, obstacle):
+                    raise ScenarioError(f"map.target[{i}]: overlaps obstacle {k}")
+
+    @property
+    def size(self) -> tuple[float, float]:
+        """Width and height of the domain (map units)."""
+        xmin, xmax, ymin, ymax = self.domain
+        return (xmax - xmin, ymax - ymin)
+
+    def target_signed_distance(self, points: np.ndarray) -> np.ndarray:
+        """Signed distance to the target union (negative inside)."""
+        return np.min([s.signed_distance(points) for s in self.target], axis=0)
+
+    def obstacle_signed_distance(self, points: np.ndarray) -> np.ndarray:
+        """Signed distance to the obstacle union and the outside of the domain.
+
+        Negative inside an obstacle or outside the domain, positive in free space.
+        """
+        xmin, xmax, ymin, ymax = self.domain
+        outside = -Box((xmin, ymin), (xmax, ymax)).signed_distance(points)
+        if not self.obstacles:
+            return outside
+        inside = np.min([s.signed_distance(points) for s in self.obstacles], axis=0)
+        return np.minimum(inside, outside)
+
+    def in_target(self, points: np.ndarray) -> np.ndarray:
+        """Inside the target (inclusive of its boundary)."""
+        return np.any([s.contains(points) for s in self.target], axis=0)
+
+    def in_obstacle(self, points: np.ndarray) -> np.ndarray:
+        """Inside an obstacle (inclusive) or outside the domain."""
+        return self.obstacle_signed_distance(points) <= 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "domain": list(self.domain),
+            "target": _shapes_to_toml(self.target),
+            "obstacles": [s.to_dict() for s in self.obstacles],
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any, field_name: str = "map") -> GameMap:
+        if not isinstance(data, dict):
+            raise ScenarioError(f"{field_name}: expected a table")
+        unknown = set(data) - {"domain", "target", "obstacles"}
+        if unknown:
+            raise ScenarioError(f"{field_name}: unknown keys {sorted(unknown)}")
+        if "domain" not in data:
+            raise ScenarioError(f"{field_name}.domain: missing")
+        domain = data["domain"]
+        if not isinstance(domain, list) or len(domain) != 4:
+            raise ScenarioError(
+                f"{field_name}.domain: expected [xmin, xmax, ymin, ymax], got {domain!r}"
+            )
+        domain_t = tuple(_number(v, f"{field_name}.domain[{i}]") for i, v in enumerate(domain))
+        if "target" not in data:
+            raise ScenarioError(f"{field_name}.target: missing")
+        target = data["target"]
+        targets = target if isinstance(target, list) else [target]
+        obstacles = data.get("obstacles", [])
+        if not isinstance(obstacles, list):
+            raise ScenarioError(f"{field_name}.obstacles: expected a list of shape tables")
+        try:
+            target_shapes = tuple(
+                shape_from_dict(t, f"{field_name}.target" + (f"[{i}]" if isinstance(target, list)
+                                                              else ""))
+                for i, t in enumerate(targets)
+            )
+            obstacle_shapes = tuple(
+                shape_from_dict(o, f"{field_name}.obstacles[{i}]") for i, o in enumerate(obstacles)
+            )
+        except ShapeError as err:
+            raise ScenarioError(str(err)) from None
+        return cls(domain_t, target_shapes, obstacle_shapes)  # type: ignore[arg-type]
+
+
+def _shapes_to_toml(shapes: tuple[ShapeT, ...]) -> Any:
+    return shapes[0].to_dict() if len(shapes) == 1 else [s.to_dict() for s in shapes]
+
+
+def _shapes_overlap(a: ShapeT, b: ShapeT, samples: int = 64) -> bool:
+    """Whether two shapes share interior points (checked on boundary and grid samples)."""
+    ax0, ax1, ay0, ay1 = a.bounds()
+    bx0, bx1, by0, by1 = b.bounds()
+    x0, x1, y0, y1 = max(ax0, bx0), min(ax1, bx1), max(ay0, by0), min(ay1, by1)
+    if x0 >= x1 or y0 >= y1:
+        return False
+    xs, ys = np.linspace(x0, x1, samples), np.linspace(y0, y1, samples)
+    grid = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1)
+    return bool(np.any((a.signed_distance(grid) < 0) & (b.signed_distance(grid) < 0)))
+
+
+def _number(value: Any, field_name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ScenarioError(f"{field_name}: expected a number, got {value!r}")
+    if not math.isfinite(value):
+        raise ScenarioError(f"{field_name}: must be finite, got {value!r}")
+    return float(value)
+
+
+def _positive(value: Any, field_name: str) -> float:
+    number = _number(value, field_name)
+    if number <= 0:
+        raise ScenarioError(f"{field_name}: must be positive, got {value!r}")
+    return number
+
+
+def _points_field(value: Any, field_name: str) -> tuple[Point, ...] | int:
+    if isinstance(value, bool):
+        raise ScenarioError(f"{field_name}: expected a list of [x, y] or a count, got {value!r}")
+    if isinstance(value, int):
+        if value < 1:
+            raise ScenarioError(f"{field_name}: the count must be at least 1, got {value}")
+        return value
+    if not isinstance(value, list) or not value:
+        raise ScenarioError(f"{field_name}: expected a non-empty list of [x, y] or a count")
+    points = []
+    for i, p in enumerate(value):
+        if not isinstance(p, list) or len(p) != 2:
+            raise ScenarioError(f"{field_name}[{i}]: expected a vector [x, y] of length 2, "
+                                f"got {p!r}")
+        points.append((_number(p[0], f"{field_name}[{i}][0]"),
+                       _number(p[1], f"{field_name}[{i}][1]")))
+    return tuple(points)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A map, the players and the simulation settings.
+
+    ``attackers`` / ``defenders`` are fixed start positions, or ``None`` when the starts
+    are drawn at reset (``num_attackers`` / ``num_defenders`` give the counts).
+    Speeds in map units per second, ``capture_radius`` and ``player_radius`` in map units,
+    ``dt`` in seconds.
+    """
+
+    map: GameMap
+    num_attackers: int
+    num_defenders: int
+    attackers: tuple[Point, ...] | None = None
+    defenders: tuple[Point, ...] | None = None
+    attacker_speed: float = 1.0
+    defender_speed: float = 1.5
+    capture_radius: float = 0.1
+    dt: float = 0.005
+    max_steps: int = 1000
+    player_radius: float = 0.005
+    start_clearance: float = 0.05
+    name: str = "custom"
+    extra: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        for name in ("attacker_speed", "defender_speed", "capture_radius", "dt", "player_radius"):
+            _positive(getattr(self, name), f"{_SECTION[name]}.{name}")
+        if self.start_clearance < 0:
+            raise ScenarioError(f"sim.start_clearance: must be >= 0, got {self.start_clearance}")
+        if isinstance(self.max_steps, bool) or not isinstance(self.max_steps, int) \
+                or self.max_steps < 1:
+            raise ScenarioError(f"sim.max_steps: must be a positive integer, got "
+                                f"{self.max_steps!r}")
+        for role, count in (("attackers", self.num_attackers), ("defenders", self.num_defenders)):
+            if count < 1:
+                raise ScenarioError(f"players.{role}: need at least one, got {count}")
+            starts = getattr(self, role)
+            if starts is not None and len(starts) != count:
+                raise ScenarioError(f"players.{role}: {len(starts)} starts for {count} players")
+        if self.attackers is not None and self.defenders is not None:
+            self.validate_starts(np.asarray(self.attackers), np.asarray(self.defenders))
+
+    @property
+    def attacker_names(self) -> list[str]:
+        return [f"attacker_{i}" for i in range(self.num_attackers)]
+
+    @property
+    def defender_names(self) -> list[str]:
+        return [f"defender_{j}" for j in range(self.num_defenders)]
+
+    def validate_starts(self, attackers: np.ndarray, defenders: np.ndarray) -> None:
+        """Raise ``ScenarioError`` naming the player when a start is not valid."""
+        for role, points in (("attackers", attackers), ("defenders", defenders)):
+            for i, p in enumerate(np.asarray(points, dtype=np.float64)):
+                where = f"players.{role}[{i}]: ({p[0]:g}, {p[1]:g})"
+                xmin, xmax, ymin, ymax = self.map.domain
+                if not (xmin <= p[0] <= xmax and ymin <= p[1] <= ymax):
+                    raise ScenarioError(f"{where} lies outside the domain {self.map.domain}")
+                for k, obstacle in enumerate(self.map.obstacles):
+                    if obstacle.contains(p):
+                        raise ScenarioError(f"{where} lies inside obstacle {k}")
+                    if obstacle.signed_distance(p) < self.player_radius:
+                        raise ScenarioError(f"{where} is closer than player_radius "
+                                            f"{self.player_radius:g} to obstacle {k}")
+        for i, p in enumerate(np.asarray(attackers, dtype=np.float64)):
+            where = f"players.attackers[{i}]: ({p[0]:g}, {p[1]:g})"
+            if self.map.in_target(p):
+                raise ScenarioError(f"{where} starts inside the target")
+            gaps = np.linalg.norm(np.asarray(defenders) - p, axis=-1)
+            if np.any(gaps <= self.capture_radius):
+                j = int(np.argmin(gaps))
+                raise ScenarioError(f"{where} starts captured by defenders[{j}] "
+                                    f"(distance {gaps[j]:.3g} <= capture_radius "
+                                    f"{self.capture_radius:g})")
+
+    def starts(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """Start positions ``(attackers (M, 2), defenders (N, 2))``, float64.
+
+        Fixed starts are returned as given; missing ones are drawn from ``rng``, uniformly
+        over the free space with at least ``start_clearance`` to obstacles and walls; an
+        attacker also keeps that clearance from the target and from every capture disc.
+        """
+        defenders = (np.asarray(self.defenders, dtype=np.float64) if self.defenders is not None
+                     else self._sample(rng, self.num_defenders, None))
+        attackers = (np.asarray(self.attackers, dtype=np.float64) if self.attackers is not None
+                     else self._sample(rng, self.num_attackers, defenders))
+        return attackers, defenders
+
+    def _sample(self, rng: np.random.Generator, count: int,
+                defenders: np.ndarray | None) -> np.ndarray:
+        xmin, xmax, ymin, ymax = self.map.domain
+        clearance = max(self.start_clearance, self.player_radius)
+        chosen: list[np.ndarray] = []
+        for _ in range(1000):
+            batch = rng.uniform((xmin, ymin), (xmax, ymax), size=(256, 2))
+            ok = self.map.obstacle_signed_distance(batch) >= clearance
+            if defenders is not None:
+                ok &= self.map.target_signed_distance(batch) >= clearance
+                gaps = np.linalg.norm(batch[:, None, :] - defenders[None], axis=-1)
+                ok &= np.all(gaps >= self.capture_radius + clearance, axis=-1)
+            chosen.extend(batch[ok])
+            if len(chosen) >= count:
+                return np.asarray(chosen[:count])
+        role = "attackers" if defenders is not None else "defenders"
+        raise ScenarioError(f"players.{role}: could not draw {count} valid random starts with "
+                            f"clearance {clearance:g}")
+
+    def with_players(self, num_attackers: int, num_defenders: int) -> Scenario:
+        """The same map and settings with random starts for the given numbers of players."""
+        return replace(self, num_attackers=num_attackers, num_defenders=num_defenders,
+                       attackers=None, defenders=None,
+                       name=f"{self.name.split('_')[0]}_random_{num_attackers}v{num_defenders}")
+
+    def with_starts(self, attackers: np.ndarray, defenders: np.ndarray) -> Scenario:
+        """The same scenario with fixed starts (validated)."""
+        a = tuple((float(x), float(y)) for x, y in np.asarray(attackers, dtype=np.float64))
+        d = tuple((float(x), float(y)) for x, y in np.asarray(defenders, dtype=np.float64))
+        return replace(self, attackers=a, defenders=d, num_attackers=len(a),
+                       num_defenders=len(d))
+
+    def to_dict(self) -> dict[str, Any]:
+        players: dict[str, Any] = {
+            "attacker_speed": self.attacker_speed,
+            "defender_speed": self.defender_speed,
+            "capture_radius": self.capture_radius,
+            "attackers": ([list(p) for p in self.attackers] if self.attackers is not None
+                          else self.num_attackers),
+            "defenders": ([list(p) for p in self.defenders] if self.defenders is not None
+                          else self.num_defenders),
+        }
+        sim = {"dt": self.dt, "max_steps": self.max_steps, "player_radius": self.player_radius,
+               "start_clearance": self.start_clearance}
+        return {"name": self.name, "map": self.map.to_dict(), "players": players, "sim": sim}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], name: str = "custom") -> Scenario:
+        unknown = set(data) - {"name", "map", "players", "sim"}
+        if unknown:
+            raise ScenarioError(f"unknown top-level tables {sorted(unknown)} "
+                                "(expected map, players, sim)")
+        if "map" not in data:
+            raise ScenarioError("map: missing [map] table")
+        game_map = GameMap.from_dict(data["map"])
+        players = data.get("players")
+        if not isinstance(players, dict):
+            raise ScenarioError("players: missing [players] table")
+        sim = data.get("sim", {})
+        if not isinstance(sim, dict):
+            raise ScenarioError("sim: expected a table")
+        allowed_players = {"attacker_speed", "defender_speed", "capture_radius", "attackers",
+                           "defenders"}
+        allowed_sim = {"dt", "max_steps", "player_radius", "start_clearance"}
+        for table, keys, allowed in (("players", players, allowed_players),
+                                     ("sim", sim, allowed_sim)):
+            extra = set(keys) - allowed
+            if extra:
+                raise ScenarioError(f"{table}: unknown keys {sorted(extra)}")
+        for role in ("attackers", "defenders"):
+            if role not in players:
+                raise ScenarioError(f"players.{role}: missing")
+        attackers = _points_field(players["attackers"], "players.attackers")
+        defenders = _points_field(players["defenders"], "players.defenders")
+        kwargs: dict[str, Any] = {}
+        for key in ("attacker_speed", "defender_speed", "capture_radius"):
+            if key in players:
+                kwargs[key] = _positive(players[key], f"players.{key}")
+        for key in ("dt", "player_radius"):
+            if key in sim:
+                kwargs[key] = _positive(sim[key], f"sim.{key}")
+        if "start_clearance" in sim:
+            kwargs["start_clearance"] = _number(sim["start_clearance"], "sim.start_clearance")
+        if "max_steps" in sim:
+            steps = sim["max_steps"]
+            if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+                raise ScenarioError(f"sim.max_steps: must be a positive integer, got {steps!r}")
+            kwargs["max_steps"] = steps
+        return cls(
+            map=game_map,
+            num_attackers=attackers if isinstance(attackers, int) else len(attackers),
+            num_defenders=defenders if isinstance(defenders, int) else len(defenders),
+            attackers=None if isinstance(attackers, int) else attackers,
+            defenders=None if isinstance(defenders, int) else defenders,
+            name=str(data.get("name", name)),
+            **kwargs,
+        )
+
+
+_SECTION = {"attacker_speed": "players", "defender_speed": "players",
+            "capture_radius": "players", "dt": "sim", "player_radius": "sim"}
+
+
+def builtin_names() -> list[str]:
+    """Names of the built-in scenarios (the paper's games, design.md section 7)."""
+    folder = resources.files("reachavoid_env") / "scenarios"
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def builtin_scenario(name: str) -> Scenario:
+    """A built-in scenario by name, e.g. ``"paper_6v2"``."""
+    if name not in builtin_names():
+        raise ScenarioError(f"scenario: unknown built-in {name!r} "
+                            f"(built-ins: {', '.join(builtin_names())})")
+    text = (resources.files("reachavoid_env") / "scenarios" / f"{name}.toml").read_text()
+    return _parse(text, name, source=f"built-in {name}")
+
+
+def builtin_map(name: str = "paper") -> GameMap:
+    """The map shared by the built-in scenarios whose names start with ``name``."""
+    matches = [n for n in builtin_names() if n.split("_")[0] == name]
+    if not matches:
+        raise ScenarioError(f"map: unknown built-in map {name!r}")
+    return builtin_scenario(matches[0]).map
+
+
+def _parse(text: str, name: str, source: str) -> Scenario:
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ScenarioError(f"{source}: malformed TOML: {err}") from None
+    return Scenario.from_dict(data, name=name)
+
+
+def load_scenario(source: str | os.PathLike[str]) -> Scenario:
+    """Load a scenario from a TOML file, or a built-in by name."""
+    path = Path(source)
+    if path.suffix != ".toml" and str(source) in builtin_names():
+        return builtin_scenario(str(source))
+    if not path.is_file():
+        raise ScenarioError(f"scenario: no such file or built-in {str(source)!r} "
+                            f"(built-ins: {', '.join(builtin_names())})")
+    return _parse(path.read_text(), path.stem, source=str(path))
+
+
+def save_scenario(scenario: Scenario, path: str | os.PathLike[str]) -> None:
+    """Write ``scenario`` as TOML (to a temporary name, then renamed into place)."""
+    path = Path(path)
+    data = scenario.to_dict()
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            tomli_w.dump(data, handle)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

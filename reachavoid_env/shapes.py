@@ -1,0 +1,238 @@
+"""Planar shapes of a game map: boxes, circles and simple polygons (concave allowed).
+
+Every shape answers, for points given as an array of shape ``(..., 2)`` in map units
+(``x`` then ``y``):
+
+- ``signed_distance(points)``: exact Euclidean signed distance, negative inside,
+  zero on the boundary, positive outside;
+- ``contains(points)``: inside or on the boundary (inclusive);
+- ``to_dict()``: the TOML table of the shape (see ``shape_from_dict``);
+- ``pymunk_shapes(body)``: static pymunk collision shapes for the world.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+import pymunk
+import pymunk.autogeometry
+
+
+class ShapeError(ValueError):
+    """A shape definition is malformed; the message names the field."""
+
+
+class Shape(Protocol):
+    def signed_distance(self, points: np.ndarray) -> np.ndarray: ...
+    def contains(self, points: np.ndarray) -> np.ndarray: ...
+    def bounds(self) -> tuple[float, float, float, float]: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]: ...
+
+
+def _points(points: np.ndarray) -> np.ndarray:
+    p = np.asarray(points, dtype=np.float64)
+    if p.shape[-1:] != (2,):
+        raise ValueError(f"points must have shape (..., 2), got {p.shape}")
+    return p
+
+
+@dataclass(frozen=True)
+class Box:
+    """Axis-aligned box ``[min[0], max[0]] x [min[1], max[1]]``."""
+
+    min: tuple[float, float]
+    max: tuple[float, float]
+
+    def __post_init__(self) -> None:
+        if not (self.max[0] > self.min[0] and self.max[1] > self.min[1]):
+            raise ShapeError(f"box max {self.max} must exceed min {self.min} on both axes")
+
+    def signed_distance(self, points: np.ndarray) -> np.ndarray:
+        p = _points(points)
+        lo, hi = np.asarray(self.min), np.asarray(self.max)
+        center, half = (lo + hi) / 2, (hi - lo) / 2
+        q = np.abs(p - center) - half
+        outside = np.linalg.norm(np.maximum(q, 0.0), axis=-1)
+        inside = np.minimum(q.max(axis=-1), 0.0)
+        return outside + inside
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        p = _points(points)
+        return np.all((p >= self.min) & (p <= self.max), axis=-1)
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        return (self.min[0], self.max[0], self.min[1], self.max[1])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"type": "box", "min": list(self.min), "max": list(self.max)}
+
+    def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]:
+        (x0, y0), (x1, y1) = self.min, self.max
+        return [pymunk.Poly(body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])]
+
+
+@dataclass(frozen=True)
+class Circle:
+    """Disc of ``radius`` around ``center``."""
+
+    center: tuple[float, float]
+    radius: float
+
+    def __post_init__(self) -> None:
+        if not self.radius > 0:
+            raise ShapeError(f"circle radius must be positive, got {self.radius}")
+
+    def signed_distance(self, points: np.ndarray) -> np.ndarray:
+        p = _points(points)
+        return np.linalg.norm(p - np.asarray(self.center), axis=-1) - self.radius
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        return self.signed_distance(points) <= 0.0
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        (cx, cy), r = self.center, self.radius
+        return (cx - r, cx + r, cy - r, cy + r)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"type": "circle", "center": list(self.center), "radius": self.radius}
+
+    def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]:
+        return [pymunk.Circle(body, self.radius, offset=self.center)]
+
+
+def _segments_intersect(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> bool:
+    def cross(o: np.ndarray, p: np.ndarray, q: np.ndarray) -> float:
+        return float((p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]))
+
+    d1, d2 = cross(c, d, a), cross(c, d, b)
+    d3, d4 = cross(a, b, c), cross(a, b, d)
+    return (d1 * d2 < 0) and (d3 * d4 < 0)
+
+
+@dataclass(frozen=True)
+class Polygon:
+    """Simple polygon (convex or concave, not self-intersecting) given by its vertices."""
+
+    vertices: tuple[tuple[float, float], ...]
+
+    def __post_init__(self) -> None:
+        v = np.asarray(self.vertices, dtype=np.float64)
+        if v.ndim != 2 or v.shape[1] != 2:
+            raise ShapeError("polygon vertices must be a list of [x, y] pairs")
+        if len(v) < 3:
+            raise ShapeError(f"polygon needs at least 3 vertices, got {len(v)}")
+        if abs(self.area) < 1e-12:
+            raise ShapeError("polygon has zero area")
+        n = len(v)
+        for i in range(n):
+            for j in range(i + 2, n):
+                if i == 0 and j == n - 1:
+                    continue
+                if _segments_intersect(v[i], v[(i + 1) % n], v[j], v[(j + 1) % n]):
+                    raise ShapeError(f"polygon edges {i} and {j} cross (self-intersecting)")
+
+    @property
+    def area(self) -> float:
+        """Signed area (positive for counter-clockwise vertices)."""
+        v = np.asarray(self.vertices, dtype=np.float64)
+        x, y = v[:, 0], v[:, 1]
+        return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+    def _edge_distance(self, p: np.ndarray) -> np.ndarray:
+        a = np.asarray(self.vertices, dtype=np.float64)
+        b = np.roll(a, -1, axis=0)
+        ab = b - a
+        ap = p[..., None, :] - a
+        t = np.clip(np.sum(ap * ab, axis=-1) / np.sum(ab * ab, axis=-1), 0.0, 1.0)
+        closest = a + t[..., None] * ab
+        return np.linalg.norm(p[..., None, :] - closest, axis=-1).min(axis=-1)
+
+    def _crossing_inside(self, p: np.ndarray) -> np.ndarray:
+        a = np.asarray(self.vertices, dtype=np.float64)
+        b = np.roll(a, -1, axis=0)
+        px, py = p[..., 0:1], p[..., 1:2]
+        straddles = (a[:, 1] > py) != (b[:, 1] > py)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_cross = a[:, 0] + (py - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
+        crossings = np.sum(straddles & (px < x_cross), axis=-1)
+        return crossings % 2 == 1
+
+    def signed_distance(self, points: np.ndarray) -> np.ndarray:
+        p = _points(points)
+        dist = self._edge_distance(p)
+        return np.where(self._crossing_inside(p), -dist, dist)
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        return self.signed_distance(points) <= 0.0
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        v = np.asarray(self.vertices, dtype=np.float64)
+        return (float(v[:, 0].min()), float(v[:, 0].max()), float(v[:, 1].min()),
+                float(v[:, 1].max()))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"type": "polygon", "vertices": [list(v) for v in self.vertices]}
+
+    def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]:
+        ring = [tuple(v) for v in self.vertices]
+        if self.area < 0:
+            ring.reverse()
+        ring.append(ring[0])
+        parts = pymunk.autogeometry.convex_decomposition(ring, 0.0)
+        return [pymunk.Poly(body, part) for part in parts]
+
+
+def _vector(value: Any, field: str) -> tuple[float, float]:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ShapeError(f"{field}: expected a vector [x, y] of length 2, got {value!r}")
+    try:
+        x, y = (float(c) for c in value)
+    except (TypeError, ValueError):
+        raise ShapeError(f"{field}: expected numbers, got {value!r}") from None
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise ShapeError(f"{field}: coordinates must be finite, got {value!r}")
+    return (x, y)
+
+
+def shape_from_dict(data: Any, field: str) -> Box | Circle | Polygon:
+    """Build a shape from its TOML table; errors name ``field`` and the reason.
+
+    Tables: ``{type = "box", min = [x, y], max = [x, y]}``,
+    ``{type = "circle", center = [x, y], radius = r}``,
+    ``{type = "polygon", vertices = [[x, y], ...]}``.
+    """
+    if not isinstance(data, dict):
+        raise ShapeError(f"{field}: expected a table with a 'type', got {data!r}")
+    kind = data.get("type")
+    allowed = {"box": {"min", "max"}, "circle": {"center", "radius"}, "polygon": {"vertices"}}
+    if kind not in allowed:
+        raise ShapeError(
+            f"{field}.type: unknown shape type {kind!r} (expected one of box, circle, polygon)"
+        )
+    keys = set(data) - {"type"}
+    missing, extra = allowed[kind] - keys, keys - allowed[kind]
+    if missing:
+        raise ShapeError(f"{field}: {kind} needs {sorted(missing)}")
+    if extra:
+        raise ShapeError(f"{field}: unknown keys {sorted(extra)} for a {kind}")
+    try:
+        if kind == "box":
+            return Box(_vector(data["min"], f"{field}.min"), _vector(data["max"], f"{field}.max"))
+        if kind == "circle":
+            radius = data["radius"]
+            if isinstance(radius, bool) or not isinstance(radius, (int, float)):
+                raise ShapeError(f"{field}.radius: expected a number, got {radius!r}")
+            return Circle(_vector(data["center"], f"{field}.center"), float(radius))
+        vertices = data["vertices"]
+        if not isinstance(vertices, list):
+            raise ShapeError(f"{field}.vertices: expected a list of [x, y] pairs")
+        return Polygon(
+            tuple(_vector(v, f"{field}.vertices[{i}]") for i, v in enumerate(vertices))
+        )
+    except ShapeError as err:
+        message = str(err)
+        raise ShapeError(message if message.startswith(field) else f"{field}: {message}") from None
