@@ -1,0 +1,1 @@
+"""Defender and attacker policies (design.md section 3)."""

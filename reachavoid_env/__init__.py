@@ -1,6 +1,6 @@
 """reachavoid_env: the multi-agent reach-avoid game (design.md)."""
 
-from reachavoid_env.game_state import AttackerStatus, GameState
+from reachavoid_env.game_state import AttackerStatus, GameState, Overlay
 from reachavoid_env.scenario import (
     GameMap,
     Scenario,
@@ -19,6 +19,7 @@ __all__ = [
     "Circle",
     "GameMap",
     "GameState",
+    "Overlay",
     "Polygon",
     "Scenario",
     "ScenarioError",

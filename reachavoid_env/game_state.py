@@ -63,3 +63,15 @@ class GameState:
     def arrived(self) -> list[str]:
         return [n for n, s in zip(self.attacker_names, self.attacker_status, strict=True)
                 if s is AttackerStatus.ARRIVED]
+
+
+@dataclass(frozen=True)
+class Overlay:
+    """What a policy asks the renderer to draw on top of the game.
+
+    ``edges`` are ``(defender name, attacker name)`` pairs, drawn as green lines (the
+    paper's assignment edges); ``lines`` are extra text lines shown under the clock.
+    """
+
+    edges: tuple[tuple[str, str], ...] = ()
+    lines: tuple[str, ...] = ()
