@@ -1,0 +1,232 @@
+"""Frames to MP4 (H.264) or GIF, streamed to ffmpeg one frame at a time.
+
+``VideoWriter`` takes ``(height, width, 3)`` uint8 frames and pipes each one straight to an
+ffmpeg process (imageio-ffmpeg), so memory stays flat however long the episode. The video
+is written under a temporary name next to the destination and renamed into place on
+``close``; an exception (Ctrl-C included) inside a ``with`` block, or ``abort()``, removes
+it. ``RecordEpisode`` wraps a ``ParallelEnv`` whose ``render_mode`` is ``"rgb_array"`` and
+records ``env.render()`` after every reset and step.
+"""
+
+from __future__ import annotations
+
+import os
+import secrets
+from collections.abc import Generator
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import imageio_ffmpeg
+import numpy as np
+from pettingzoo.utils.env import ParallelEnv
+from pettingzoo.utils.wrappers.base_parallel import BaseParallelWrapper
+
+VIDEO_SUFFIXES = (".mp4", ".gif")
+
+# One palette per frame keeps GIF colours exact without a second pass over the video.
+_GIF_FILTER = "split[a][b];[a]palettegen=stats_mode=single[p];[b][p]paletteuse=new=1"
+
+
+class _Discard(BaseException):
+    """Thrown into the ffmpeg generator to kill the encoder instead of finishing."""
+
+
+def check_video_path(path: str | os.PathLike[str]) -> Path:
+    """``path`` as a ``Path`` if a video can be written there, else ``ValueError``."""
+    path = Path(path)
+    if path.suffix.lower() not in VIDEO_SUFFIXES:
+        raise ValueError(f"video: {str(path)!r} must end in one of "
+                         f"{', '.join(VIDEO_SUFFIXES)} (got {path.suffix or 'no suffix'!r})")
+    if not path.parent.is_dir():
+        raise ValueError(f"video: folder {str(path.parent)!r} does not exist")
+    return path
+
+
+class VideoWriter:
+    """Streams frames into ``path`` (``.mp4``: H.264, yuv420p; ``.gif``: looping).
+
+    ``fps`` is the playback rate (frames per second). ``quality`` (1-10) sets the H.264
+    compression (10 is best). Frames are ``(height, width, 3)`` uint8 arrays of one size;
+    sizes that are multiples of 16 are encoded as they are.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], fps: float = 30.0, *,
+                 quality: float = 7.0) -> None:
+        self.path = check_video_path(path)
+        if not fps > 0:
+            raise ValueError(f"fps: must be positive, got {fps}")
+        if not 1 <= quality <= 10:
+            raise ValueError(f"quality: must lie in [1, 10], got {quality}")
+        self.fps = float(fps)
+        self.quality = float(quality)
+        self.frames = 0
+        self._size: tuple[int, int] | None = None
+        self._encoder: Generator[None, Any, None] | None = None
+        self._tmp: Path | None = None
+        self._closed = False
+
+    def _open(self, width: int, height: int) -> None:
+        suffix = self.path.suffix.lower()
+        # ffmpeg creates the file itself, so it gets the usual permissions (umask).
+        tmp = self.path.with_name(f".{self.path.stem}.{os.getpid()}.{secrets.token_hex(4)}"
+                                  f".part{suffix}")
+        self._tmp = tmp
+        if suffix == ".gif":
+            options = dict(codec="gif", pix_fmt_out="pal8", quality=None, macro_block_size=1,
+                           output_params=["-vf", _GIF_FILTER, "-loop", "0"])
+        else:
+            options = dict(codec="libx264", pix_fmt_out="yuv420p", quality=self.quality,
+                           macro_block_size=16, output_params=["-preset", "veryfast"])
+        self._encoder = imageio_ffmpeg.write_frames(str(tmp), (width, height), fps=self.fps,
+                                                    ffmpeg_log_level="error", **options)
+        self._encoder.send(None)
+        self._size = (height, width)
+
+    def append(self, frame: np.ndarray) -> None:
+        """Encode one ``(height, width, 3)`` uint8 frame."""
+        if self._closed:
+            raise ValueError(f"video {str(self.path)!r}: append after close")
+        frame = np.asarray(frame)
+        if frame.dtype != np.uint8 or frame.ndim != 3 or frame.shape[2] != 3:
+            raise ValueError(f"video frame {self.frames}: expected a (height, width, 3) uint8 "
+                             f"array, got {frame.dtype} {frame.shape}")
+        if self._size is None:
+            self._open(frame.shape[1], frame.shape[0])
+        elif frame.shape[:2] != self._size:
+            raise ValueError(f"video frame {self.frames}: size {frame.shape[:2]} differs from "
+                             f"the first frame's {self._size}")
+        try:
+            self._encoder.send(np.ascontiguousarray(frame))
+        except BaseException:
+            self.abort()
+            raise
+        self.frames += 1
+
+    def close(self) -> None:
+        """Finish the video and move it to ``path`` (needs at least one frame)."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._encoder is None:
+            raise ValueError(f"video {str(self.path)!r}: no frames were appended")
+        try:
+            self._encoder.close()
+            if not self._tmp.is_file() or self._tmp.stat().st_size == 0:
+                raise OSError(f"video {str(self.path)!r}: ffmpeg wrote nothing")
+            os.replace(self._tmp, self.path)
+        except BaseException:
+            self._tmp.unlink(missing_ok=True)
+            raise
+        finally:
+            self._encoder = None
+
+    def abort(self) -> None:
+        """Stop the encoder and remove the partial file; ``path`` is left untouched."""
+        self._closed = True
+        if self._encoder is not None:
+            try:
+                self._encoder.throw(_Discard())
+            except (_Discard, StopIteration):
+                pass
+            self._encoder = None
+        if self._tmp is not None:
+            self._tmp.unlink(missing_ok=True)
+
+    def __enter__(self) -> VideoWriter:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
+                 trace: TracebackType | None) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self.abort()
+
+
+class RecordEpisode(BaseParallelWrapper):
+    """Records ``env.render()`` after every reset and every ``every``-th step to a video.
+
+    All episodes go into the one file at ``path``, finished by ``close()``; a ``path``
+    containing ``{episode}`` (e.g. ``"run_{episode}.mp4"``) gets one file per episode,
+    finished when the episode ends. ``fps`` defaults to ``env.metadata["render_fps"]``.
+    Used as a context manager, an exception inside the block discards the unfinished
+    video.
+    """
+
+    def __init__(self, env: ParallelEnv, path: str | os.PathLike[str], fps: float | None = None,
+                 *, every: int = 1) -> None:
+        super().__init__(env)
+        if getattr(env, "render_mode", None) != "rgb_array":
+            raise ValueError(f"RecordEpisode needs render_mode='rgb_array', got "
+                             f"{getattr(env, 'render_mode', None)!r}")
+        if every < 1:
+            raise ValueError(f"every: must be a positive integer, got {every}")
+        self.path_template = str(path)
+        check_video_path(self.path_template.format(episode=0))
+        self.fps = float(fps if fps is not None else env.metadata.get("render_fps", 30))
+        self.every = int(every)
+        self.episode = -1
+        self._steps = 0
+        self._writer: VideoWriter | None = None
+
+    @property
+    def per_episode(self) -> bool:
+        return "{episode}" in self.path_template
+
+    def reset(self, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[dict, dict]:
+        result = self.env.reset(seed=seed, options=options)
+        self.episode += 1
+        self._steps = 0
+        if self.per_episode:
+            self._finish()
+        if self._writer is None:
+            path = self.path_template.format(episode=self.episode)
+            self._writer = VideoWriter(path, self.fps)
+        self._record()
+        return result
+
+    def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
+        live = bool(self.env.agents)
+        result = self.env.step(actions)
+        if not live:
+            return result
+        self._steps += 1
+        ended = not self.env.agents
+        if self._writer is not None and (ended or self._steps % self.every == 0):
+            self._record()
+        if ended and self.per_episode:
+            self._finish()
+        return result
+
+    def _record(self) -> None:
+        frame = self.env.render()
+        try:
+            self._writer.append(frame)
+        except BaseException:
+            self._writer.abort()
+            self._writer = None
+            raise
+
+    def _finish(self) -> None:
+        if self._writer is not None:
+            writer, self._writer = self._writer, None
+            writer.close()
+
+    def close(self) -> None:
+        """Finish the current video, then close the env."""
+        try:
+            self._finish()
+        finally:
+            self.env.close()
+
+    def __enter__(self) -> RecordEpisode:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
+                 trace: TracebackType | None) -> None:
+        if kind is not None and self._writer is not None:
+            self._writer.abort()
+            self._writer = None
+        self.close()
