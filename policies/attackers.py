@@ -1,0 +1,92 @@
+"""Scripted attacker policies.
+
+Each follows ``policies.base.Policy``: ``reset(scenario)`` then ``act(state)``, which
+returns a float32 ``(2,)`` action in ``[-1, 1]`` (a velocity as a fraction of the
+attacker's speed) for every attacker still in the game.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from reachavoid_env import GameMap, GameState, Scenario
+
+
+def target_centres(game_map: GameMap, samples: int = 41) -> np.ndarray:
+    """One aim point per target shape, ``(K, 2)`` map units: its deepest interior point.
+
+    The point is the sample of a ``samples`` x ``samples`` grid over the shape's bounds
+    with the most negative signed distance: the centre of a box or circle, a point well
+    inside a concave polygon (whose centroid may lie outside it).
+    """
+    centres = []
+    for shape in game_map.target:
+        x0, x1, y0, y1 = shape.bounds()
+        grid = np.stack(np.meshgrid(np.linspace(x0, x1, samples), np.linspace(y0, y1, samples),
+                                    indexing="ij"), axis=-1).reshape(-1, 2)
+        centres.append(grid[np.argmin(shape.signed_distance(grid))])
+    return np.asarray(centres)
+
+
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    """Rows scaled to length 1 (zero rows stay zero), as float32 actions."""
+    norms = np.linalg.norm(vectors, axis=-1, keepdims=True)
+    return np.divide(vectors, norms, out=np.zeros_like(vectors), where=norms > 0).astype(
+        np.float32)
+
+
+class StraightAttacker:
+    """Every attacker runs at full speed straight for the nearest target centre.
+
+    It ignores obstacles (the physics makes it slide along them) and defenders.
+    """
+
+    def __init__(self) -> None:
+        self._centres = np.zeros((0, 2))
+
+    def reset(self, scenario: Scenario) -> None:
+        self._centres = target_centres(scenario.map)
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]:
+        if len(self._centres) == 0:
+            raise RuntimeError("StraightAttacker.act called before reset(scenario)")
+        active = np.flatnonzero(state.active_attackers)
+        positions = state.attacker_positions[active]
+        gaps = self._centres[None, :, :] - positions[:, None, :]
+        nearest = np.argmin(np.linalg.norm(gaps, axis=-1), axis=1)
+        actions = _unit(gaps[np.arange(len(active)), nearest])
+        return {f"attacker_{i}": actions[k] for k, i in enumerate(active)}
+
+
+class RandomAttacker:
+    """Every attacker runs at full speed in a random direction, redrawn every ``hold`` s.
+
+    Directions are uniform on the circle, drawn from a generator seeded by ``seed`` at
+    construction (a new episode continues the same stream).
+    """
+
+    def __init__(self, seed: int | None = None, hold: float = 0.25) -> None:
+        if not hold > 0:
+            raise ValueError(f"hold: must be positive seconds, got {hold}")
+        self.hold = float(hold)
+        self._rng = np.random.default_rng(seed)
+        self._hold_steps = 0
+        self._headings = np.zeros((0, 2), dtype=np.float32)
+        self._drawn_at = 0
+
+    def reset(self, scenario: Scenario) -> None:
+        self._hold_steps = max(1, round(self.hold / scenario.dt))
+        self._headings = np.zeros((0, 2), dtype=np.float32)
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]:
+        if self._hold_steps == 0:
+            raise RuntimeError("RandomAttacker.act called before reset(scenario)")
+        count = len(state.attacker_status)
+        if len(self._headings) != count or state.step - self._drawn_at >= self._hold_steps \
+                or state.step < self._drawn_at:
+            angles = self._rng.uniform(0.0, 2.0 * np.pi, size=count)
+            self._headings = np.stack([np.cos(angles), np.sin(angles)], axis=-1).astype(
+                np.float32)
+            self._drawn_at = state.step
+        return {f"attacker_{i}": self._headings[i].copy()
+                for i in np.flatnonzero(state.active_attackers)}
