@@ -1,0 +1,216 @@
+"""Renderer: frame size and type, headless drawing, what is drawn where, human mode."""
+
+from __future__ import annotations
+
+import numpy as np
+import pygame
+import pytest
+
+from reachavoid_env import (
+    AttackerStatus,
+    Box,
+    Circle,
+    GameMap,
+    GameState,
+    Overlay,
+    Polygon,
+    builtin_scenario,
+)
+from reachavoid_env import render as R
+from reachavoid_env.render import Renderer
+
+ACTIVE, CAPTURED, ARRIVED = AttackerStatus.ACTIVE, AttackerStatus.CAPTURED, AttackerStatus.ARRIVED
+
+
+def state_of(attackers, defenders, status=None, time=0.0, step=0) -> GameState:
+    attackers = np.asarray(attackers, dtype=float)
+    return GameState(time=time, step=step, attacker_positions=attackers,
+                     defender_positions=np.asarray(defenders, dtype=float),
+                     attacker_status=tuple(status or [ACTIVE] * len(attackers)),
+                     attacker_speed=1.0, defender_speed=1.5, capture_radius=0.1)
+
+
+@pytest.fixture
+def scenario():
+    return builtin_scenario("paper_6v2")
+
+
+@pytest.fixture
+def renderer(scenario):
+    return Renderer(scenario.map, scenario.capture_radius)
+
+
+def pixel(renderer: Renderer, frame: np.ndarray, point) -> np.ndarray:
+    x, y = renderer.to_pixels(np.asarray(point, dtype=float))
+    return frame[int(round(y)), int(round(x))].astype(int)
+
+
+def is_like(color, reference, tolerance=30) -> bool:
+    return bool(np.all(np.abs(np.asarray(color) - np.asarray(reference)) <= tolerance))
+
+
+@pytest.mark.parametrize(("width", "height", "expected_width"), [
+    (640, None, 640),
+    (500, None, 512),
+    (320, 250, 320),
+])
+def test_frame_is_uint8_rgb_with_sides_multiple_of_16(scenario, width, height, expected_width):
+    renderer = Renderer(scenario.map, scenario.capture_radius, width=width, height=height)
+    renderer.draw(state_of(scenario.attackers, scenario.defenders))
+    frame = renderer.rgb_array()
+    assert frame.dtype == np.uint8
+    assert frame.shape[1:] == (expected_width, 3)
+    assert frame.shape[0] % 16 == 0 and frame.shape[1] % 16 == 0
+    if height is None:  # the square domain below the header
+        assert expected_width < frame.shape[0] < expected_width + 100
+    else:
+        assert frame.shape[0] == 256
+    assert frame.flags.writeable
+
+
+def test_domain_keeps_its_aspect_ratio():
+    wide = GameMap(domain=(0.0, 4.0, 0.0, 1.0), target=(Box((3.5, 0.4), (3.8, 0.6)),))
+    renderer = Renderer(wide, 0.1, width=640)
+    (x0, y0), (x1, y1) = renderer.to_pixels(np.array([[0.0, 1.0], [4.0, 0.0]]))
+    assert (x1 - x0) / (y1 - y0) == pytest.approx(4.0)
+    assert renderer.height < 300
+
+
+def test_rgb_array_is_a_fresh_copy(renderer, scenario):
+    renderer.draw(state_of(scenario.attackers, scenario.defenders))
+    first = renderer.rgb_array()
+    first[:] = 0
+    assert renderer.rgb_array().any()
+
+
+def test_players_target_and_obstacles_in_their_colours(renderer, scenario):
+    renderer.draw(state_of(scenario.attackers, scenario.defenders))
+    frame = renderer.rgb_array()
+    for point in scenario.attackers:
+        assert is_like(pixel(renderer, frame, point), R.ATTACKER)
+    for point in scenario.defenders:
+        assert is_like(pixel(renderer, frame, point), R.DEFENDER)
+    assert is_like(pixel(renderer, frame, (0.0, -0.65)), R.OBSTACLE, 0)
+    assert is_like(pixel(renderer, frame, (0.0, 0.45)), R.OBSTACLE, 0)
+    assert is_like(pixel(renderer, frame, (0.72, 0.25)), R.TARGET, 0)
+    assert is_like(pixel(renderer, frame, (-0.6, 0.6)), R.FIELD, 0)
+    # inside a capture disc but away from the defender glyph: tinted blue
+    disc = pixel(renderer, frame, (0.3 - 0.07, 0.5))
+    assert disc[2] > disc[0] + 20 and not is_like(disc, R.DEFENDER)
+
+
+def test_circle_and_concave_polygon_obstacles():
+    notch = Polygon(((-0.8, -0.8), (0.0, -0.8), (0.0, 0.0), (-0.4, -0.4), (-0.8, 0.0)))
+    game_map = GameMap(domain=(-1.0, 1.0, -1.0, 1.0), target=(Circle((0.7, 0.7), 0.1),),
+                       obstacles=(Circle((0.5, -0.5), 0.2), notch))
+    renderer = Renderer(game_map, 0.1)
+    renderer.draw(state_of([[0.9, -0.9]], [[-0.9, 0.9]]))
+    frame = renderer.rgb_array()
+    assert is_like(pixel(renderer, frame, (0.5, -0.5)), R.OBSTACLE, 0)
+    assert is_like(pixel(renderer, frame, (0.5, -0.25)), R.FIELD, 0)
+    assert is_like(pixel(renderer, frame, (-0.4, -0.6)), R.OBSTACLE, 0)
+    assert is_like(pixel(renderer, frame, (-0.7, -0.1)), R.OBSTACLE, 0)
+    assert is_like(pixel(renderer, frame, (-0.4, -0.2)), R.FIELD, 0)  # in the notch
+    assert is_like(pixel(renderer, frame, (0.7, 0.7)), R.TARGET, 0)
+
+
+def test_overlay_edge_is_drawn_green(renderer):
+    attacker, defender = np.array([-0.6, 0.6]), np.array([-0.6, -0.1])
+    state = state_of([attacker], [defender])
+    middle = (attacker + defender) / 2
+    renderer.draw(state)
+    plain = pixel(renderer, renderer.rgb_array(), middle)
+    renderer.reset()
+    renderer.draw(state, Overlay(edges=(("defender_0", "attacker_0"),)))
+    edged = pixel(renderer, renderer.rgb_array(), middle)
+    assert is_like(plain, R.FIELD, 0)
+    assert is_like(edged, R.EDGE, 40)
+
+
+def test_overlay_with_unknown_names_is_an_error(renderer):
+    state = state_of([[-0.6, 0.6]], [[-0.6, -0.1]])
+    with pytest.raises(ValueError, match="defender_3"):
+        renderer.draw(state, Overlay(edges=(("defender_3", "attacker_0"),)))
+    with pytest.raises(ValueError, match="attacker_9"):
+        renderer.draw(state, Overlay(edges=(("defender_0", "attacker_9"),)))
+
+
+def test_captured_plus_and_arrival_ring(renderer):
+    captured, arrived = np.array([-0.5, 0.5]), np.array([0.7, 0.2])
+    renderer.draw(state_of([captured, arrived], [[-0.5, -0.8]], [CAPTURED, ARRIVED]))
+    frame = renderer.rgb_array()
+    assert is_like(pixel(renderer, frame, captured), R.CAPTURED, 10)
+    # the '+' has arms but no diagonal
+    scale = renderer.width / 640 * 5 / renderer._scale
+    assert is_like(pixel(renderer, frame, captured + [scale, 0]), R.CAPTURED, 10)
+    assert is_like(pixel(renderer, frame, captured + [scale, scale]), R.FIELD, 10)
+    assert is_like(pixel(renderer, frame, arrived), R.ATTACKER, 30)  # centre dot
+    ring = 7 * 1.3 * renderer.width / 640 / renderer._scale
+    assert is_like(pixel(renderer, frame, arrived + [ring, 0]), R.ATTACKER, 60)
+    assert is_like(pixel(renderer, frame, arrived + [ring / 2, 0]), R.TARGET, 10)
+
+
+def test_trails_follow_players_and_reset_clears_them(renderer):
+    path = np.linspace([-0.8, 0.8], [-0.2, 0.8], 61)
+    for step, point in enumerate(path):
+        renderer.draw(state_of([point], [[0.5, -0.8]], time=step * 0.005, step=step))
+    frame = renderer.rgb_array()
+    behind = pixel(renderer, frame, path[30])
+    assert not is_like(behind, R.FIELD, 5) and behind[0] > behind[2] + 30  # pale red
+    renderer.reset()
+    renderer.draw(state_of([path[-1]], [[0.5, -0.8]], time=0.3, step=60))
+    assert is_like(pixel(renderer, renderer.rgb_array(), path[30]), R.FIELD, 0)
+
+
+def test_trail_fades_out_after_trail_seconds(scenario):
+    renderer = Renderer(scenario.map, 0.1, trail_seconds=0.1)
+    path = np.linspace([-0.8, 0.8], [-0.2, 0.8], 61)
+    for step, point in enumerate(path):
+        renderer.draw(state_of([point], [[0.5, -0.8]], time=step * 0.005, step=step))
+    frame = renderer.rgb_array()
+    assert is_like(pixel(renderer, frame, path[10]), R.FIELD, 0)  # 0.25 s old: gone
+    assert not is_like(pixel(renderer, frame, path[55]), R.FIELD, 5)
+
+
+def test_a_new_episode_starts_without_old_trails(renderer):
+    path = np.linspace([-0.8, 0.8], [-0.2, 0.8], 41)
+    for step, point in enumerate(path):
+        renderer.draw(state_of([point], [[0.5, -0.8]], time=step * 0.005, step=step))
+    renderer.draw(state_of([[-0.8, -0.2]], [[0.5, -0.8]], time=0.0, step=0))
+    assert is_like(pixel(renderer, renderer.rgb_array(), path[20]), R.FIELD, 0)
+
+
+def test_header_shows_time_counts_and_overlay_lines(renderer, scenario):
+    header = slice(0, renderer._header)
+    renderer.draw(state_of(scenario.attackers, scenario.defenders))
+    first = renderer.rgb_array()[header]
+    renderer.draw(state_of(scenario.attackers, scenario.defenders, time=0.5, step=100))
+    later = renderer.rgb_array()[header]
+    renderer.draw(state_of(scenario.attackers, scenario.defenders, time=0.5, step=100),
+                  Overlay(lines=("assignment: D0 -> A1",)))
+    with_line = renderer.rgb_array()[header]
+    assert (first != later).any()
+    assert (later != with_line).any()
+    assert (first[:, :, 0] > 150).sum() > 100  # light text on the dark bar
+
+
+def test_bad_arguments(scenario):
+    with pytest.raises(ValueError, match="capture_radius"):
+        Renderer(scenario.map, 0.0)
+    with pytest.raises(ValueError, match="width"):
+        Renderer(scenario.map, 0.1, width=8)
+    with pytest.raises(ValueError, match="height"):
+        Renderer(scenario.map, 0.1, height=16)
+
+
+def test_human_mode_opens_a_window_headless(monkeypatch, renderer, scenario):
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    renderer.draw(state_of(scenario.attackers, scenario.defenders))
+    renderer.show(fps=1000)
+    window = pygame.display.get_surface()
+    assert window is not None and window.get_size() == (renderer.width, renderer.height)
+    shown = np.frombuffer(pygame.image.tobytes(window, "RGB"), dtype=np.uint8)
+    assert (shown.reshape(renderer.height, renderer.width, 3) == renderer.rgb_array()).all()
+    renderer.show(fps=1000)
+    renderer.close()
+    assert not pygame.display.get_init()
