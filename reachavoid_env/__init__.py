@@ -1,6 +1,17 @@
-"""reachavoid_env: the multi-agent reach-avoid game (design.md)."""
+"""reachavoid_env: the multi-agent reach-avoid game (design.md).
 
+Importing the package registers the env with PettingZoo as ``reachavoid/ReachAvoid-v0``
+(both ``pettingzoo.make("parallel", ...)`` and ``pettingzoo.make("aec", ...)``).
+Note that ``reachavoid_env.env`` is the AEC constructor, which shadows the ``env``
+submodule as a package attribute; import from the submodule with
+``from reachavoid_env.env import ...``.
+"""
+
+import pettingzoo
+
+from reachavoid_env.env import ReachAvoidEnv
 from reachavoid_env.game_state import AttackerStatus, GameState, Overlay
+from reachavoid_env.reach_avoid_v0 import env, parallel_env, raw_env
 from reachavoid_env.scenario import (
     GameMap,
     Scenario,
@@ -21,12 +32,20 @@ __all__ = [
     "GameState",
     "Overlay",
     "Polygon",
+    "ReachAvoidEnv",
     "Scenario",
     "ScenarioError",
     "ShapeError",
     "builtin_map",
     "builtin_names",
     "builtin_scenario",
+    "env",
     "load_scenario",
+    "parallel_env",
+    "raw_env",
     "save_scenario",
 ]
+
+ENV_ID = "reachavoid/ReachAvoid-v0"
+pettingzoo.register("parallel", ENV_ID, entry_point="reachavoid_env.reach_avoid_v0:parallel_env")
+pettingzoo.register("aec", ENV_ID, entry_point="reachavoid_env.reach_avoid_v0:env")

@@ -81,6 +81,14 @@ class GameMap:
         inside = np.min([s.signed_distance(points) for s in self.obstacles], axis=0)
         return np.minimum(inside, outside)
 
+    def target_entry_time(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """First ``t`` in ``[0, 1]`` at which ``start + t (end - start)`` is in the target.
+
+        ``starts`` and ``ends`` are ``(..., 2)``; the result is ``(...)``, ``inf`` for
+        segments that never touch the target (boundary inclusive).
+        """
+        return np.min([s.segment_entry_time(starts, ends) for s in self.target], axis=0)
+
     def in_target(self, points: np.ndarray) -> np.ndarray:
         """Inside the target (inclusive of its boundary)."""
         return np.any([s.contains(points) for s in self.target], axis=0)

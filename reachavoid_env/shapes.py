@@ -6,6 +6,9 @@ Every shape answers, for points given as an array of shape ``(..., 2)`` in map u
 - ``signed_distance(points)``: exact Euclidean signed distance, negative inside,
   zero on the boundary, positive outside;
 - ``contains(points)``: inside or on the boundary (inclusive);
+- ``segment_entry_time(starts, ends)``: for straight segments ``start + t (end - start)``,
+  ``t`` in ``[0, 1]``, the first ``t`` at which the segment is in the shape (boundary
+  included), ``inf`` where it never is (exact for every shape kind);
 - ``to_dict()``: the TOML table of the shape (see ``shape_from_dict``);
 - ``pymunk_shapes(body)``: static pymunk collision shapes for the world.
 """
@@ -28,6 +31,7 @@ class ShapeError(ValueError):
 class Shape(Protocol):
     def signed_distance(self, points: np.ndarray) -> np.ndarray: ...
     def contains(self, points: np.ndarray) -> np.ndarray: ...
+    def segment_entry_time(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray: ...
     def bounds(self) -> tuple[float, float, float, float]: ...
     def to_dict(self) -> dict[str, Any]: ...
     def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]: ...
@@ -38,6 +42,16 @@ def _points(points: np.ndarray) -> np.ndarray:
     if p.shape[-1:] != (2,):
         raise ValueError(f"points must have shape (..., 2), got {p.shape}")
     return p
+
+
+def _settle(t: np.ndarray, start_in: np.ndarray, end_in: np.ndarray) -> np.ndarray:
+    """Make entry times agree with the inclusive ``contains`` at both ends of a segment.
+
+    A segment that starts inside enters at 0; one that ends inside enters by 1 (guards
+    against rounding when the end lies exactly on the boundary).
+    """
+    t = np.where(end_in, np.minimum(t, 1.0), t)
+    return np.where(start_in, 0.0, t)
 
 
 @dataclass(frozen=True)
@@ -63,6 +77,25 @@ class Box:
     def contains(self, points: np.ndarray) -> np.ndarray:
         p = _points(points)
         return np.all((p >= self.min) & (p <= self.max), axis=-1)
+
+    def segment_entry_time(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """First ``t`` in ``[0, 1]`` where ``start + t (end - start)`` is in the box, else inf.
+
+        Slab method (Liang-Barsky), inclusive bounds. Shapes ``(..., 2)`` -> ``(...)``.
+        """
+        p0, p1 = _points(starts), _points(ends)
+        d = p1 - p0
+        lo, hi = np.asarray(self.min), np.asarray(self.max)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t_lo, t_hi = (lo - p0) / d, (hi - p0) / d
+        still = d == 0.0
+        in_slab = (p0 >= lo) & (p0 <= hi)
+        t_near = np.where(still, np.where(in_slab, -np.inf, np.inf), np.minimum(t_lo, t_hi))
+        t_far = np.where(still, np.where(in_slab, np.inf, -np.inf), np.maximum(t_lo, t_hi))
+        enter = np.maximum(t_near.max(axis=-1), 0.0)
+        leave = np.minimum(t_far.min(axis=-1), 1.0)
+        t = np.where(enter <= leave, enter, np.inf)
+        return _settle(t, self.contains(p0), self.contains(p1))
 
     def bounds(self) -> tuple[float, float, float, float]:
         return (self.min[0], self.max[0], self.min[1], self.max[1])
@@ -92,6 +125,15 @@ class Circle:
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         return self.signed_distance(points) <= 0.0
+
+    def segment_entry_time(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """First ``t`` in ``[0, 1]`` where ``start + t (end - start)`` is in the disc, else inf.
+
+        The smaller root of ``|start - center + t d|^2 = radius^2``. Shapes ``(..., 2)`` ->
+        ``(...)``.
+        """
+        p0, p1 = _points(starts), _points(ends)
+        return quadratic_entry_time(p0 - np.asarray(self.center), p1 - p0, self.radius)
 
     def bounds(self) -> tuple[float, float, float, float]:
         (cx, cy), r = self.center, self.radius
@@ -169,6 +211,36 @@ class Polygon:
     def contains(self, points: np.ndarray) -> np.ndarray:
         return self.signed_distance(points) <= 0.0
 
+    def segment_entry_time(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """First ``t`` in ``[0, 1]`` where ``start + t (end - start)`` is in the polygon, else inf.
+
+        A segment starting outside enters where it first meets an edge (touching counts;
+        a segment running along an edge meets it where the overlap begins). Shapes
+        ``(..., 2)`` -> ``(...)``.
+        """
+        p0, p1 = _points(starts), _points(ends)
+        a = np.asarray(self.vertices, dtype=np.float64)
+        e = np.roll(a, -1, axis=0) - a
+        d = (p1 - p0)[..., None, :]
+        w = a - p0[..., None, :]
+        denom = d[..., 0] * e[:, 1] - d[..., 1] * e[:, 0]
+        w_cross_e = w[..., 0] * e[:, 1] - w[..., 1] * e[:, 0]
+        w_cross_d = w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]
+        eps = 1e-12
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = w_cross_e / denom
+            s = w_cross_d / denom
+            crossing = (denom != 0.0) & (t >= 0.0) & (t <= 1.0) & (s >= -eps) & (s <= 1.0 + eps)
+            # Collinear with an edge: the overlap of the two segments, if any.
+            dd = np.sum(d * d, axis=-1)
+            t_a = np.sum(w * d, axis=-1) / dd
+            t_b = np.sum((w + e) * d, axis=-1) / dd
+            first = np.maximum(np.minimum(t_a, t_b), 0.0)
+            last = np.minimum(np.maximum(t_a, t_b), 1.0)
+        collinear = (denom == 0.0) & (w_cross_d == 0.0) & (dd > 0.0) & (first <= last)
+        hits = np.where(crossing, t, np.where(collinear, first, np.inf))
+        return _settle(hits.min(axis=-1), self.contains(p0), self.contains(p1))
+
     def bounds(self) -> tuple[float, float, float, float]:
         v = np.asarray(self.vertices, dtype=np.float64)
         return (float(v[:, 0].min()), float(v[:, 0].max()), float(v[:, 1].min()),
@@ -184,6 +256,27 @@ class Polygon:
         ring.append(ring[0])
         parts = pymunk.autogeometry.convex_decomposition(ring, 0.0)
         return [pymunk.Poly(body, part) for part in parts]
+
+
+def quadratic_entry_time(offsets: np.ndarray, motions: np.ndarray,
+                         radius: float) -> np.ndarray:
+    """First ``t`` in ``[0, 1]`` with ``|offset + t motion| <= radius``, else inf.
+
+    ``offsets`` and ``motions`` are ``(..., 2)`` (map units); the result is ``(...)``.
+    The earliest root of the quadratic in its cancellation-free form
+    ``t = c / (-b + sqrt(b^2 - a c))``; zero where the offset already lies within ``radius``.
+    """
+    a = np.sum(motions * motions, axis=-1)
+    b = np.sum(offsets * motions, axis=-1)
+    c = np.sum(offsets * offsets, axis=-1) - radius * radius
+    disc = b * b - a * c
+    approaching = (b < 0.0) & (disc >= 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = c / (-b + np.sqrt(np.where(approaching, disc, 0.0)))
+    t = np.where(approaching & (t <= 1.0), t, np.inf)
+    end = offsets + motions
+    t = np.where(np.sum(end * end, axis=-1) <= radius * radius, np.minimum(t, 1.0), t)
+    return np.where(c <= 0.0, 0.0, t)
 
 
 def _vector(value: Any, field: str) -> tuple[float, float]:

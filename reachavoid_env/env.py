@@ -1,0 +1,467 @@
+"""The multi-agent reach-avoid game as a PettingZoo ``ParallelEnv`` (design.md section 1).
+
+``ReachAvoidEnv`` is the parallel env; ``env()`` / ``raw_env()`` give the AEC version.
+The rules are the pure functions ``capture_times`` and ``resolve_events``, vectorised
+over all attacker-defender pairs.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import replace
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium.utils import EzPickle, seeding
+from pettingzoo import AECEnv, ParallelEnv
+from pettingzoo.utils import ClipOutOfBoundsWrapper, OrderEnforcingWrapper, parallel_to_aec
+
+from reachavoid_env.game_state import AttackerStatus, GameState, Overlay
+from reachavoid_env.scenario import GameMap, Scenario, ScenarioError, load_scenario
+from reachavoid_env.shapes import quadratic_entry_time
+from reachavoid_env.world import World
+
+_STATUSES = (AttackerStatus.ACTIVE, AttackerStatus.CAPTURED, AttackerStatus.ARRIVED)
+_ACTIVE, _CAPTURED, _ARRIVED = 0, 1, 2
+_PLAYER_FIELD = re.compile(r"players\.(attacker|defender)s\[(\d+)\]")
+
+
+def capture_times(attackers_old: np.ndarray, attackers_new: np.ndarray,
+                  defenders_old: np.ndarray, defenders_new: np.ndarray,
+                  capture_radius: float) -> np.ndarray:
+    """Earliest capture time of every attacker-defender pair within one step.
+
+    Positions are ``(M, 2)`` and ``(N, 2)`` map units at the start and end of the step;
+    each player moves along the straight segment between them, so a pair's offset moves
+    linearly and the capture time is the first root of a quadratic. Returns ``(M, N)``
+    fractions of the step in ``[0, 1]``, ``inf`` where the pair never comes within
+    ``capture_radius``.
+    """
+    offsets = attackers_old[:, None, :] - defenders_old[None, :, :]
+    motions = (attackers_new - attackers_old)[:, None, :] - (defenders_new - defenders_old)[None]
+    return quadratic_entry_time(offsets, motions, capture_radius)
+
+
+def resolve_events(game_map: GameMap, capture_radius: float, active: np.ndarray,
+                   attackers_old: np.ndarray, attackers_new: np.ndarray,
+                   defenders_old: np.ndarray, defenders_new: np.ndarray,
+                   target_bounds: tuple[float, float, float, float] | None = None,
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Which active attackers are captured or arrive during one step, and when.
+
+    ``active`` is the ``(M,)`` mask of attackers in the game at the start of the step.
+    Each attacker's earliest event wins: capture at the first time any defender is within
+    ``capture_radius`` (along the straight segments of the step), arrival at the first
+    time its segment touches the target; a tie goes to capture.
+
+    Returns ``captured (M,)``, ``arrived (M,)`` (bool), ``times (M,)`` (fraction of the
+    step at which the attacker left the game, ``inf`` for those that stay) and
+    ``captor (M,)`` (index of the capturing defender, ``-1`` where none).
+    ``target_bounds`` (``xmin, xmax, ymin, ymax`` of the target union) only saves work.
+    """
+    pair_times = capture_times(attackers_old, attackers_new, defenders_old, defenders_new,
+                               capture_radius)
+    captor = np.argmin(pair_times, axis=1)
+    t_capture = pair_times[np.arange(len(captor)), captor]
+    t_arrival = np.full(len(active), np.inf)
+    # Only segments whose bounding box meets the target's can enter it.
+    lo = np.minimum(attackers_old, attackers_new)
+    hi = np.maximum(attackers_old, attackers_new)
+    xmin, xmax, ymin, ymax = target_bounds or target_bounds_of(game_map)
+    near = active & (hi[:, 0] >= xmin) & (lo[:, 0] <= xmax) & (hi[:, 1] >= ymin) \
+        & (lo[:, 1] <= ymax)
+    if near.any():
+        t_arrival[near] = game_map.target_entry_time(attackers_old[near], attackers_new[near])
+    captured = active & (t_capture <= 1.0) & (t_capture <= t_arrival)
+    arrived = active & ~captured & (t_arrival <= 1.0)
+    times = np.where(captured, t_capture, np.where(arrived, t_arrival, np.inf))
+    return captured, arrived, times, np.where(captured, captor, -1)
+
+
+def target_bounds_of(game_map: GameMap) -> tuple[float, float, float, float]:
+    """Bounding box ``(xmin, xmax, ymin, ymax)`` of the target union (map units)."""
+    bounds = np.array([shape.bounds() for shape in game_map.target])
+    return (float(bounds[:, 0].min()), float(bounds[:, 1].max()), float(bounds[:, 2].min()),
+            float(bounds[:, 3].max()))
+
+
+class ReachAvoidEnv(ParallelEnv, EzPickle):
+    """M attackers race to a target region; N faster defenders try to capture them first.
+
+    Agents: ``attacker_0 .. attacker_{M-1}`` then ``defender_0 .. defender_{N-1}``.
+    Players are single integrators, ``x' = speed * u``, in a rectangular domain with
+    obstacles (walls stop players, who slide along them); one step lasts the scenario's
+    ``dt`` seconds.
+
+    **Actions** (every agent): ``Box(-1, 1, (2,), float32)``, the desired velocity as a
+    fraction of the player's speed. Vectors longer than 1 are scaled to length 1.
+
+    **Observations** (every agent): ``Box(-1, 1, (2 + 3 (M + N),), float32)``, positions
+    normalised to the domain (``-1`` at ``xmin``/``ymin``, ``+1`` at ``xmax``/``ymax``)::
+
+        [own x, own y,
+         attacker_0 x, attacker_0 y, attacker_0 active, ..., (every attacker)
+         defender_0 x, defender_0 y, defender_0 active, ...] (every defender)
+
+    ``active`` is 1.0 for a player still in the game, else 0.0; a captured or arrived
+    attacker keeps the position where it left the game. ``state()`` is the same vector
+    without the two leading own-position entries (``state_space``, ``3 (M + N)``).
+
+    **Rules** (design.md section 1): within one step every player moves along a straight
+    segment from its old to its new position; an active attacker is captured at the
+    first instant a defender is within ``capture_radius`` and arrives at the first
+    instant it touches the target (inclusive bounds); the earlier event wins, a tie goes
+    to capture. Captured and arrived attackers leave ``agents``; the defenders leave when
+    no attacker remains. After ``max_cycles`` steps (default: the scenario's
+    ``max_steps``) every remaining agent is truncated.
+
+    **Rewards**: an attacker gets +1 on arrival, -1 on capture, 0 otherwise; every
+    defender gets minus the sum of the attackers' rewards of that step (a zero-sum team
+    game). With ``shaping > 0`` each attacker active at the start of a step also gets
+    ``shaping * (d_before - d_after)``, where ``d`` is its signed distance to the target
+    in map units (the potential-based progress term; it sums to
+    ``shaping * (d_start - d_end)`` over an episode), and the defenders get its negated
+    sum too. Off by default.
+
+    **Infos**: every agent gets ``captured`` and ``arrived`` (the episode's counts so
+    far); attackers also get ``status`` (an ``AttackerStatus``), and a captured
+    attacker ``captured_by`` (the defender's name) on the step it is captured.
+
+    ``reset(seed=, options=)`` options (all optional, for this episode only):
+    ``{"scenario": Scenario}`` with the same numbers of players, and/or
+    ``{"attackers": (M, 2), "defenders": (N, 2)}`` start positions in map units (a missing
+    side keeps the scenario's starts, or draws random ones). Invalid starts raise
+    ``ValueError`` naming the player.
+
+    Rendering (``render_mode`` "rgb_array" or "human") draws ``game_state()`` with the
+    overlay last given to ``set_overlay``; "human" also draws after every reset and step.
+    """
+
+    metadata = {
+        "name": "reach_avoid_v0",
+        "render_modes": ["human", "rgb_array"],
+        "render_fps": 50,
+        "is_parallelizable": True,
+    }
+
+    def __init__(
+        self,
+        scenario: str | Scenario = "paper_2v1",
+        max_cycles: int | None = None,
+        render_mode: str | None = None,
+        shaping: float = 0.0,
+        render_width: int = 640,
+    ) -> None:
+        EzPickle.__init__(self, scenario=scenario, max_cycles=max_cycles,
+                          render_mode=render_mode, shaping=shaping, render_width=render_width)
+        if isinstance(scenario, Scenario):
+            self.base_scenario = scenario
+        elif isinstance(scenario, str):
+            self.base_scenario = load_scenario(scenario)
+        else:
+            raise TypeError(f"scenario: expected a built-in name, a TOML path or a Scenario, "
+                            f"got {type(scenario).__name__}")
+        if max_cycles is not None and (isinstance(max_cycles, bool)
+                                       or not isinstance(max_cycles, int) or max_cycles < 1):
+            raise ValueError(f"max_cycles: must be a positive integer or None, got {max_cycles!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode: {render_mode!r} is not one of "
+                             f"{self.metadata['render_modes']} or None")
+        if not math.isfinite(shaping) or shaping < 0:
+            raise ValueError(f"shaping: must be a finite number >= 0, got {shaping!r}")
+        self.max_cycles = max_cycles if max_cycles is not None else self.base_scenario.max_steps
+        self.render_mode = render_mode
+        self.shaping = float(shaping)
+        self.render_width = render_width
+        self.scenario = self.base_scenario
+
+        m, n = self.base_scenario.num_attackers, self.base_scenario.num_defenders
+        self._m, self._n = m, n
+        self.possible_agents = self.base_scenario.attacker_names + self.base_scenario.defender_names
+        self.agents: list[str] = []
+        self._index = {name: i for i, name in enumerate(self.possible_agents)}
+        players = m + n
+        self._observation_spaces = {
+            name: gymnasium.spaces.Box(-1.0, 1.0, (2 + 3 * players,), np.float32)
+            for name in self.possible_agents
+        }
+        self._action_spaces = {
+            name: gymnasium.spaces.Box(-1.0, 1.0, (2,), np.float32)
+            for name in self.possible_agents
+        }
+        self.state_space = gymnasium.spaces.Box(-1.0, 1.0, (3 * players,), np.float32)
+        self.np_random: np.random.Generator | None = None
+        self.np_random_seed: int | None = None
+        self._world: World | None = None
+        self._renderer: Any = None
+        self._overlay: Overlay | None = None
+
+    # ----------------------------------------------------------------- spaces
+    def observation_space(self, agent: str) -> gymnasium.spaces.Box:
+        return self._observation_spaces[agent]
+
+    def action_space(self, agent: str) -> gymnasium.spaces.Box:
+        return self._action_spaces[agent]
+
+    # ------------------------------------------------------------------ reset
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None,
+              ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+        if seed is not None or self.np_random is None:
+            self.np_random, self.np_random_seed = seeding.np_random(seed)
+        try:
+            scenario = self._episode_scenario(options or {})
+            attackers, defenders = scenario.starts(self.np_random)
+            self.scenario = scenario.with_starts(attackers, defenders)
+        except ScenarioError as err:
+            raise ScenarioError(f"reset: {_name_player(str(err))}") from None
+        sc = self.scenario
+        m = self._m
+        positions = np.concatenate([attackers, defenders])
+        self._world = World(sc.map, sc.player_radius, positions,
+                            max(sc.attacker_speed, sc.defender_speed), sc.dt)
+        self._positions = positions
+        self._active = np.ones(len(positions), dtype=bool)
+        self._status = np.zeros(m, dtype=np.int8)
+        self._speeds = np.concatenate([np.full(m, sc.attacker_speed),
+                                       np.full(self._n, sc.defender_speed)])[:, None]
+        xmin, xmax, ymin, ymax = sc.map.domain
+        self._center = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
+        self._half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
+        self._target_bounds = target_bounds_of(sc.map)
+        self._steps = 0
+        self._captured_count = 0
+        self._arrived_count = 0
+        self.agents = self.possible_agents[:]
+        if self._renderer is not None:
+            if self._renderer_key != (sc.map, sc.capture_radius):
+                self._renderer.close()
+                self._renderer = None
+            else:
+                self._renderer.reset()
+        observations = self._observations(list(range(len(self.agents))))
+        infos = self._infos(self.agents, np.full(m, -1))
+        if self.render_mode == "human":
+            self.render()
+        return observations, infos
+
+    def _episode_scenario(self, options: dict[str, Any]) -> Scenario:
+        scenario = self.base_scenario
+        if "scenario" in options:
+            scenario = options["scenario"]
+            if not isinstance(scenario, Scenario):
+                raise TypeError(f"options['scenario']: expected a Scenario, "
+                                f"got {type(scenario).__name__}")
+            if (scenario.num_attackers, scenario.num_defenders) != (self._m, self._n):
+                raise ValueError(
+                    f"options['scenario']: has {scenario.num_attackers} attackers and "
+                    f"{scenario.num_defenders} defenders; this env has {self._m} and {self._n}")
+        for role, count in (("attackers", self._m), ("defenders", self._n)):
+            if options.get(role) is not None:
+                points = _start_points(options[role], count, role)
+                scenario = replace(scenario, **{role: points})
+        return scenario
+
+    # ------------------------------------------------------------------- step
+    def step(self, actions: dict[str, Any]) -> tuple[dict[str, np.ndarray], dict[str, float],
+                                                     dict[str, bool], dict[str, bool],
+                                                     dict[str, dict[str, Any]]]:
+        live = self.agents
+        index = self._index
+        for name in actions:
+            if name not in index:
+                raise KeyError(f"step: {name!r} is not an agent of this env "
+                               f"(agents: {', '.join(self.possible_agents)})")
+        if not live:
+            return {}, {}, {}, {}, {}
+        rows = [index[name] for name in live]
+        controls = np.zeros((len(self.possible_agents), 2))
+        controls[rows] = self._stack_actions(live, actions)
+        norms = np.sqrt(np.einsum("ij,ij->i", controls, controls))
+        controls /= np.maximum(norms, 1.0)[:, None]
+        velocities = controls * self._speeds
+
+        old = self._positions
+        new = self._world.step(velocities)
+        frozen = ~self._active
+        new[frozen] = old[frozen]
+        m = self._m
+        active_attackers = self._active[:m].copy()
+        captured, arrived, times, captor = resolve_events(
+            self.scenario.map, self.scenario.capture_radius, active_attackers,
+            old[:m], new[:m], old[m:], new[m:], self._target_bounds)
+        left = captured | arrived
+        rewards = arrived.astype(np.float64) - captured
+        if left.any():
+            t = times[left][:, None]
+            new[:m][left] = old[:m][left] + t * (new[:m][left] - old[:m][left])
+            self._status[captured] = _CAPTURED
+            self._status[arrived] = _ARRIVED
+            self._captured_count += int(captured.sum())
+            self._arrived_count += int(arrived.sum())
+            self._active[:m] &= ~left
+        if self.shaping:
+            progress = (self.scenario.map.target_signed_distance(old[:m])
+                        - self.scenario.map.target_signed_distance(new[:m]))
+            rewards += self.shaping * np.where(active_attackers, progress, 0.0)
+        game_over = not self._active[:m].any()
+        if game_over:
+            self._active[m:] = False
+        self._positions = new
+        self._steps += 1
+        truncate = self._steps >= self.max_cycles
+
+        all_rewards = np.concatenate([rewards, np.full(self._n, -rewards.sum())])
+        ended = ~self._active
+        terminations = dict(zip(live, ended[rows].tolist(), strict=True))
+        truncations = dict(zip(live, (~ended[rows] & truncate).tolist(), strict=True))
+        reward_dict = dict(zip(live, all_rewards[rows].tolist(), strict=True))
+        observations = self._observations(rows)
+        infos = self._infos(live, captor)
+        self.agents = [] if truncate else [name for name in live if self._active[index[name]]]
+        if self.render_mode == "human":
+            self.render()
+        return observations, reward_dict, terminations, truncations, infos
+
+    def _stack_actions(self, live: list[str], actions: dict[str, Any]) -> np.ndarray:
+        """The live agents' actions as a ``(L, 2)`` float64 array (validated)."""
+        for name in live:
+            if name not in actions:
+                raise KeyError(f"step: no action for live agent {name!r}")
+        try:
+            stacked = np.array([actions[name] for name in live], dtype=np.float64)
+        except (TypeError, ValueError):
+            stacked = None
+        if stacked is None or stacked.shape != (len(live), 2) \
+                or not np.isfinite(stacked).all():
+            for name in live:
+                _check_action(name, actions[name])
+        return stacked
+
+    # ----------------------------------------------------------- observations
+    def _state_matrix(self) -> np.ndarray:
+        """``(M + N, 3)`` float32: normalised x, y and the active flag of every player."""
+        block = np.empty((len(self._positions), 3), dtype=np.float32)
+        block[:, :2] = np.clip((self._positions - self._center) / self._half, -1.0, 1.0)
+        block[:, 2] = self._active
+        return block
+
+    def _observations(self, rows: list[int]) -> dict[str, np.ndarray]:
+        block = self._state_matrix()
+        obs = np.empty((len(rows), 2 + block.size), dtype=np.float32)
+        obs[:, :2] = block[rows, :2]
+        obs[:, 2:] = block.reshape(-1)
+        return dict(zip([self.possible_agents[i] for i in rows], obs, strict=True))
+
+    def _infos(self, agents: list[str], captor: np.ndarray) -> dict[str, dict[str, Any]]:
+        counts = {"captured": self._captured_count, "arrived": self._arrived_count}
+        infos: dict[str, dict[str, Any]] = {}
+        m = self._m
+        for name in agents:
+            i = self._index[name]
+            info = dict(counts)
+            if i < m:
+                info["status"] = _STATUSES[self._status[i]]
+                if captor[i] >= 0:
+                    info["captured_by"] = self.possible_agents[m + captor[i]]
+            infos[name] = info
+        return infos
+
+    def state(self) -> np.ndarray:
+        """Global state ``(3 (M + N),)`` float32 (layout in the class docstring)."""
+        if self._world is None:
+            raise RuntimeError("state: call reset() first")
+        return self._state_matrix().reshape(-1)
+
+    def game_state(self) -> GameState:
+        """The current ``GameState`` (positions in map units, statuses, time in seconds)."""
+        if self._world is None:
+            raise RuntimeError("game_state: call reset() first")
+        sc = self.scenario
+        return GameState(
+            time=self._steps * sc.dt,
+            step=self._steps,
+            attacker_positions=self._positions[:self._m],
+            defender_positions=self._positions[self._m:],
+            attacker_status=tuple(_STATUSES[s] for s in self._status),
+            attacker_speed=sc.attacker_speed,
+            defender_speed=sc.defender_speed,
+            capture_radius=sc.capture_radius,
+        )
+
+    # -------------------------------------------------------------- rendering
+    def set_overlay(self, overlay: Overlay | None) -> None:
+        """Draw ``overlay`` (a policy's assignment edges, text) on the following frames."""
+        self._overlay = overlay
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            gymnasium.logger.warn(
+                "You are calling render method without specifying any render mode. "
+                "Pass render_mode='rgb_array' or 'human' to the constructor.")
+            return None
+        if self._renderer is None:
+            from reachavoid_env.render import Renderer
+
+            sc = self.scenario
+            self._renderer = Renderer(sc.map, sc.capture_radius, width=self.render_width)
+            self._renderer_key = (sc.map, sc.capture_radius)
+        self._renderer.draw(self.game_state(), self._overlay)
+        if self.render_mode == "rgb_array":
+            return self._renderer.rgb_array()
+        self._renderer.show(self.metadata["render_fps"])
+        return None
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def _check_action(agent: str, action: Any) -> None:
+    """Raise ``ValueError`` naming ``agent`` when its action is not a finite 2-vector."""
+    try:
+        array = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"action for {agent}: expected a 2-vector of numbers, "
+                         f"got {action!r}") from None
+    if array.shape != (2,):
+        raise ValueError(f"action for {agent}: expected shape (2,), got {array.shape}")
+    if not np.isfinite(array).all():
+        raise ValueError(f"action for {agent}: must be finite, got {array.tolist()}")
+
+
+def _start_points(value: Any, count: int, role: str) -> tuple[tuple[float, float], ...]:
+    try:
+        points = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"options['{role}']: expected an array of shape ({count}, 2)") from None
+    if points.shape != (count, 2):
+        raise ValueError(f"options['{role}']: expected shape ({count}, 2), got {points.shape}")
+    for i, p in enumerate(points):
+        if not np.isfinite(p).all():
+            raise ValueError(f"options['{role}'][{i}] ({role[:-1]}_{i}): must be finite, "
+                             f"got {p.tolist()}")
+    return tuple((float(x), float(y)) for x, y in points)
+
+
+def _name_player(message: str) -> str:
+    """Append the agent name to a scenario error about ``players.attackers[i]``."""
+    match = _PLAYER_FIELD.search(message)
+    return f"{message} ({match[1]}_{match[2]})" if match else message
+
+
+def parallel_env(**kwargs: Any) -> ReachAvoidEnv:
+    """The parallel env; keyword arguments as ``ReachAvoidEnv``."""
+    return ReachAvoidEnv(**kwargs)
+
+
+def raw_env(**kwargs: Any) -> AECEnv:
+    """The AEC env converted from the parallel one, without wrappers."""
+    return parallel_to_aec(ReachAvoidEnv(**kwargs))
+
+
+def env(**kwargs: Any) -> AECEnv:
+    """The AEC env with PettingZoo's standard wrappers (clip actions, enforce call order)."""
+    return OrderEnforcingWrapper(ClipOutOfBoundsWrapper(raw_env(**kwargs)))

@@ -1,0 +1,9 @@
+"""Version 0 of the reach-avoid environment (PettingZoo's versioned-module convention).
+
+``parallel_env(**kwargs)`` is the ``ReachAvoidEnv`` itself; ``raw_env`` its AEC
+conversion; ``env`` the AEC env with the standard wrappers.
+"""
+
+from reachavoid_env.env import ReachAvoidEnv, env, parallel_env, raw_env
+
+__all__ = ["ReachAvoidEnv", "env", "parallel_env", "raw_env"]

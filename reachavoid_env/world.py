@@ -1,0 +1,140 @@
+"""The physical world of a game: a pymunk ``Space`` with the map's walls and obstacles.
+
+Every player is a small dynamic circle (radius ``player_radius``, map units) that collides
+with the static geometry only: players pass through each other, stop at walls and slide
+along them. Each step the world takes one desired velocity per player (map units per
+second) and advances ``dt`` seconds in ``substeps`` equal physics steps, short enough
+that no player moves more than half its radius per sub-step, so a player never tunnels
+through a wall however thin, and its centre stays outside every obstacle.
+
+How a step runs (Chipmunk integrates positions before it solves contacts, so the order
+matters): the bodies' velocities are zeroed and the desired velocity is applied as a
+one-step force; one physics step then moves nobody but lets the contact solver clip the
+new velocity against the walls the player touches; ``substeps`` further physics steps
+move the players with the clipped velocity. A player pushing into a wall therefore
+slides along it instead of sinking in and being pushed back.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pymunk
+import pymunk.batch
+
+from reachavoid_env.scenario import GameMap
+
+_PLAYER_GROUP = 1
+_SET_FIELDS = pymunk.batch.BodyFields.VELOCITY | pymunk.batch.BodyFields.FORCE
+_GET_FIELDS = pymunk.batch.BodyFields.POSITION
+
+
+def substeps_for(max_speed: float, dt: float, player_radius: float) -> int:
+    """Physics sub-steps per step so nobody moves more than ``player_radius / 2`` in one."""
+    ratio = max_speed * dt / (0.5 * player_radius)
+    return max(1, math.ceil(ratio - 1e-9))
+
+
+class World:
+    """A pymunk space holding one map and the players' bodies.
+
+    ``positions`` is ``(K, 2)`` start positions in map units, one row per player in the
+    env's agent order. ``max_speed`` (map units per second) and ``dt`` (seconds) fix the
+    number of sub-steps; ``substeps`` overrides it (tests use it to show tunnelling).
+    """
+
+    def __init__(
+        self,
+        game_map: GameMap,
+        player_radius: float,
+        positions: np.ndarray,
+        max_speed: float,
+        dt: float,
+        substeps: int | None = None,
+    ) -> None:
+        positions = np.asarray(positions, dtype=np.float64)
+        if positions.ndim != 2 or positions.shape[1] != 2:
+            raise ValueError(f"positions must have shape (K, 2), got {positions.shape}")
+        self.dt = float(dt)
+        self.substeps = substeps if substeps is not None else substeps_for(
+            max_speed, dt, player_radius)
+        if self.substeps < 1:
+            raise ValueError(f"substeps must be at least 1, got {self.substeps}")
+        self._h = self.dt / self.substeps
+        self.space = pymunk.Space()
+        self.space.collision_slop = 0.01 * player_radius
+        self.space.collision_bias = 0.0
+        static = self.space.static_body
+        walls = [*_domain_walls(game_map.domain, static)]
+        for obstacle in game_map.obstacles:
+            walls.extend(obstacle.pymunk_shapes(static))
+        for shape in walls:
+            shape.friction = 0.0
+            shape.elasticity = 0.0
+        self.space.add(*walls)
+        self.bodies: list[pymunk.Body] = []
+        for x, y in positions:
+            body = pymunk.Body(mass=1.0, moment=math.inf)
+            body.position = (float(x), float(y))
+            circle = pymunk.Circle(body, player_radius)
+            circle.filter = pymunk.ShapeFilter(group=_PLAYER_GROUP)
+            circle.friction = 0.0
+            circle.elasticity = 0.0
+            self.space.add(body, circle)
+            self.bodies.append(body)
+        self._rows, body_count = self._body_rows()
+        # Batch buffer: one (vx, vy, fx, fy) row per body the space iterates over.
+        self._commands = np.zeros((body_count, 4), dtype=np.float64)
+        self._set_buffer = pymunk.batch.Buffer()
+        self._set_buffer.set_float_buf(self._commands)
+        self._get_buffer = pymunk.batch.Buffer()
+        self._positions = positions.copy()
+
+    def _body_rows(self) -> tuple[np.ndarray, int]:
+        """Rows of the players' bodies in pymunk's batch order, and the number of rows."""
+        buffer = pymunk.batch.Buffer()
+        pymunk.batch.get_space_bodies(self.space, pymunk.batch.BodyFields.BODY_ID, buffer)
+        ids = list(memoryview(buffer.int_buf()).cast("P"))
+        index = {body_id: row for row, body_id in enumerate(ids)}
+        return np.array([index[b.id] for b in self.bodies], dtype=np.intp), len(ids)
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Current positions ``(K, 2)`` in map units (a copy)."""
+        return self._positions.copy()
+
+    def step(self, velocities: np.ndarray) -> np.ndarray:
+        """Advance ``dt`` seconds with desired ``velocities`` ``(K, 2)`` (map units/s).
+
+        Returns the new positions ``(K, 2)`` (a fresh array). A player keeps its desired
+        velocity except where a wall stops it; then it slides along the wall.
+        """
+        rows = self._rows
+        self._commands[rows, 2:] = np.asarray(velocities, dtype=np.float64) / self._h
+        step = self.space.step
+        h = self._h
+        pymunk.batch.set_space_bodies(self.space, _SET_FIELDS, self._set_buffer)
+        for _ in range(self.substeps + 1):
+            step(h)
+        buffer = self._get_buffer
+        buffer.clear()
+        pymunk.batch.get_space_bodies(self.space, _GET_FIELDS, buffer)
+        all_positions = np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 2)
+        self._positions = all_positions[rows]
+        return self._positions.copy()
+
+
+def _domain_walls(domain: tuple[float, float, float, float],
+                  body: pymunk.Body) -> list[pymunk.Shape]:
+    """Four thick boxes framing the domain from outside."""
+    xmin, xmax, ymin, ymax = domain
+    t = max(xmax - xmin, ymax - ymin)
+    boxes = [
+        (xmin - t, xmin, ymin - t, ymax + t),
+        (xmax, xmax + t, ymin - t, ymax + t),
+        (xmin, xmax, ymin - t, ymin),
+        (xmin, xmax, ymax, ymax + t),
+    ]
+    return [pymunk.Poly(body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+            for x0, x1, y0, y1 in boxes]
