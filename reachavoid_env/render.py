@@ -35,9 +35,8 @@ ATTACKER: Color = (214, 39, 40)
 DEFENDER: Color = (31, 90, 200)
 EDGE: Color = (20, 170, 60)
 CAPTURED: Color = (40, 40, 40)
-HEADER: Color = (40, 44, 52)
-HEADER_TEXT: Color = (240, 242, 245)
-HEADER_DIM: Color = (170, 176, 188)
+TEXT: Color = (30, 32, 38)
+TEXT_DIM: Color = (80, 86, 98)
 
 BLOCK = 16  # frame sizes are multiples of this (H.264 macroblocks)
 
@@ -85,7 +84,7 @@ class Renderer:
         self._header = round(self._line_height * (1 + self.text_lines) + 10 * unit)
         self._margin = max(4, round(10 * unit))
         self._glyph = max(3.0, 7.0 * unit)
-        self._trail_width = max(1, round(2 * unit))
+        self._trail_width = max(1, round(3 * unit))
         self._edge_width = max(1, round(3 * unit))
 
         domain_w, domain_h = game_map.size
@@ -156,7 +155,6 @@ class Renderer:
         for shape in self.game_map.obstacles:
             self._draw_shape(surface, shape, OBSTACLE, OBSTACLE)
         pygame.draw.rect(surface, BORDER, field.inflate(4, 4), width=2)
-        pygame.draw.rect(surface, HEADER, pygame.Rect(0, 0, self.width, self._header))
         return surface
 
     def _draw_disc(self) -> pygame.Surface:
@@ -226,12 +224,8 @@ class Renderer:
                 self._draw_arrival(x, y)
             self._draw_label(f"A{i}", x, y, ATTACKER if status is AttackerStatus.ACTIVE
                              else _blend(ATTACKER, FIELD, 0.45))
-        g = self._glyph
         for j, (x, y) in enumerate(defenders.tolist()):
-            square = pygame.Rect(0, 0, round(2 * g * 0.85), round(2 * g * 0.85))
-            square.center = (round(x), round(y))
-            pygame.draw.rect(surface, DEFENDER, square)
-            pygame.draw.rect(surface, _blend(DEFENDER, (0, 0, 0), 0.4), square, width=1)
+            self._draw_square(x, y)
             self._draw_label(f"D{j}", x, y, DEFENDER)
         self._draw_text(state, overlay)
 
@@ -251,23 +245,34 @@ class Renderer:
             run = points[max(0, start - 1):end]
             if len(run) >= 2:
                 shade = _blend(color, FIELD, 0.35 + 0.6 * (band - 1) / bands)
-                pygame.draw.lines(self._surface, shade, False,
-                                  [(p[1], p[2]) for p in run], self._trail_width)
+                pixels = [(p[1], p[2]) for p in run]
+                if self._trail_width > 1:
+                    pygame.draw.lines(self._surface, shade, False, pixels, self._trail_width - 1)
+                pygame.draw.aalines(self._surface, shade, False, pixels)
             start = end
 
     def _draw_attacker(self, name: str, x: float, y: float) -> None:
         trail = self._trails.get(name)
-        heading = math.pi / 2  # upward on screen until the attacker has moved
-        if trail is not None and len(trail) >= 2:
-            (_, x0, y0), (_, x1, y1) = trail[-2], trail[-1]
-            heading = math.atan2(y0 - y1, x1 - x0)
+        if trail is None or len(trail) < 2:
+            self._draw_triangle(x, y)  # upward until the attacker has moved
+            return
+        (_, x0, y0), (_, x1, y1) = trail[-2], trail[-1]
+        self._draw_triangle(x, y, math.atan2(y0 - y1, x1 - x0))
+
+    def _draw_triangle(self, x: float, y: float, heading: float = math.pi / 2) -> None:
+        """An attacker glyph at pixel ``(x, y)`` pointing at ``heading`` (radians, y up)."""
         g = self._glyph * 1.25
-        tip = (x + g * math.cos(heading), y - g * math.sin(heading))
-        left = (x + g * math.cos(heading + 2.4), y - g * math.sin(heading + 2.4))
-        right = (x + g * math.cos(heading - 2.4), y - g * math.sin(heading - 2.4))
-        pygame.draw.polygon(self._surface, ATTACKER, [tip, left, right])
-        pygame.draw.aalines(self._surface, _blend(ATTACKER, (0, 0, 0), 0.4), True,
-                            [tip, left, right])
+        corners = [(x + g * math.cos(heading + turn), y - g * math.sin(heading + turn))
+                   for turn in (0.0, 2.4, -2.4)]
+        pygame.draw.polygon(self._surface, ATTACKER, corners)
+        pygame.draw.aalines(self._surface, _blend(ATTACKER, (0, 0, 0), 0.4), True, corners)
+
+    def _draw_square(self, x: float, y: float) -> None:
+        side = round(2 * self._glyph * 0.85)
+        square = pygame.Rect(0, 0, side, side)
+        square.center = (round(x), round(y))
+        pygame.draw.rect(self._surface, DEFENDER, square)
+        pygame.draw.rect(self._surface, _blend(DEFENDER, (0, 0, 0), 0.4), square, width=1)
 
     def _draw_plus(self, x: float, y: float) -> None:
         g, w = self._glyph, max(2, round(self._glyph / 3))
@@ -304,23 +309,31 @@ class Renderer:
             pygame.draw.aaline(self._surface, EDGE, start, end, self._edge_width)
 
     def _draw_text(self, state: GameState, overlay: Overlay | None) -> None:
-        pad = self._margin
+        """Header: the clock, then the counts behind the glyphs they count (a legend)."""
+        pad, top = self._margin, 5
+        clock = self._font.render(f"t = {state.time:.3f} s   step {state.step}", True, TEXT)
+        self._surface.blit(clock, (pad, top))
         total = len(state.attacker_status)
         captured, arrived = len(state.captured), len(state.arrived)
-        clock = self._font.render(f"t = {state.time:6.3f} s   step {state.step}", True,
-                                  HEADER_TEXT)
-        self._surface.blit(clock, (pad, 5))
-        counts = self._font.render(
-            f"captured {captured}   arrived {arrived}   active {total - captured - arrived}"
-            f" / {total}", True, HEADER_TEXT)
-        self._surface.blit(counts, (self.width - pad - counts.get_width(), 5))
+        counts = ((self._draw_triangle, f"active {total - captured - arrived} / {total}"),
+                  (self._draw_plus, f"captured {captured}"),
+                  (self._draw_arrival, f"arrived {arrived}"))
+        x = self.width - pad
+        middle = top + self._line_height / 2
+        for glyph, words in reversed(counts):
+            text = self._font.render(words, True, TEXT)
+            x -= text.get_width()
+            self._surface.blit(text, (x, top))
+            x -= self._glyph * 2.2
+            glyph(x, middle)
+            x -= self._glyph * 4
         lines = list(overlay.lines) if overlay is not None else []
         if len(lines) > self.text_lines:
             lines = lines[:self.text_lines]
             lines[-1] += " ..."
         for k, line in enumerate(lines, start=1):
-            text = self._font.render(line, True, HEADER_DIM)
-            self._surface.blit(text, (pad, 5 + k * self._line_height))
+            text = self._font.render(line, True, TEXT_DIM)
+            self._surface.blit(text, (pad, top + k * self._line_height))
 
     # -- output --------------------------------------------------------------------------
 
