@@ -61,17 +61,25 @@ def resolve_events(game_map: GameMap, capture_radius: float, active: np.ndarray,
     ``captor (M,)`` (index of the capturing defender, ``-1`` where none).
     ``target_bounds`` (``xmin, xmax, ymin, ymax`` of the target union) only saves work.
     """
-    pair_times = capture_times(attackers_old, attackers_new, defenders_old, defenders_new,
-                               capture_radius)
-    captor = np.argmin(pair_times, axis=1)
-    t_capture = pair_times[np.arange(len(captor)), captor]
-    t_arrival = np.full(len(active), np.inf)
+    m = len(active)
+    t_capture, captor, t_arrival = np.full(m, np.inf), np.full(m, -1), np.full(m, np.inf)
+    # Nobody moves farther than sqrt(2) times its largest coordinate change, so a pair
+    # farther apart than capture_radius plus two such moves cannot meet this step.
+    longest = math.sqrt(2.0) * max(np.abs(attackers_new - attackers_old).max(),
+                                   np.abs(defenders_new - defenders_old).max())
+    reach = capture_radius + 2.0 * longest
+    gaps = attackers_old[:, None, :] - defenders_old[None, :, :]
+    closest = np.einsum("ijk,ijk->ij", gaps, gaps).min(axis=1)
+    if (closest[active] <= reach * reach).any():
+        pair_times = capture_times(attackers_old, attackers_new, defenders_old, defenders_new,
+                                   capture_radius)
+        captor = np.argmin(pair_times, axis=1)
+        t_capture = pair_times[np.arange(m), captor]
     # Only segments whose bounding box meets the target's can enter it.
+    xmin, xmax, ymin, ymax = target_bounds or target_bounds_of(game_map)
     lo = np.minimum(attackers_old, attackers_new)
     hi = np.maximum(attackers_old, attackers_new)
-    xmin, xmax, ymin, ymax = target_bounds or target_bounds_of(game_map)
-    near = active & (hi[:, 0] >= xmin) & (lo[:, 0] <= xmax) & (hi[:, 1] >= ymin) \
-        & (lo[:, 1] <= ymax)
+    near = active & (hi >= (xmin, ymin)).all(axis=1) & (lo <= (xmax, ymax)).all(axis=1)
     if near.any():
         t_arrival[near] = game_map.target_entry_time(attackers_old[near], attackers_new[near])
     captured = active & (t_capture <= 1.0) & (t_capture <= t_arrival)
@@ -240,7 +248,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                 self._renderer = None
             else:
                 self._renderer.reset()
-        observations = self._observations(list(range(len(self.agents))))
+        observations = self._observations(self.agents, slice(None))
         infos = self._infos(self.agents, np.full(m, -1))
         if self.render_mode == "human":
             self.render()
@@ -275,25 +283,31 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                                f"(agents: {', '.join(self.possible_agents)})")
         if not live:
             return {}, {}, {}, {}, {}
-        rows = [index[name] for name in live]
-        controls = np.zeros((len(self.possible_agents), 2))
-        controls[rows] = self._stack_actions(live, actions)
+        players = len(self.possible_agents)
+        everyone = len(live) == players
+        rows = slice(None) if everyone else [index[name] for name in live]
+        stacked = self._stack_actions(live, actions)
+        if everyone:
+            controls = stacked
+        else:
+            controls = np.zeros((players, 2))
+            controls[rows] = stacked
         norms = np.sqrt(np.einsum("ij,ij->i", controls, controls))
-        controls /= np.maximum(norms, 1.0)[:, None]
-        velocities = controls * self._speeds
+        velocities = controls * (self._speeds / np.maximum(norms, 1.0)[:, None])
 
         old = self._positions
         new = self._world.step(velocities)
-        frozen = ~self._active
-        new[frozen] = old[frozen]
+        if not everyone:
+            frozen = ~self._active
+            new[frozen] = old[frozen]
         m = self._m
         active_attackers = self._active[:m].copy()
         captured, arrived, times, captor = resolve_events(
             self.scenario.map, self.scenario.capture_radius, active_attackers,
             old[:m], new[:m], old[m:], new[m:], self._target_bounds)
         left = captured | arrived
-        rewards = arrived.astype(np.float64) - captured
-        if left.any():
+        any_left = bool(left.any())
+        if any_left:
             t = times[left][:, None]
             new[:m][left] = old[:m][left] + t * (new[:m][left] - old[:m][left])
             self._status[captured] = _CAPTURED
@@ -301,25 +315,37 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             self._captured_count += int(captured.sum())
             self._arrived_count += int(arrived.sum())
             self._active[:m] &= ~left
-        if self.shaping:
-            progress = (self.scenario.map.target_signed_distance(old[:m])
-                        - self.scenario.map.target_signed_distance(new[:m]))
-            rewards += self.shaping * np.where(active_attackers, progress, 0.0)
-        game_over = not self._active[:m].any()
-        if game_over:
-            self._active[m:] = False
+            if not self._active[:m].any():
+                self._active[m:] = False
+        rewards = None
+        if any_left or self.shaping:
+            rewards = arrived.astype(np.float64) - captured
+            if self.shaping:
+                game_map = self.scenario.map
+                progress = (game_map.target_signed_distance(old[:m])
+                            - game_map.target_signed_distance(new[:m]))
+                rewards += self.shaping * np.where(active_attackers, progress, 0.0)
+            rewards = np.concatenate([rewards, np.full(self._n, -rewards.sum())])
         self._positions = new
         self._steps += 1
         truncate = self._steps >= self.max_cycles
 
-        all_rewards = np.concatenate([rewards, np.full(self._n, -rewards.sum())])
-        ended = ~self._active
-        terminations = dict(zip(live, ended[rows].tolist(), strict=True))
-        truncations = dict(zip(live, (~ended[rows] & truncate).tolist(), strict=True))
-        reward_dict = dict(zip(live, all_rewards[rows].tolist(), strict=True))
-        observations = self._observations(rows)
+        observations = self._observations(live, rows)
         infos = self._infos(live, captor)
-        self.agents = [] if truncate else [name for name in live if self._active[index[name]]]
+        if rewards is None:
+            reward_dict = dict.fromkeys(live, 0.0)
+        else:
+            reward_dict = dict(zip(live, rewards[rows].tolist(), strict=True))
+        if any_left or truncate:
+            ended = (~self._active[rows]).tolist()
+            terminations = dict(zip(live, ended, strict=True))
+            truncations = {name: truncate and not done
+                           for name, done in zip(live, ended, strict=True)}
+            self.agents = [] if truncate else [
+                name for name, done in zip(live, ended, strict=True) if not done]
+        else:
+            terminations = dict.fromkeys(live, False)
+            truncations = dict.fromkeys(live, False)
         if self.render_mode == "human":
             self.render()
         return observations, reward_dict, terminations, truncations, infos
@@ -343,16 +369,20 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     def _state_matrix(self) -> np.ndarray:
         """``(M + N, 3)`` float32: normalised x, y and the active flag of every player."""
         block = np.empty((len(self._positions), 3), dtype=np.float32)
-        block[:, :2] = np.clip((self._positions - self._center) / self._half, -1.0, 1.0)
+        normalised = (self._positions - self._center) / self._half
+        block[:, :2] = np.minimum(np.maximum(normalised, -1.0, out=normalised), 1.0,
+                                  out=normalised)
         block[:, 2] = self._active
         return block
 
-    def _observations(self, rows: list[int]) -> dict[str, np.ndarray]:
+    def _observations(self, agents: list[str], rows: slice | list[int],
+                      ) -> dict[str, np.ndarray]:
+        """Observations of ``agents`` (rows ``rows`` of the players), one fresh matrix."""
         block = self._state_matrix()
-        obs = np.empty((len(rows), 2 + block.size), dtype=np.float32)
+        obs = np.empty((len(agents), 2 + block.size), dtype=np.float32)
         obs[:, :2] = block[rows, :2]
         obs[:, 2:] = block.reshape(-1)
-        return dict(zip([self.possible_agents[i] for i in rows], obs, strict=True))
+        return dict(zip(agents, obs, strict=True))
 
     def _infos(self, agents: list[str], captor: np.ndarray) -> dict[str, dict[str, Any]]:
         counts = {"captured": self._captured_count, "arrived": self._arrived_count}

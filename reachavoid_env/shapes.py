@@ -266,16 +266,19 @@ def quadratic_entry_time(offsets: np.ndarray, motions: np.ndarray,
     The earliest root of the quadratic in its cancellation-free form
     ``t = c / (-b + sqrt(b^2 - a c))``; zero where the offset already lies within ``radius``.
     """
-    a = np.sum(motions * motions, axis=-1)
-    b = np.sum(offsets * motions, axis=-1)
-    c = np.sum(offsets * offsets, axis=-1) - radius * radius
+    ox, oy = offsets[..., 0], offsets[..., 1]
+    mx, my = motions[..., 0], motions[..., 1]
+    r2 = radius * radius
+    a = mx * mx + my * my
+    b = ox * mx + oy * my
+    c = ox * ox + oy * oy - r2
     disc = b * b - a * c
     approaching = (b < 0.0) & (disc >= 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = c / (-b + np.sqrt(np.where(approaching, disc, 0.0)))
+        t = c / (np.sqrt(np.where(approaching, disc, 0.0)) - b)
     t = np.where(approaching & (t <= 1.0), t, np.inf)
-    end = offsets + motions
-    t = np.where(np.sum(end * end, axis=-1) <= radius * radius, np.minimum(t, 1.0), t)
+    ex, ey = ox + mx, oy + my
+    t = np.where(ex * ex + ey * ey <= r2, np.minimum(t, 1.0), t)
     return np.where(c <= 0.0, 0.0, t)
 
 
