@@ -45,6 +45,11 @@ def _round_up(pixels: float) -> int:
     return max(BLOCK, int(math.ceil(pixels / BLOCK)) * BLOCK)
 
 
+def _rgb_surface(width: int, height: int) -> pygame.Surface:
+    """A 24-bit surface whose bytes are R, G, B per pixel: ``rgb_array`` is one copy."""
+    return pygame.Surface((width, height), 0, 24, (0xFF, 0xFF00, 0xFF0000, 0))
+
+
 def _blend(color: Color, toward: Color, amount: float) -> Color:
     """``color`` moved ``amount`` (0..1) of the way to ``toward``."""
     return tuple(round(c + (t - c) * amount) for c, t in zip(color, toward, strict=True))
@@ -101,7 +106,7 @@ class Renderer:
         free_y = self.height - self._header - domain_h * scale
         self._origin = (free_x / 2, self._header + free_y / 2)
 
-        self._surface = pygame.Surface((self.width, self.height))
+        self._surface = _rgb_surface(self.width, self.height)
         self._background = self._draw_background()
         self._disc = self._draw_disc()
         self._labels: dict[str, pygame.Surface] = {}
@@ -144,7 +149,7 @@ class Renderer:
         pygame.draw.polygon(surface, edge, points, width=2)
 
     def _draw_background(self) -> pygame.Surface:
-        surface = pygame.Surface((self.width, self.height))
+        surface = _rgb_surface(self.width, self.height)
         surface.fill(FRAME)
         xmin, xmax, ymin, ymax = self.game_map.domain
         (left, top), (right, bottom) = self._pixel((xmin, ymax)), self._pixel((xmax, ymin))
@@ -339,8 +344,9 @@ class Renderer:
 
     def rgb_array(self) -> np.ndarray:
         """The last frame as a fresh ``(height, width, 3)`` uint8 array."""
-        data = bytearray(pygame.image.tobytes(self._surface, "RGB"))
-        return np.frombuffer(data, dtype=np.uint8).reshape(self.height, self.width, 3)
+        rows = np.frombuffer(self._surface.get_buffer(), dtype=np.uint8).reshape(
+            self.height, self._surface.get_pitch())
+        return rows[:, :3 * self.width].reshape(self.height, self.width, 3).copy()
 
     def show(self, fps: int) -> None:
         """Show the last frame in a window (opened on first use), at most ``fps`` per second."""
