@@ -5,7 +5,8 @@ multiples of 16 pixels (video encoders then keep the size). The frame shows the 
 obstacles and target, attackers (red triangles, pointing where they head) and defenders
 (blue squares) with their capture discs, fading trails, a ``+`` where an attacker was
 captured and a ring where one arrived, the clock and counts, and a policy's ``Overlay``
-(defender-attacker edges in green as in the paper's figures, extra text lines).
+(defender-attacker edges in green as in the paper's figures, skipped once the
+attacker has left the game; extra text lines).
 """
 
 from __future__ import annotations
@@ -110,6 +111,7 @@ class Renderer:
         self._background = self._draw_background()
         self._disc = self._draw_disc()
         self._labels: dict[str, pygame.Surface] = {}
+        self._fitted: dict[str, str] = {}
         self._window: pygame.Surface | None = None
         self._clock = pygame.time.Clock()
         self._trails: dict[str, deque[tuple[float, float, float]]] = {}
@@ -309,8 +311,10 @@ class Renderer:
             if attacker not in attacker_index:
                 raise ValueError(f"overlay edge ({defender!r}, {attacker!r}): unknown attacker "
                                  f"{attacker!r}")
-            start = defenders[defender_index[defender]].tolist()
-            end = attackers[attacker_index[attacker]].tolist()
+            i = attacker_index[attacker]
+            if state.attacker_status[i] is not AttackerStatus.ACTIVE:
+                continue  # the attacker has left the game: nothing to assign
+            start, end = defenders[defender_index[defender]].tolist(), attackers[i].tolist()
             pygame.draw.aaline(self._surface, EDGE, start, end, self._edge_width)
 
     def _draw_text(self, state: GameState, overlay: Overlay | None) -> None:
@@ -337,8 +341,22 @@ class Renderer:
             lines = lines[:self.text_lines]
             lines[-1] += " ..."
         for k, line in enumerate(lines, start=1):
-            text = self._font.render(line, True, TEXT_DIM)
+            text = self._font.render(self._fit(line, self.width - 2 * pad), True, TEXT_DIM)
             self._surface.blit(text, (pad, top + k * self._line_height))
+
+    def _fit(self, line: str, pixels: int) -> str:
+        """``line``, cut short with "..." if it is wider than ``pixels`` (remembered)."""
+        fitted = self._fitted.get(line)
+        if fitted is None:
+            fitted, cut = line, len(line)
+            if self._font.size(line)[0] > pixels:
+                while cut > 0 and self._font.size(line[:cut] + "...")[0] > pixels:
+                    cut -= 1
+                fitted = line[:cut] + "..."
+            if len(self._fitted) > 256:  # lines that change every frame
+                self._fitted.clear()
+            self._fitted[line] = fitted
+        return fitted
 
     # -- output --------------------------------------------------------------------------
 

@@ -125,6 +125,9 @@ def test_overlay_edge_is_drawn_green(renderer):
     edged = pixel(renderer, renderer.rgb_array(), middle)
     assert is_like(plain, R.FIELD, 0)
     assert is_like(edged, R.EDGE, 40)
+    renderer.draw(state_of([attacker], [defender], [CAPTURED]),
+                  Overlay(edges=(("defender_0", "attacker_0"),)))
+    assert is_like(pixel(renderer, renderer.rgb_array(), middle), R.FIELD, 0)  # left the game
 
 
 def test_overlay_with_unknown_names_is_an_error(renderer):
@@ -214,3 +217,25 @@ def test_human_mode_opens_a_window_headless(monkeypatch, renderer, scenario):
     renderer.show(fps=1000)
     renderer.close()
     assert not pygame.display.get_init()
+
+
+def test_env_human_mode_under_the_dummy_driver(monkeypatch):
+    import reachavoid_env
+
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    env = reachavoid_env.parallel_env(scenario="paper_2v1", render_mode="human")
+    env.reset(seed=0)
+    env.step({agent: np.ones(2, dtype=np.float32) for agent in env.agents})
+    assert env.render() is None
+    assert pygame.display.get_surface() is not None
+    env.close()
+    assert not pygame.display.get_init()
+
+
+def test_long_overlay_lines_are_cut_short(renderer, scenario):
+    line = "assignment: " + ", ".join(f"defender_{j}->attacker_{j}" for j in range(12))
+    fitted = renderer._fit(line, renderer.width - 20)
+    assert fitted.endswith("...") and line.startswith(fitted[:-3])
+    assert renderer._font.size(fitted)[0] <= renderer.width - 20
+    assert renderer._fit("short", renderer.width) == "short"
+    renderer.draw(state_of(scenario.attackers, scenario.defenders), Overlay(lines=(line,)))
