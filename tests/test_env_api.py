@@ -1,0 +1,232 @@
+"""Env API details: bad actions and options, spaces, seeding, pickling, registry, rendering."""
+
+from __future__ import annotations
+
+import pickle
+from dataclasses import replace
+
+import numpy as np
+import pettingzoo
+import pytest
+
+import reachavoid_env
+from reachavoid_env import (
+    AttackerStatus,
+    GameState,
+    Overlay,
+    ReachAvoidEnv,
+    ScenarioError,
+    builtin_scenario,
+)
+
+
+def still(env: ReachAvoidEnv) -> dict[str, np.ndarray]:
+    return {name: np.zeros(2, dtype=np.float32) for name in env.agents}
+
+
+def rollout(env: ReachAvoidEnv, seed: int, steps: int) -> list:
+    """Reset observations, then (obs, rewards, terms, truncs, infos) of every step.
+
+    Attackers act at random (seeded), defenders chase the nearest active attacker.
+    """
+    obs, infos = env.reset(seed=seed)
+    record = [(obs, infos)]
+    rng = np.random.default_rng(seed)
+    for _ in range(steps):
+        if not env.agents:
+            break
+        state = env.game_state()
+        targets = state.attacker_positions[state.active_attackers]
+        actions = {}
+        for name in env.agents:
+            if name.startswith("attacker"):
+                actions[name] = rng.uniform(-1, 1, 2).astype(np.float32)
+            else:
+                me = state.defender_positions[int(name.split("_")[1])]
+                nearest = targets[np.argmin(np.linalg.norm(targets - me, axis=1))]
+                actions[name] = (10.0 * (nearest - me)).astype(np.float32)
+        record.append(env.step(actions))
+    return record
+
+
+def assert_same(one, two) -> None:
+    if isinstance(one, dict):
+        assert one.keys() == two.keys()
+        for key in one:
+            assert_same(one[key], two[key])
+    elif isinstance(one, (list, tuple)):
+        assert len(one) == len(two)
+        for a, b in zip(one, two, strict=True):
+            assert_same(a, b)
+    elif isinstance(one, np.ndarray):
+        assert one.dtype == two.dtype and np.array_equal(one, two)
+    else:
+        assert one == two
+
+
+def test_package_exports_and_registry():
+    assert reachavoid_env.parallel_env is not None and reachavoid_env.raw_env is not None
+    par = pettingzoo.make("parallel", "reachavoid/ReachAvoid-v0", scenario="paper_6v2")
+    assert isinstance(par, ReachAvoidEnv) and par.num_agents == 0
+    assert par.possible_agents == [f"attacker_{i}" for i in range(6)] + ["defender_0",
+                                                                          "defender_1"]
+    aec = pettingzoo.make("aec", "reachavoid/ReachAvoid-v0", max_cycles=9)
+    assert isinstance(aec.unwrapped, ReachAvoidEnv) and aec.unwrapped.max_cycles == 9
+    assert str(par) == "reach_avoid_v0"
+    assert ReachAvoidEnv.metadata["is_parallelizable"] is True
+    assert ReachAvoidEnv.metadata["render_modes"] == ["human", "rgb_array"]
+
+
+def test_spaces_are_declared_once():
+    env = ReachAvoidEnv("paper_8v4")
+    for name in env.possible_agents:
+        assert env.observation_space(name) is env.observation_space(name)
+        assert env.action_space(name) is env.action_space(name)
+        assert env.observation_space(name).shape == (2 + 3 * 12,)
+        assert env.observation_space(name).dtype == np.float32
+    assert env.state_space.shape == (36,)
+    obs, _ = env.reset(seed=1)
+    for name, value in obs.items():
+        assert env.observation_space(name).contains(value)
+    assert env.state_space.contains(env.state())
+
+
+def test_nan_and_inf_actions_name_the_agent():
+    env = ReachAvoidEnv("paper_2v1")
+    env.reset(seed=0)
+    for bad in (np.nan, np.inf, -np.inf):
+        actions = still(env)
+        actions["attacker_1"] = np.array([0.0, bad], dtype=np.float32)
+        with pytest.raises(ValueError, match="attacker_1"):
+            env.step(actions)
+
+
+def test_malformed_actions_name_the_agent():
+    env = ReachAvoidEnv("paper_2v1")
+    env.reset(seed=0)
+    for bad in (np.zeros(3), 0.5, "north", [[0.1, 0.2]]):
+        actions = still(env)
+        actions["defender_0"] = bad
+        with pytest.raises(ValueError, match="defender_0"):
+            env.step(actions)
+
+
+def test_unknown_and_missing_agents_are_key_errors():
+    env = ReachAvoidEnv("paper_2v1")
+    env.reset(seed=0)
+    with pytest.raises(KeyError, match="attacker_7"):
+        env.step({**still(env), "attacker_7": np.zeros(2)})
+    actions = still(env)
+    del actions["defender_0"]
+    with pytest.raises(KeyError, match="defender_0"):
+        env.step(actions)
+
+
+def test_reset_options_set_the_starts():
+    env = ReachAvoidEnv("paper_2v1")
+    starts = {"attackers": [[-0.5, 0.5], [0.5, -0.8]], "defenders": [[0.8, 0.8]]}
+    obs, _ = env.reset(seed=0, options=starts)
+    assert np.array_equal(obs["attacker_1"][:2], np.float32([0.5, -0.8]))
+    assert env.scenario.attackers == ((-0.5, 0.5), (0.5, -0.8))
+    assert env.game_state().defender_positions.tolist() == [[0.8, 0.8]]
+    # Without options the next reset goes back to the scenario's starts.
+    env.reset()
+    assert env.scenario.attackers == builtin_scenario("paper_2v1").attackers
+    # Only one side given: the other keeps the scenario's starts.
+    env.reset(options={"defenders": [[0.8, -0.8]], "options": 1})
+    assert env.scenario.defenders == ((0.8, -0.8),)
+    assert env.scenario.attackers == builtin_scenario("paper_2v1").attackers
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    ({"attackers": [[0.0, 0.0]]}, r"options\['attackers'\]: expected shape \(2, 2\)"),
+    ({"defenders": [[np.nan, 0.0]]}, r"options\['defenders'\]\[0\] \(defender_0\)"),
+    ({"attackers": [[-0.5, 0.0], [0.0, -0.5]]}, r"inside obstacle 0 \(attacker_1\)"),
+    ({"defenders": [[1.5, 0.0]]}, r"outside the domain .* \(defender_0\)"),
+    ({"attackers": [[0.7, 0.2], [0.0, 0.8]]}, r"inside the target \(attacker_0\)"),
+    ({"attackers": [[-0.5, 0.0], [0.3, -0.25]]}, r"captured by defenders\[0\].*\(attacker_1\)"),
+    ({"scenario": builtin_scenario("paper_6v2")}, "has 6 attackers and 2 defenders"),
+    ({"scenario": "paper_2v1"}, "expected a Scenario"),
+])
+def test_bad_reset_options_name_the_player(options, message):
+    env = ReachAvoidEnv("paper_2v1")
+    with pytest.raises((ValueError, TypeError), match=message):
+        env.reset(seed=0, options=options)
+
+
+def test_reset_with_another_scenario():
+    env = ReachAvoidEnv("paper_2v1")
+    other = replace(builtin_scenario("paper_2v1"), capture_radius=0.2)
+    env.reset(seed=0, options={"scenario": other})
+    assert env.game_state().capture_radius == 0.2
+    env.reset(seed=0)
+    assert env.game_state().capture_radius == 0.1
+
+
+def test_constructor_errors():
+    with pytest.raises(ValueError, match="render_mode"):
+        ReachAvoidEnv(render_mode="ansi")
+    with pytest.raises(ValueError, match="max_cycles"):
+        ReachAvoidEnv(max_cycles=0)
+    with pytest.raises(ScenarioError, match="unknown built-in|no such file"):
+        ReachAvoidEnv("paper_3v3")
+    with pytest.raises(TypeError, match="scenario"):
+        ReachAvoidEnv(scenario=3)
+
+
+def test_random_starts_follow_the_seed():
+    scenario = builtin_scenario("paper_6v2").with_players(3, 2)
+    env = ReachAvoidEnv(scenario)
+    first, _ = env.reset(seed=11)
+    again, _ = env.reset(seed=11)
+    other, _ = env.reset(seed=12)
+    assert_same(first, again)
+    assert not np.array_equal(first["attacker_0"], other["attacker_0"])
+
+
+@pytest.mark.parametrize("scenario", ["paper_8v4", "random_3v2"])
+def test_many_steps_are_deterministic(scenario):
+    sc = (builtin_scenario("paper_6v2").with_players(3, 2) if scenario == "random_3v2"
+          else builtin_scenario(scenario))
+    sc = replace(sc, capture_radius=0.25)      # captures happen within the rollout
+    one, two = ReachAvoidEnv(sc), ReachAvoidEnv(sc)
+    first = rollout(one, seed=4, steps=400)
+    assert_same(first, rollout(two, seed=4, steps=400))
+    # A reset env replays the same episode as a fresh one.
+    assert_same(first, rollout(one, seed=4, steps=400))
+    assert len(first) > 20
+    assert max(info["captured"] for info in first[-1][4].values()) > 0
+
+
+def test_pickle_round_trip():
+    env = ReachAvoidEnv("paper_6v2", max_cycles=50, shaping=0.5)
+    rollout(env, seed=3, steps=10)
+    copy = pickle.loads(pickle.dumps(env))
+    assert copy.max_cycles == 50 and copy.shaping == 0.5
+    assert_same(rollout(env, seed=3, steps=30), rollout(copy, seed=3, steps=30))
+
+
+def test_game_state_and_overlay_rendering():
+    env = ReachAvoidEnv("paper_2v1", render_mode="rgb_array", render_width=320)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.game_state()
+    env.reset(seed=0)
+    state = env.game_state()
+    assert isinstance(state, GameState)
+    assert state.attacker_positions.tolist() == [[-0.5, 0.0], [0.0, 0.8]]
+    assert state.attacker_status == (AttackerStatus.ACTIVE,) * 2
+    assert (state.attacker_speed, state.defender_speed, state.capture_radius) == (1.0, 1.5, 0.1)
+    plain = env.render()
+    env.set_overlay(Overlay(edges=(("defender_0", "attacker_0"),), lines=("edge",)))
+    drawn = env.render()
+    assert plain.dtype == np.uint8 and plain.shape[2] == 3 and plain.shape[1] == 320
+    assert not np.array_equal(plain, drawn)
+    env.close()
+    env.close()
+
+
+def test_render_without_mode_warns():
+    env = ReachAvoidEnv("paper_2v1")
+    env.reset(seed=0)
+    with pytest.warns(UserWarning, match="render mode"):
+        assert env.render() is None
