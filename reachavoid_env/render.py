@@ -61,7 +61,8 @@ class Renderer:
 
     ``width`` / ``height`` are the frame size in pixels, rounded up to multiples of 16;
     ``height`` defaults to the one that keeps the domain's aspect ratio below the header
-    (a dark bar with the clock, the counts and ``text_lines`` lines of overlay text).
+    (the clock, the counts next to the glyphs they count, and ``text_lines`` lines of
+    overlay text).
     ``trail_seconds`` is how much game time a trail covers before it has faded out.
     Drawing needs no display; ``show`` opens a window on first use.
     """
