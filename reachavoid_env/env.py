@@ -62,25 +62,27 @@ def resolve_events(game_map: GameMap, capture_radius: float, active: np.ndarray,
     ``target_bounds`` (``xmin, xmax, ymin, ymax`` of the target union) only saves work.
     """
     m = len(active)
-    t_capture, captor, t_arrival = np.full(m, np.inf), np.full(m, -1), np.full(m, np.inf)
+    never = np.full(m, np.inf)
+    t_capture, t_arrival, captor = never, never, np.full(m, -1)
     # Nobody moves farther than sqrt(2) times its largest coordinate change, so a pair
     # farther apart than capture_radius plus two such moves cannot meet this step.
-    longest = math.sqrt(2.0) * max(np.abs(attackers_new - attackers_old).max(),
-                                   np.abs(defenders_new - defenders_old).max())
+    a_move = np.abs(attackers_new - attackers_old)
+    longest = math.sqrt(2.0) * max(a_move.max(), np.abs(defenders_new - defenders_old).max())
     reach = capture_radius + 2.0 * longest
     gaps = attackers_old[:, None, :] - defenders_old[None, :, :]
     closest = np.einsum("ijk,ijk->ij", gaps, gaps).min(axis=1)
     if (closest[active] <= reach * reach).any():
         pair_times = capture_times(attackers_old, attackers_new, defenders_old, defenders_new,
                                    capture_radius)
-        captor = np.argmin(pair_times, axis=1)
+        captor = pair_times.argmin(axis=1)
         t_capture = pair_times[np.arange(m), captor]
-    # Only segments whose bounding box meets the target's can enter it.
+    # Only attackers whose move spans the target's bounding box on both axes can enter it.
     xmin, xmax, ymin, ymax = target_bounds or target_bounds_of(game_map)
-    lo = np.minimum(attackers_old, attackers_new)
-    hi = np.maximum(attackers_old, attackers_new)
-    near = active & (hi >= (xmin, ymin)).all(axis=1) & (lo <= (xmax, ymax)).all(axis=1)
+    centre = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
+    half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
+    near = (np.abs(attackers_old - centre) <= half + a_move).all(axis=1) & active
     if near.any():
+        t_arrival = never.copy()
         t_arrival[near] = game_map.target_entry_time(attackers_old[near], attackers_new[near])
     captured = active & (t_capture <= 1.0) & (t_capture <= t_arrival)
     arrived = active & ~captured & (t_arrival <= 1.0)

@@ -1,0 +1,173 @@
+"""Environment throughput: reach-avoid paper_8v4 against MPE simple_tag (12 agents each).
+
+Measures, in one run:
+
+- parallel ``step`` calls per second with random actions and no rendering, for
+  ``paper_8v4`` (8 attackers, 4 defenders) and for ``mpe2.simple_tag_v3`` with 8 good
+  agents, 4 adversaries, 2 obstacles and continuous actions. Both run 1000-step episodes
+  (resets included). Actions are drawn beforehand ("step only") and, separately, by
+  ``action_space(agent).sample()`` inside the loop ("with sampling");
+- ``render()`` frames per second in ``rgb_array`` mode (``paper_8v4``, 640 px wide);
+- MP4 encoding frames per second through ``reachavoid_env.video.VideoWriter``.
+
+Each figure is the best and the median of ``--repeats`` timed runs (the machine is shared;
+the best is the least disturbed). ``--profile`` prints where an env step spends its time.
+
+    SDL_VIDEODRIVER=dummy .venv/bin/python benchmarks/env_throughput.py [--steps 5000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import os
+import platform
+import pstats
+import statistics
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+
+import reachavoid_env  # noqa: E402
+from reachavoid_env.video import VideoWriter  # noqa: E402
+
+EPISODE_STEPS = 1000
+
+
+def make_reachavoid(render_mode: str | None = None):
+    return reachavoid_env.parallel_env(scenario="paper_8v4", max_cycles=EPISODE_STEPS,
+                                       render_mode=render_mode)
+
+
+def make_mpe():
+    from mpe2 import simple_tag_v3
+
+    return simple_tag_v3.parallel_env(num_good=8, num_adversaries=4, num_obstacles=2,
+                                      continuous_actions=True, max_cycles=EPISODE_STEPS)
+
+
+def random_actions(env, steps: int, seed: int) -> list[dict[str, np.ndarray]]:
+    """Pre-drawn actions for every possible agent, one dict per step."""
+    rng = np.random.default_rng(seed)
+    draws = []
+    for _ in range(steps):
+        actions = {}
+        for agent in env.possible_agents:
+            space = env.action_space(agent)
+            actions[agent] = rng.uniform(space.low, space.high).astype(space.dtype)
+        draws.append(actions)
+    return draws
+
+
+def run_steps(env, actions: list[dict[str, np.ndarray]] | None, steps: int) -> float:
+    """Seconds for ``steps`` parallel steps (resetting when an episode ends)."""
+    env.reset(seed=0)
+    start = time.perf_counter()
+    for k in range(steps):
+        if not env.agents:
+            env.reset()
+        live = env.agents
+        if actions is None:
+            step_actions = {agent: env.action_space(agent).sample() for agent in live}
+        else:
+            drawn = actions[k]
+            step_actions = {agent: drawn[agent] for agent in live}
+        env.step(step_actions)
+    return time.perf_counter() - start
+
+
+def rate(label: str, work: Callable[[], float], count: int, repeats: int) -> dict[str, float]:
+    """Best and median of ``count / seconds`` over ``repeats`` runs."""
+    rates = [count / work() for _ in range(repeats)]
+    result = {"best": max(rates), "median": statistics.median(rates)}
+    print(f"{label:<50} best {result['best']:>9,.0f}/s   median {result['median']:>9,.0f}/s",
+          flush=True)
+    return result
+
+
+def render_fps(frames: int) -> tuple[Callable[[], float], list[np.ndarray]]:
+    env = make_reachavoid(render_mode="rgb_array")
+    env.reset(seed=0)
+    rng = np.random.default_rng(1)
+    kept: list[np.ndarray] = []
+
+    def work() -> float:
+        env.reset(seed=0)
+        kept.clear()
+        seconds = 0.0
+        for _ in range(frames):
+            env.step({agent: rng.uniform(-1, 1, 2).astype(np.float32) for agent in env.agents})
+            start = time.perf_counter()
+            kept.append(env.render())
+            seconds += time.perf_counter() - start
+        return seconds
+
+    return work, kept
+
+
+def encode_fps(frames: list[np.ndarray], fps: int) -> Callable[[], float]:
+    def work() -> float:
+        with tempfile.TemporaryDirectory() as folder:
+            start = time.perf_counter()
+            with VideoWriter(Path(folder) / "bench.mp4", fps) as writer:
+                for frame in frames:
+                    writer.append(frame)
+            return time.perf_counter() - start
+
+    return work
+
+
+def profile(steps: int) -> None:
+    env = make_reachavoid()
+    actions = random_actions(env, steps, seed=2)
+    profiler = cProfile.Profile()
+    profiler.enable()
+    run_steps(env, actions, steps)
+    profiler.disable()
+    print(f"\ncProfile of {steps} paper_8v4 steps (tottime, top 20):")
+    pstats.Stats(profiler).sort_stats("tottime").print_stats(20)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--steps", type=int, default=5000, help="steps per timed run")
+    parser.add_argument("--mpe-steps", type=int, default=1000, help="MPE steps per timed run")
+    parser.add_argument("--frames", type=int, default=300, help="frames to render and encode")
+    parser.add_argument("--repeats", type=int, default=5, help="timed runs per figure")
+    parser.add_argument("--profile", action="store_true", help="cProfile an env run too")
+    args = parser.parse_args()
+
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"Python {platform.python_version()}; load average "
+          f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    ours, mpe = make_reachavoid(), make_mpe()
+    ours_actions = random_actions(ours, args.steps, seed=0)
+    mpe_actions = random_actions(mpe, args.mpe_steps, seed=0)
+    r = args.repeats
+    ours_step = rate("reach-avoid paper_8v4, step only",
+                     lambda: run_steps(ours, ours_actions, args.steps), args.steps, r)
+    rate("reach-avoid paper_8v4, with sampling",
+         lambda: run_steps(ours, None, args.steps), args.steps, r)
+    mpe_step = rate("MPE simple_tag 8 good/4 adv/2 obst, step only",
+                    lambda: run_steps(mpe, mpe_actions, args.mpe_steps), args.mpe_steps, r)
+    rate("MPE simple_tag 8 good/4 adv/2 obst, with sampling",
+         lambda: run_steps(mpe, None, args.mpe_steps), args.mpe_steps, r)
+    print(f"ratio (step only): best {ours_step['best'] / mpe_step['best']:.1f}x, "
+          f"median {ours_step['median'] / mpe_step['median']:.1f}x  (goal: 20x)")
+    work, frames = render_fps(args.frames)
+    rate("render rgb_array paper_8v4 (frames)", work, args.frames, r)
+    print(f"  frame size {frames[0].shape[1]}x{frames[0].shape[0]}")
+    rate("MP4 encode via VideoWriter (frames)",
+         encode_fps(frames, reachavoid_env.ReachAvoidEnv.metadata["render_fps"]), len(frames),
+         min(r, 3))
+    if args.profile:
+        profile(args.steps)
+
+
+if __name__ == "__main__":
+    main()
