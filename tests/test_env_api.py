@@ -204,6 +204,11 @@ def test_pickle_round_trip():
     copy = pickle.loads(pickle.dumps(env))
     assert copy.max_cycles == 50 and copy.shaping == 0.5
     assert_same(rollout(env, seed=3, steps=30), rollout(copy, seed=3, steps=30))
+    scenario = builtin_scenario("paper_6v2").with_players(3, 2)
+    env = ReachAvoidEnv(scenario)
+    copy = pickle.loads(pickle.dumps(env))
+    assert copy.base_scenario == scenario
+    assert_same(rollout(env, seed=5, steps=30), rollout(copy, seed=5, steps=30))
 
 
 def test_game_state_and_overlay_rendering():
