@@ -24,7 +24,7 @@ from reachavoid_env.shapes import quadratic_entry_time
 from reachavoid_env.world import World
 
 _STATUSES = (AttackerStatus.ACTIVE, AttackerStatus.CAPTURED, AttackerStatus.ARRIVED)
-_ACTIVE, _CAPTURED, _ARRIVED = 0, 1, 2
+_CAPTURED, _ARRIVED = 1, 2          # indices into _STATUSES; 0 is active
 _PLAYER_FIELD = re.compile(r"players\.(attacker|defender)s\[(\d+)\]")
 
 
@@ -363,8 +363,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             stacked = None
         if stacked is None or stacked.shape != (len(live), 2) \
                 or not np.isfinite(stacked).all():
-            for name in live:
-                _check_action(name, actions[name])
+            stacked = np.array([_checked_action(name, actions[name]) for name in live])
         return stacked
 
     # ----------------------------------------------------------- observations
@@ -451,8 +450,9 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             self._renderer = None
 
 
-def _check_action(agent: str, action: Any) -> None:
-    """Raise ``ValueError`` naming ``agent`` when its action is not a finite 2-vector."""
+def _checked_action(agent: str, action: Any) -> np.ndarray:
+    """``action`` as a float64 ``(2,)`` array; ``ValueError`` naming ``agent`` if it is not
+    a finite 2-vector."""
     try:
         array = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError):
@@ -462,6 +462,7 @@ def _check_action(agent: str, action: Any) -> None:
         raise ValueError(f"action for {agent}: expected shape (2,), got {array.shape}")
     if not np.isfinite(array).all():
         raise ValueError(f"action for {agent}: must be finite, got {array.tolist()}")
+    return array
 
 
 def _start_points(value: Any, count: int, role: str) -> tuple[tuple[float, float], ...]:
