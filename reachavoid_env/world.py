@@ -66,7 +66,7 @@ class World:
         self.space.collision_slop = 0.01 * player_radius
         self.space.collision_bias = 0.0
         static = self.space.static_body
-        walls = [*_domain_walls(game_map.domain, static)]
+        walls = _domain_walls(game_map.domain, static)
         for obstacle in game_map.obstacles:
             walls.extend(obstacle.pymunk_shapes(static))
         for shape in walls:
@@ -84,7 +84,9 @@ class World:
             self.space.add(body, circle)
             self.bodies.append(body)
         self._rows, body_count = self._body_rows()
-        # Batch buffer: one (vx, vy, fx, fy) row per body the space iterates over.
+        # Batch buffer: one (vx, vy, fx, fy) row per body the space iterates over (its
+        # static body included). Velocities stay zero; a player's force is m v / h, so the
+        # first physics step of a step turns it into the velocity v (mass 1).
         self._commands = np.zeros((body_count, 4), dtype=np.float64)
         self._set_buffer = pymunk.batch.Buffer()
         self._set_buffer.set_float_buf(self._commands)
