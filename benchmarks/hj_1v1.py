@@ -1,0 +1,168 @@
+"""Benchmark: the 1 vs 1 HJ solve on the paper map (BENCHMARKS.md, "HJ solver").
+
+Each solver runs in a fresh subprocess so that its peak RSS is its own. Reported: wall
+time to convergence (numba compile or cache load excluded and reported apart), iterations,
+residual, process peak RSS, the solver's own allocations (tracemalloc peak) and, when
+``hj_reachability`` is installed (``pip install -e '.[bench]'``), the same game solved by
+it (first order, Lax-Friedrichs, forward Euler, zero-gradient boundary) to the same game
+time, with the agreement of the two winning sets.
+
+    python benchmarks/hj_1v1.py [--grid 45] [--threads 2] [--no-hj-reachability]
+
+On a machine with more cores, pin the run to two of them (``taskset -c 0,1 ...``) to
+compare with the 2-core figures: jax uses every core it sees.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import subprocess
+import sys
+import time
+import tracemalloc
+
+import numpy as np
+
+SPEEDS, RADIUS = (1.0, 1.5), 0.1
+
+
+def _peak_rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def worker_numba(grid: int, out: str) -> dict:
+    import numba
+
+    from reachavoid_env import builtin_map
+    from solvers.hj import solve_1v1
+
+    game_map = builtin_map("paper")
+    start = time.perf_counter()
+    solve_1v1(game_map, SPEEDS, RADIUS, 9, cache=False, progress=False)
+    compile_seconds = time.perf_counter() - start
+    rss_before = _peak_rss_mb()
+    tracemalloc.start()
+    start = time.perf_counter()
+    vf = solve_1v1(game_map, SPEEDS, RADIUS, grid, cache=False, progress=False)
+    seconds = time.perf_counter() - start
+    _, traced_peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    np.save(out, np.asarray(vf.values))
+    return {"solver": "reachavoid (numba)", "threads": numba.get_num_threads(),
+            "compile_or_load_s": compile_seconds, "seconds": seconds,
+            "iterations": vf.solver["iterations"], "residual": vf.solver["residual"],
+            "converged": vf.solver["converged"], "game_time": vf.solver["iterations"]
+            * vf.solver["dt"], "peak_rss_mb": _peak_rss_mb(), "rss_before_solve_mb": rss_before,
+            "traced_peak_mb": traced_peak / 2**20}
+
+
+def worker_hj_reachability(grid: int, horizon: float, out: str) -> dict:
+    import hj_reachability as hj
+    import jax
+    import jax.numpy as jnp
+
+    from reachavoid_env import builtin_map
+    from solvers.hj.games import problem_1v1
+    from solvers.hj.grid import Grid
+
+    game_map = builtin_map("paper")
+    ours = Grid.for_players(game_map.domain, 2, grid)
+    problem = problem_1v1(game_map, SPEEDS, RADIUS, ours)
+    shape = ours.shape
+    target = np.minimum(problem.reach, problem.defender_free[None, :]).reshape(shape)
+    avoid = problem.lost.reshape(shape)
+
+    class Pursuit(hj.ControlAndDisturbanceAffineDynamics):
+        def __init__(self) -> None:
+            ball = hj.sets.Ball(jnp.zeros(2), 1.0)
+            super().__init__("min", "max", ball, ball)
+
+        def open_loop_dynamics(self, state, time):
+            return jnp.zeros(4)
+
+        def control_jacobian(self, state, time):
+            return jnp.array([[SPEEDS[0], 0.0], [0.0, SPEEDS[0]], [0.0, 0.0], [0.0, 0.0]])
+
+        def disturbance_jacobian(self, state, time):
+            return jnp.array([[0.0, 0.0], [0.0, 0.0], [SPEEDS[1], 0.0], [0.0, SPEEDS[1]]])
+
+    def edge(x, pad_width):
+        return jnp.pad(x, (pad_width, pad_width), "edge")
+
+    hj_grid = hj.Grid.from_lattice_parameters_and_boundary_conditions(
+        hj.sets.Box(np.array(ours.lo), np.array(ours.hi)), shape, boundary_conditions=(edge,) * 4)
+    l_values, g_values = jnp.asarray(target), jnp.asarray(avoid)
+    settings = hj.SolverSettings.with_accuracy(
+        "low", value_postprocessor=lambda t, v: jnp.maximum(jnp.minimum(v, l_values), g_values))
+    initial = jnp.maximum(l_values, g_values)
+    dynamics = Pursuit()
+    start = time.perf_counter()
+    warm = hj.step(settings, dynamics, hj_grid, 0.0, initial, -1e-3, progress_bar=False)
+    jax.block_until_ready(warm)
+    compile_seconds = time.perf_counter() - start
+    start = time.perf_counter()
+    values = hj.step(settings, dynamics, hj_grid, 0.0, initial, -horizon, progress_bar=False)
+    values = np.asarray(jax.block_until_ready(values))
+    seconds = time.perf_counter() - start
+    np.save(out, values.astype(np.float32))
+    return {"solver": f"hj_reachability {hj.__version__} (jax {jax.__version__}, CPU)",
+            "compile_or_load_s": compile_seconds, "seconds": seconds, "game_time": horizon,
+            "iterations": None, "peak_rss_mb": _peak_rss_mb()}
+
+
+def _run_worker(args: list[str], threads: int) -> dict:
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
+    result = subprocess.run([sys.executable, __file__, *args], env=env, check=True,
+                            capture_output=True, text=True)
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--grid", type=int, default=45)
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--no-hj-reachability", action="store_true")
+    parser.add_argument("--worker", choices=["numba", "hj_reachability"], help=argparse.SUPPRESS)
+    parser.add_argument("--horizon", type=float, default=0.0, help=argparse.SUPPRESS)
+    parser.add_argument("--out", default="", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker == "numba":
+        print(json.dumps(worker_numba(args.grid, args.out)))
+        return
+    if args.worker == "hj_reachability":
+        print(json.dumps(worker_hj_reachability(args.grid, args.horizon, args.out)))
+        return
+
+    import tempfile
+
+    print(f"# hj_1v1: paper map, {args.grid}^4, vA={SPEEDS[0]}, vD={SPEEDS[1]}, R={RADIUS}, "
+          f"{args.threads} threads, {platform.processor() or platform.machine()}, "
+          f"{os.cpu_count()} CPUs visible, {time.strftime('%Y-%m-%d')}")
+    with tempfile.TemporaryDirectory() as scratch:
+        ours_file = os.path.join(scratch, "ours.npy")
+        ours = _run_worker(["--worker", "numba", "--grid", str(args.grid), "--out", ours_file],
+                           args.threads)
+        print(json.dumps(ours))
+        try:
+            import hj_reachability  # noqa: F401
+        except ImportError:
+            print("# hj_reachability not installed: pip install -e '.[bench]'")
+            return
+        if args.no_hj_reachability:
+            return
+        theirs_file = os.path.join(scratch, "theirs.npy")
+        theirs = _run_worker(["--worker", "hj_reachability", "--grid", str(args.grid),
+                              "--horizon", str(ours["game_time"]), "--out", theirs_file],
+                             args.threads)
+        a, b = np.load(ours_file), np.load(theirs_file)
+        theirs["winning_set_agreement"] = float(np.mean((a <= 0) == (b <= 0)))
+        print(json.dumps(theirs))
+        print(f"# speed-up over hj_reachability: {theirs['seconds'] / ours['seconds']:.0f}x")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,128 @@
+"""Regular Cartesian grids: node coordinates and multilinear interpolation.
+
+Nodes include both ends of every axis, as ``numpy.linspace(lo, hi, n)``. Coordinates are
+map units. Values live in C-order float32 arrays of the grid's ``shape``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from solvers.hj import kernels
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Axis-aligned grid with ``shape[k]`` nodes from ``lo[k]`` to ``hi[k]`` on axis ``k``."""
+
+    lo: tuple[float, ...]
+    hi: tuple[float, ...]
+    shape: tuple[int, ...]
+
+    def __post_init__(self) -> None:
+        lo = tuple(float(v) for v in self.lo)
+        hi = tuple(float(v) for v in self.hi)
+        shape = tuple(int(n) for n in self.shape)
+        if not (len(lo) == len(hi) == len(shape)) or not shape:
+            raise ValueError(f"grid: lo, hi and shape need the same positive length, got "
+                             f"{len(lo)}, {len(hi)}, {len(shape)}")
+        for k, (a, b, n) in enumerate(zip(lo, hi, shape, strict=True)):
+            if not b > a:
+                raise ValueError(f"grid axis {k}: need lo < hi, got [{a}, {b}]")
+            if n < 3:
+                raise ValueError(f"grid axis {k}: need at least 3 nodes, got {n}")
+        object.__setattr__(self, "lo", lo)
+        object.__setattr__(self, "hi", hi)
+        object.__setattr__(self, "shape", shape)
+
+    @classmethod
+    def for_players(cls, domain: Sequence[float], players: int,
+                    points: int | Sequence[int]) -> Grid:
+        """The joint grid of ``players`` planar players over ``domain = (xmin, xmax, ymin, ymax)``.
+
+        ``points`` is the node count per axis (one number, or one per axis).
+        """
+        xmin, xmax, ymin, ymax = (float(v) for v in domain)
+        ndim = 2 * players
+        shape = (points,) * ndim if isinstance(points, (int, np.integer)) else tuple(points)
+        if len(shape) != ndim:
+            raise ValueError(f"grid_points: expected one count or {ndim}, got {len(shape)}")
+        return cls((xmin, ymin) * players, (xmax, ymax) * players, shape)
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
+
+    @property
+    def size(self) -> int:
+        """Number of nodes."""
+        return int(np.prod(self.shape, dtype=np.int64))
+
+    @property
+    def spacing(self) -> tuple[float, ...]:
+        """Distance between neighbouring nodes on each axis (map units)."""
+        return tuple((b - a) / (n - 1) for a, b, n in zip(self.lo, self.hi, self.shape,
+                                                          strict=True))
+
+    def coordinates(self, axis: int) -> np.ndarray:
+        """Node coordinates along ``axis`` (float64)."""
+        return np.linspace(self.lo[axis], self.hi[axis], self.shape[axis])
+
+    def sub(self, axes: Sequence[int]) -> Grid:
+        """The grid of the given axes only."""
+        return Grid(tuple(self.lo[k] for k in axes), tuple(self.hi[k] for k in axes),
+                    tuple(self.shape[k] for k in axes))
+
+    def points(self, index: np.ndarray) -> np.ndarray:
+        """Coordinates ``(..., ndim)`` of integer node indices ``(..., ndim)``."""
+        index = np.asarray(index)
+        return np.asarray(self.lo) + index * np.asarray(self.spacing)
+
+    def nearest_index(self, points: np.ndarray) -> np.ndarray:
+        """Index of the nearest node for points ``(..., ndim)``, clipped into the grid."""
+        points = self._points(points)
+        index = np.rint((points - np.asarray(self.lo)) / np.asarray(self.spacing))
+        return np.clip(index, 0, np.asarray(self.shape) - 1).astype(np.int64)
+
+    def mesh(self) -> np.ndarray:
+        """All node coordinates, shape ``shape + (ndim,)`` (for small grids)."""
+        axes = [self.coordinates(k) for k in range(self.ndim)]
+        return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+
+    def interpolate(self, values: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Multilinear interpolation of nodal ``values`` at ``points (K, ndim)`` -> ``(K,)``.
+
+        Points outside the grid are clamped onto its boundary.
+        """
+        flat = self._values(values)
+        return kernels.interpolate(flat, *self._arrays(), self._points(points))
+
+    def interpolate_gradient(self, values: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Gradient at ``points (K, ndim)`` -> ``(K, ndim)``: nodal central differences
+        (one-sided on the grid's edges), interpolated multilinearly. Units: value per map unit.
+        """
+        flat = self._values(values)
+        return kernels.interpolate_gradient(flat, *self._arrays(), self._points(points))
+
+    def _arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return (np.asarray(self.shape, dtype=np.int64), np.asarray(self.lo, dtype=np.float64),
+                np.asarray(self.spacing, dtype=np.float64))
+
+    def _values(self, values: np.ndarray) -> np.ndarray:
+        if tuple(values.shape) != self.shape:
+            raise ValueError(f"values: shape {tuple(values.shape)} does not match the grid "
+                             f"{self.shape}")
+        if values.dtype != np.float32 or not values.flags.c_contiguous:
+            raise ValueError("values: expected a C-contiguous float32 array")
+        return values.reshape(-1)
+
+    def _points(self, points: np.ndarray) -> np.ndarray:
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        if points.ndim != 2 or points.shape[1] != self.ndim:
+            raise ValueError(f"points: expected shape (K, {self.ndim}), got {points.shape}")
+        if not np.all(np.isfinite(points)):
+            raise ValueError("points: contain NaN or inf")
+        return points

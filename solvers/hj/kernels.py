@@ -1,0 +1,424 @@
+"""Numba kernels of the reach-avoid solver and of grid interpolation.
+
+Every kernel takes plain arrays; ``kernels_reference`` holds a slow numpy twin of each.
+
+Layout of a game's value array (design.md section 4): the axes are the attackers' planar
+positions first, then the defender's, ``(xA1, yA1[, xA2, yA2], xD, yD)``. The kernels see it
+as a 2-D array ``(rows, m)``: one row per attacker configuration and the defender's two axes
+flattened into ``m = nxD * nyD`` contiguous elements. Differences along the defender axes are
+taken inside a row; differences along an attacker axis compare a row with a neighbouring
+row. Each row is processed in short, branch-free passes over its ``m`` elements that LLVM
+vectorises: one per player (the per-player pieces of the Hamiltonian) and one that applies
+the game's target and avoid sets.
+
+Scheme: ``V_new = max(min(V + dt * H, l), g)`` with the decoupled Hamiltonian
+``H = -vA * sum_i |p_Ai| + vD * |p_D|`` (the attackers minimise, the defender maximises).
+Spatial derivatives are one-sided differences ``D+`` and ``D-`` with a zero-gradient
+boundary (a missing neighbour is replaced by the node itself). Godunov per player: the
+defender's ``|p|`` is ``sqrt(sum_axes max(D+, -D-, 0)^2)`` and an attacker's
+``sqrt(sum_axes max(-D+, D-, 0)^2)``; Lax-Friedrichs: ``|p|`` of the central difference
+plus ``speed * (D+ - D-) / 2`` per axis. Both are monotone while
+``dt <= 1 / sum_players (speed * sqrt(sum_axes h^-2))`` (Godunov) or
+``dt <= 1 / sum_axes (speed / h)`` (Lax-Friedrichs).
+
+Target and avoid functions are never stored as arrays of the value's size; they are
+assembled per element from planar tables of the players' grids: ``target[a]`` (signed
+distance to the target), ``attacker_free[a]`` and ``defender_free[d]`` (signed distance to
+obstacles, negative inside), the node coordinates, and for 2 vs 1 the table
+``survive[a, d]`` (the 1 vs 1 value: > 0 when that attacker loses its 1 vs 1 game). With
+``gap = R - |a - d|`` (> 0: captured), ``reach = max(target[a], gap)`` (<= 0: in the target
+uncaptured) and ``lost = max(gap, -attacker_free[a])`` (> 0: captured or in an obstacle):
+1 vs 1: ``l = min(reach(a), defender_free)``, ``g = lost(a)``.
+2 vs 1: ``l = min(reach(a1), reach(a2), defender_free)``,
+``g = max(min(lost(a1), survive[a2]), min(lost(a2), survive[a1]))``.
+
+Convergence is measured on the nodes next to the zero level set: a node counts when its
+absolute value is at most the largest jump to one of its stencil neighbours (so a
+neighbour may have the other sign).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+_FASTMATH = {"nnan", "ninf", "nsz", "reassoc", "contract"}
+_ZERO = np.float32(0.0)
+_HALF = np.float32(0.5)
+_HUGE = np.float32(1e30)
+GODUNOV = 0
+LAX_FRIEDRICHS = 1
+
+
+# ---------------------------------------------------------------------------------------
+# per-player pieces of one row
+# ---------------------------------------------------------------------------------------
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _row_differences(row, ny, fx, fy):
+    """Raw forward differences of a row along the defender's two in-row axes.
+
+    ``fx`` (length ``m + ny``) and ``fy`` (length ``m + 1``) are padded so that at element
+    ``r`` the forward difference is ``fx[ny + r]`` / ``fy[1 + r]`` and the backward one
+    ``fx[r]`` / ``fy[r]``; differences across the grid's edge are zero.
+    """
+    m = row.size
+    for r in range(ny):
+        fx[r] = _ZERO
+        fx[m + r] = _ZERO
+    ahead_x = row[ny:]
+    out_x = fx[ny:]
+    for r in range(m - ny):
+        out_x[r] = ahead_x[r] - row[r]
+    fy[0] = _ZERO
+    fy[m] = _ZERO
+    ahead_y = row[1:]
+    out_y = fy[1:]
+    for r in range(m - 1):
+        out_y[r] = ahead_y[r] - row[r]
+    for r in range(ny - 1, m, ny):
+        out_y[r] = _ZERO
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _defender_piece(fx, fy, ny, inv_hx, inv_hy, speed, scheme, ham, jump):
+    """``ham = +speed * |p_D|`` (maximiser); ``jump`` starts as the in-row neighbour jumps."""
+    m = ham.size
+    fxp = fx[ny:]
+    fyp = fy[1:]
+    if scheme == GODUNOV:
+        for r in range(m):
+            qx = max(max(fxp[r], -fx[r]), _ZERO) * inv_hx
+            qy = max(max(fyp[r], -fy[r]), _ZERO) * inv_hy
+            ham[r] = speed * np.sqrt(qx * qx + qy * qy)
+            jump[r] = max(max(abs(fxp[r]), abs(fx[r])), max(abs(fyp[r]), abs(fy[r])))
+    else:
+        for r in range(m):
+            cx = (fxp[r] + fx[r]) * (_HALF * inv_hx)
+            cy = (fyp[r] + fy[r]) * (_HALF * inv_hy)
+            diss = (fxp[r] - fx[r]) * inv_hx + (fyp[r] - fy[r]) * inv_hy
+            ham[r] = speed * (np.sqrt(cx * cx + cy * cy) + _HALF * diss)
+            jump[r] = max(max(abs(fxp[r]), abs(fx[r])), max(abs(fyp[r]), abs(fy[r])))
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _attacker_piece(row, xm, xp, ym, yp, inv_hx, inv_hy, speed, scheme, ham, jump):
+    """``ham -= speed * |p_A|`` (minimiser) from the four neighbouring rows of one attacker.
+
+    A neighbour row missing at the grid's edge is passed as ``row`` itself.
+    """
+    m = ham.size
+    if scheme == GODUNOV:
+        for r in range(m):
+            v = row[r]
+            ax = max(v - min(xp[r], xm[r]), _ZERO) * inv_hx
+            ay = max(v - min(yp[r], ym[r]), _ZERO) * inv_hy
+            ham[r] -= speed * np.sqrt(ax * ax + ay * ay)
+            big = max(max(abs(xp[r] - v), abs(xm[r] - v)), max(abs(yp[r] - v), abs(ym[r] - v)))
+            jump[r] = max(jump[r], big)
+    else:
+        for r in range(m):
+            v = row[r]
+            cx = (xp[r] - xm[r]) * (_HALF * inv_hx)
+            cy = (yp[r] - ym[r]) * (_HALF * inv_hy)
+            diss = (xp[r] + xm[r] - v - v) * inv_hx + (yp[r] + ym[r] - v - v) * inv_hy
+            ham[r] += speed * (_HALF * diss - np.sqrt(cx * cx + cy * cy))
+            big = max(max(abs(xp[r] - v), abs(xm[r] - v)), max(abs(yp[r] - v), abs(ym[r] - v)))
+            jump[r] = max(jump[r], big)
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _capture_gap(r, ax, ay, dxs, dys, radius):
+    """``R - |a - d|`` for attacker node ``(ax, ay)`` and defender node ``r``."""
+    ex = ax - dxs[r]
+    ey = ay - dys[r]
+    return radius - np.sqrt(ex * ex + ey * ey)
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _close_1v1(row, out, ham, jump, dt, a, sets, acc):
+    """Apply the 1 vs 1 sets to a row; returns how many elements changed."""
+    target, attacker_free, ax, ay, dxs, dys, defender_free, radius = sets
+    t, f, x, y = target[a], attacker_free[a], ax[a], ay[a]
+    changed = 0
+    for r in range(row.size):
+        v = row[r]
+        gap = _capture_gap(r, x, y, dxs, dys, radius)
+        reach = min(max(t, gap), defender_free[r])
+        lost = max(gap, -f)
+        new = max(min(v + dt * ham[r], reach), lost)
+        out[r] = new
+        step = abs(new - v)
+        acc[r] = max(acc[r], step if abs(v) <= jump[r] else _ZERO)
+        changed += new != v
+    return changed
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _close_2v1(row, out, ham, jump, dt, a1, a2, sets, survive, acc):
+    """Apply the 2 vs 1 sets to a row; returns how many elements changed."""
+    target, attacker_free, ax, ay, dxs, dys, defender_free, radius = sets
+    t1, f1, x1, y1 = target[a1], attacker_free[a1], ax[a1], ay[a1]
+    t2, f2, x2, y2 = target[a2], attacker_free[a2], ax[a2], ay[a2]
+    survive1, survive2 = survive[a1], survive[a2]
+    changed = 0
+    for r in range(row.size):
+        v = row[r]
+        gap1 = _capture_gap(r, x1, y1, dxs, dys, radius)
+        gap2 = _capture_gap(r, x2, y2, dxs, dys, radius)
+        reach = min(min(max(t1, gap1), max(t2, gap2)), defender_free[r])
+        avoid = max(min(max(gap1, -f1), survive2[r]), min(max(gap2, -f2), survive1[r]))
+        new = max(min(v + dt * ham[r], reach), avoid)
+        out[r] = new
+        step = abs(new - v)
+        acc[r] = max(acc[r], step if abs(v) <= jump[r] else _ZERO)
+        changed += new != v
+    return changed
+
+
+# ---------------------------------------------------------------------------------------
+# row bookkeeping shared by both games
+# ---------------------------------------------------------------------------------------
+
+@njit(cache=True)
+def _attacker_index(row, player, n_attackers, na):
+    """Flat grid index of attacker ``player`` in ``row`` (rows are ``(a1[, a2])`` in C order)."""
+    stride = 1 if player == n_attackers - 1 else na
+    return (row // stride) % na
+
+
+@njit(cache=True)
+def canonical_row(row, n_attackers, na, symmetric):
+    """The row that stores ``row``: with exchange symmetry, ``(a1, a2)`` and ``(a2, a1)`` are
+    both stored at the one with ``a1 >= a2``."""
+    if symmetric and n_attackers == 2:
+        a1 = row // na
+        a2 = row % na
+        if a1 < a2:
+            return a2 * na + a1
+    return row
+
+
+@njit(cache=True)
+def _neighbour_rows(row, n_attackers, na, any_, anx, symmetric, out):
+    """``out[player] = (x-, x+, y-, y+)`` neighbour rows, the row itself on the grid's edge."""
+    for player in range(n_attackers):
+        stride = 1 if player == n_attackers - 1 else na
+        a = (row // stride) % na
+        ix = a // any_
+        iy = a % any_
+        out[player, 0] = canonical_row(row - any_ * stride if ix > 0 else row,
+                                       n_attackers, na, symmetric)
+        out[player, 1] = canonical_row(row + any_ * stride if ix < anx - 1 else row,
+                                       n_attackers, na, symmetric)
+        out[player, 2] = canonical_row(row - stride if iy > 0 else row,
+                                       n_attackers, na, symmetric)
+        out[player, 3] = canonical_row(row + stride if iy < any_ - 1 else row,
+                                       n_attackers, na, symmetric)
+
+
+@njit(cache=True, parallel=True)
+def active_rows(candidates, changed, n_attackers, na, any_, anx, symmetric):
+    """The rows of ``candidates`` whose own values or a neighbour row's changed last sweep.
+
+    A row whose whole stencil is unchanged keeps its values exactly (the update is a
+    function of the stencil), so it need not be recomputed.
+    """
+    n = candidates.size
+    keep = np.zeros(n, dtype=np.bool_)
+    for k in prange(n):
+        row = candidates[k]
+        nbr = np.empty((n_attackers, 4), dtype=np.int64)
+        _neighbour_rows(row, n_attackers, na, any_, anx, symmetric, nbr)
+        hit = changed[row]
+        for player in range(n_attackers):
+            for j in range(4):
+                hit = hit or changed[nbr[player, j]]
+        keep[k] = hit
+    return candidates[keep]
+
+
+@njit(cache=True, parallel=True, fastmath=_FASTMATH)
+def sweep(values, out, rows, n_attackers, any_, anx, dny, inv_h, speeds, dt, scheme,
+          symmetric, sets, survive, changed, n_chunks):
+    """One explicit (Jacobi) step of the reach-avoid update on the given rows.
+
+    - ``values``, ``out``: ``(R, m)`` float32, read and written (distinct arrays).
+    - ``rows``: int64 rows to update; the others are left untouched in ``out``.
+    - ``any_``, ``anx``: attacker grid nodes along y and x (``na = anx * any_``);
+      ``dny``: defender nodes along y (``m = dnx * dny``).
+    - ``inv_h``: float32 ``(2 * n_attackers + 2,)`` inverse spacings in axis order.
+    - ``speeds``: float32 ``(attacker, defender)``; ``dt``: float32 time step.
+    - ``sets``: the planar tables ``(target (na,), attacker_free (na,), ax (na,), ay (na,),
+      dx (m,), dy (m,), defender_free (m,), capture_radius)``, float32 (node coordinates
+      ``ax``, ``ay`` of the attacker grid and ``dx``, ``dy`` of the defender grid, flat).
+    - ``survive``: ``(na, m)`` 1 vs 1 value table (2 vs 1 only; any 2-D array otherwise).
+    - ``changed``: uint8 ``(R,)``, set to 1 for every updated row whose values changed.
+    - ``n_chunks``: rows are split into this many contiguous chunks for the threads.
+
+    Returns ``(chunks,)`` float32: the largest change near the zero level set per chunk of
+    rows (divide by ``dt`` for the change per unit game time).
+    """
+    m = values.shape[1]
+    na = anx * any_
+    n_rows = rows.size
+    n_chunks = min(n_rows, n_chunks)
+    residual = np.zeros(max(n_chunks, 1), dtype=np.float32)
+    d_ihx = inv_h[2 * n_attackers]
+    d_ihy = inv_h[2 * n_attackers + 1]
+    for chunk in prange(n_chunks):
+        fx = np.empty(m + dny, dtype=np.float32)
+        fy = np.empty(m + 1, dtype=np.float32)
+        ham = np.empty(m, dtype=np.float32)
+        jump = np.empty(m, dtype=np.float32)
+        acc = np.zeros(m, dtype=np.float32)
+        nbr = np.empty((n_attackers, 4), dtype=np.int64)
+        start = chunk * n_rows // n_chunks
+        stop = (chunk + 1) * n_rows // n_chunks
+        for k in range(start, stop):
+            row_index = rows[k]
+            row = values[row_index]
+            _row_differences(row, dny, fx, fy)
+            _defender_piece(fx, fy, dny, d_ihx, d_ihy, speeds[1], scheme, ham, jump)
+            _neighbour_rows(row_index, n_attackers, na, any_, anx, symmetric, nbr)
+            for player in range(n_attackers):
+                _attacker_piece(row, values[nbr[player, 0]], values[nbr[player, 1]],
+                                values[nbr[player, 2]], values[nbr[player, 3]],
+                                inv_h[2 * player], inv_h[2 * player + 1], speeds[0], scheme,
+                                ham, jump)
+            a1 = _attacker_index(row_index, 0, n_attackers, na)
+            if n_attackers == 1:
+                count = _close_1v1(row, out[row_index], ham, jump, dt, a1, sets, acc)
+            else:
+                a2 = _attacker_index(row_index, 1, n_attackers, na)
+                count = _close_2v1(row, out[row_index], ham, jump, dt, a1, a2, sets, survive,
+                                   acc)
+            changed[row_index] = 1 if count > 0 else 0
+        best = _ZERO
+        for r in range(m):
+            best = max(best, acc[r])
+        residual[chunk] = best
+    return residual
+
+
+@njit(cache=True, parallel=True, fastmath=_FASTMATH)
+def initial_values(out, rows, n_attackers, na, sets, survive):
+    """``out[row] = max(l, g)`` on the given rows: the value at zero time-to-go."""
+    m = out.shape[1]
+    ham = np.zeros(m, dtype=np.float32)
+    for k in prange(rows.size):
+        row_index = rows[k]
+        row = out[row_index]
+        for r in range(m):
+            row[r] = _HUGE
+        acc = np.zeros(m, dtype=np.float32)
+        jump = np.zeros(m, dtype=np.float32)
+        a1 = _attacker_index(row_index, 0, n_attackers, na)
+        if n_attackers == 1:
+            _close_1v1(row, row, ham, jump, _ZERO, a1, sets, acc)
+        else:
+            a2 = _attacker_index(row_index, 1, n_attackers, na)
+            _close_2v1(row, row, ham, jump, _ZERO, a1, a2, sets, survive, acc)
+
+
+@njit(cache=True, parallel=True)
+def mirror_rows(values, na):
+    """Fill the rows ``(a1, a2)`` with ``a1 < a2`` from their stored twins ``(a2, a1)``."""
+    m = values.shape[1]
+    for a1 in prange(na):
+        for a2 in range(a1 + 1, na):
+            source = values[a2 * na + a1]
+            target = values[a1 * na + a2]
+            for r in range(m):
+                target[r] = source[r]
+
+
+# ---------------------------------------------------------------------------------------
+# interpolation
+# ---------------------------------------------------------------------------------------
+
+@njit(cache=True)
+def _cell(x, lo, h, n):
+    """Lower node index and fraction of coordinate ``x`` on an axis, clamped into the grid."""
+    s = (x - lo) / h
+    if s <= 0.0:
+        return 0, 0.0
+    if s >= n - 1:
+        return n - 2, 1.0
+    i = min(int(s), n - 2)
+    return i, s - i
+
+
+@njit(cache=True)
+def _strides(shape):
+    ndim = shape.size
+    strides = np.empty(ndim, dtype=np.int64)
+    s = 1
+    for k in range(ndim - 1, -1, -1):
+        strides[k] = s
+        s *= shape[k]
+    return strides
+
+
+@njit(cache=True, parallel=True)
+def interpolate(values, shape, lo, spacing, points):
+    """Multilinear interpolation of flat C-order ``values`` at ``points (K, ndim)`` (float64)."""
+    ndim = shape.size
+    strides = _strides(shape)
+    result = np.empty(points.shape[0], dtype=np.float64)
+    for q in prange(points.shape[0]):
+        base = 0
+        frac = np.empty(ndim, dtype=np.float64)
+        for k in range(ndim):
+            i, t = _cell(points[q, k], lo[k], spacing[k], shape[k])
+            base += i * strides[k]
+            frac[k] = t
+        total = 0.0
+        for corner in range(1 << ndim):
+            weight = 1.0
+            offset = base
+            for k in range(ndim):
+                if (corner >> k) & 1:
+                    weight *= frac[k]
+                    offset += strides[k]
+                else:
+                    weight *= 1.0 - frac[k]
+            if weight != 0.0:
+                total += weight * values[offset]
+        result[q] = total
+    return result
+
+
+@njit(cache=True, parallel=True)
+def interpolate_gradient(values, shape, lo, spacing, points):
+    """Nodal central differences (one-sided on the edges), interpolated multilinearly."""
+    ndim = shape.size
+    strides = _strides(shape)
+    result = np.zeros((points.shape[0], ndim), dtype=np.float64)
+    for q in prange(points.shape[0]):
+        base = 0
+        frac = np.empty(ndim, dtype=np.float64)
+        lower = np.empty(ndim, dtype=np.int64)
+        for k in range(ndim):
+            i, t = _cell(points[q, k], lo[k], spacing[k], shape[k])
+            base += i * strides[k]
+            frac[k] = t
+            lower[k] = i
+        for corner in range(1 << ndim):
+            weight = 1.0
+            offset = base
+            for k in range(ndim):
+                if (corner >> k) & 1:
+                    weight *= frac[k]
+                    offset += strides[k]
+                else:
+                    weight *= 1.0 - frac[k]
+            if weight == 0.0:
+                continue
+            for k in range(ndim):
+                node = lower[k] + ((corner >> k) & 1)
+                up = offset + strides[k] if node < shape[k] - 1 else offset
+                down = offset - strides[k] if node > 0 else offset
+                span = (up - down) // strides[k]
+                result[q, k] += weight * (values[up] - values[down]) / (span * spacing[k])
+    return result

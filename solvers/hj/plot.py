@@ -1,0 +1,121 @@
+"""2-D slices of reach-avoid tubes (the paper's Fig. 2) with matplotlib (no pyplot state).
+
+A slice fixes every player but one and shades the free player's positions from which the
+attacker side wins (value <= 0). Players are named by the game's axes: ``"A"`` and ``"D"``
+(1 vs 1), ``"A1"``, ``"A2"`` and ``"D"`` (2 vs 1).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib import patches
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+from reachavoid_env import Box, Circle, GameMap, Polygon
+from solvers.hj.value import ValueFunction
+
+Point = tuple[float, float]
+
+
+def players(vf: ValueFunction) -> tuple[str, ...]:
+    """Player names of the game, in axis order."""
+    return ("A", "D") if vf.game == "1v1" else ("A1", "A2", "D")
+
+
+def slice_values(vf: ValueFunction, free: str, fixed: Mapping[str, Point],
+                 resolution: int = 200) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Values over the free player's plane: ``(xs, ys, value[iy, ix])``."""
+    names = players(vf)
+    if free not in names:
+        raise ValueError(f"free: expected one of {names}, got {free!r}")
+    missing = set(names) - {free} - set(fixed)
+    if missing:
+        raise ValueError(f"fixed: positions missing for {sorted(missing)}")
+    xmin, xmax, ymin, ymax = vf.game_map.domain
+    xs, ys = np.linspace(xmin, xmax, resolution), np.linspace(ymin, ymax, resolution)
+    gx, gy = np.meshgrid(xs, ys)
+    states = np.empty((resolution * resolution, vf.grid.ndim))
+    for k, name in enumerate(names):
+        if name == free:
+            states[:, 2 * k], states[:, 2 * k + 1] = gx.ravel(), gy.ravel()
+        else:
+            states[:, 2 * k:2 * k + 2] = np.asarray(fixed[name], dtype=np.float64)
+    return xs, ys, vf.value(states).reshape(resolution, resolution)
+
+
+def draw_map(ax: Axes, game_map: GameMap) -> None:
+    """Obstacles (grey), target (green) and the domain's outline."""
+    xmin, xmax, ymin, ymax = game_map.domain
+    ax.add_patch(patches.Rectangle((xmin, ymin), xmax - xmin, ymax - ymin, fill=False,
+                                   edgecolor="black", linewidth=1.0))
+    for shape in game_map.obstacles:
+        ax.add_patch(_patch(shape, facecolor="0.35", edgecolor="black", zorder=3))
+    for shape in game_map.target:
+        ax.add_patch(_patch(shape, facecolor="#2ca02c", edgecolor="#1b5e20", alpha=0.8,
+                            zorder=3))
+    ax.set_xlim(xmin, xmax)
+    ax.set_ylim(ymin, ymax)
+    ax.set_aspect("equal")
+
+
+def _patch(shape: Box | Circle | Polygon, **style: object) -> patches.Patch:
+    if isinstance(shape, Box):
+        (x0, y0), (x1, y1) = shape.min, shape.max
+        return patches.Rectangle((x0, y0), x1 - x0, y1 - y0, **style)
+    if isinstance(shape, Circle):
+        return patches.Circle(shape.center, shape.radius, **style)
+    return patches.Polygon(np.asarray(shape.vertices), closed=True, **style)
+
+
+def plot_slice(vf: ValueFunction, free: str, fixed: Mapping[str, Point], ax: Axes | None = None,
+               resolution: int = 200, title: str | None = None) -> Axes:
+    """Shade where the attacker side wins as ``free`` moves, the others held at ``fixed``."""
+    if ax is None:
+        ax = Figure(figsize=(5, 5)).subplots()
+    xs, ys, value = slice_values(vf, free, fixed, resolution)
+    ax.contourf(xs, ys, value, levels=[value.min() - 1.0, 0.0], colors=["#ff9896"], alpha=0.7)
+    ax.contour(xs, ys, value, levels=[0.0], colors=["#d62728"], linewidths=1.2)
+    draw_map(ax, vf.game_map)
+    for name, (x, y) in fixed.items():
+        defender = name.startswith("D")
+        ax.plot(x, y, marker="o", color="#1f77b4" if defender else "#d62728",
+                markeredgecolor="black", markersize=7, zorder=5)
+        ax.annotate(name, (x, y), textcoords="offset points", xytext=(6, 6), zorder=5)
+        if defender:
+            ax.add_patch(patches.Circle((x, y), vf.capture_radius, fill=False,
+                                        edgecolor="#1f77b4", linestyle="--", zorder=5))
+    fixed_text = ", ".join(f"{n}=({x:g}, {y:g})" for n, (x, y) in fixed.items())
+    ax.set_title(title or f"{vf.game}: {free} free, {fixed_text}", fontsize=9)
+    return ax
+
+
+def tube_figure(panels: Sequence[tuple[ValueFunction, str, Mapping[str, Point]]],
+                path: str | os.PathLike[str] | None = None) -> Figure:
+    """One panel per ``(value function, free player, fixed players)``; saved as PNG to
+    ``path`` when given (temporary name, then renamed)."""
+    figure = Figure(figsize=(4.6 * len(panels), 4.8))
+    axes = figure.subplots(1, len(panels), squeeze=False)
+    for ax, (vf, free, fixed) in zip(axes[0], panels, strict=True):
+        plot_slice(vf, free, fixed, ax=ax)
+    figure.tight_layout()
+    if path is not None:
+        save_figure(figure, path)
+    return figure
+
+
+def save_figure(figure: Figure, path: str | os.PathLike[str]) -> Path:
+    """Save ``figure`` as PNG through a temporary file and ``os.replace``."""
+    path = Path(path)
+    temporary = path.with_name(f".{path.name}.tmp")
+    try:
+        figure.savefig(temporary, dpi=120, format="png")
+        os.replace(temporary, path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+    return path

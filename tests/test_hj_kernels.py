@@ -1,0 +1,167 @@
+"""The numba kernels equal their numpy references on small random grids."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from solvers.hj import kernels
+from solvers.hj import kernels_reference as reference
+from solvers.hj.grid import Grid
+
+SPEEDS = (1.0, 1.5)
+SCHEMES = {"godunov": kernels.GODUNOV, "lax_friedrichs": kernels.LAX_FRIEDRICHS}
+
+
+class Tables:
+    """Random planar tables of a game with attacker grid ``ashape`` and defender ``dshape``."""
+
+    def __init__(self, rng, ashape, dshape, radius=0.3):
+        self.ashape, self.dshape, self.radius = ashape, dshape, radius
+        self.target = rng.normal(0.0, 0.5, ashape).astype(np.float32)
+        self.attacker_free = rng.normal(0.4, 0.5, ashape).astype(np.float32)
+        self.defender_free = rng.normal(0.5, 0.5, dshape).astype(np.float32)
+        self.attacker_points = rng.uniform(-1, 1, ashape + (2,)).astype(np.float32)
+        self.defender_points = rng.uniform(-1, 1, dshape + (2,)).astype(np.float32)
+        self.survive = rng.normal(0.0, 0.5, ashape + dshape).astype(np.float32)
+
+    def kernel_sets(self):
+        a = self.attacker_points.reshape(-1, 2)
+        d = self.defender_points.reshape(-1, 2)
+        return (self.target.ravel(), self.attacker_free.ravel(), a[:, 0].copy(),
+                a[:, 1].copy(), d[:, 0].copy(), d[:, 1].copy(), self.defender_free.ravel(),
+                np.float32(self.radius))
+
+    def kernel_survive(self):
+        return self.survive.reshape(int(np.prod(self.ashape)), -1)
+
+    def full_sets(self, n_attackers):
+        return reference.game_sets(self.target, self.attacker_free, self.defender_free,
+                                   self.attacker_points, self.defender_points, self.radius,
+                                   self.survive if n_attackers == 2 else None)
+
+
+def _kernel_sweep(values, spacing, dt, scheme, n_attackers, tables, rows=None, symmetric=False,
+                  out=None):
+    shape = values.shape
+    m = shape[-2] * shape[-1]
+    v2 = values.reshape(-1, m)
+    out = np.zeros_like(v2) if out is None else out
+    if rows is None:
+        rows = np.arange(v2.shape[0], dtype=np.int64)
+    changed = np.zeros(v2.shape[0], dtype=np.uint8)
+    inv_h = (1.0 / np.asarray(spacing)).astype(np.float32)
+    residual = kernels.sweep(v2, out, rows, n_attackers, shape[1], shape[0], shape[-1], inv_h,
+                             np.asarray(SPEEDS, np.float32), np.float32(dt), SCHEMES[scheme],
+                             symmetric, tables.kernel_sets(), tables.kernel_survive(), changed,
+                             5)
+    return out, float(residual.max()), changed
+
+
+@pytest.mark.parametrize("scheme", sorted(SCHEMES))
+@pytest.mark.parametrize("n_attackers", [1, 2])
+def test_sweep_matches_reference(scheme, n_attackers):
+    rng = np.random.default_rng(7 + n_attackers)
+    attacker_shape, defender_shape = (5, 4), (6, 7)
+    shape = attacker_shape * n_attackers + defender_shape
+    spacing = tuple(rng.uniform(0.05, 0.2, len(shape)))
+    values = rng.normal(0.0, 0.3, shape).astype(np.float32)
+    tables = Tables(rng, attacker_shape, defender_shape)
+    target, avoid = tables.full_sets(n_attackers)
+    assert np.mean(values > avoid) > 0.2 and np.mean(values < target) > 0.2
+    dt = 0.02
+    expected, expected_residual = reference.sweep(values, spacing, SPEEDS, dt, scheme, target,
+                                                  avoid)
+    got, residual, changed = _kernel_sweep(values, spacing, dt, scheme, n_attackers, tables)
+    np.testing.assert_allclose(got.reshape(shape), expected, rtol=0, atol=2e-6)
+    assert residual == pytest.approx(expected_residual, abs=2e-6)
+    rows_changed = np.any(got.reshape(len(changed), -1) != values.reshape(len(changed), -1), 1)
+    np.testing.assert_array_equal(changed.astype(bool), rows_changed)
+
+
+@pytest.mark.parametrize("scheme", sorted(SCHEMES))
+def test_symmetric_half_equals_full_sweep(scheme):
+    rng = np.random.default_rng(3)
+    attacker_shape, defender_shape = (4, 5), (5, 3)
+    shape = attacker_shape * 2 + defender_shape
+    values = rng.normal(0.0, 0.3, shape).astype(np.float32)
+    values = (values + values.transpose(2, 3, 0, 1, 4, 5)) / 2
+    tables = Tables(rng, attacker_shape, defender_shape)
+    spacing = (0.1, 0.15) * 3
+    expected, _, _ = _kernel_sweep(values, spacing, 0.02, scheme, 2, tables)
+    na = 20
+    rows = np.arange(na * na, dtype=np.int64)
+    rows = rows[rows // na >= rows % na]
+    got, _, _ = _kernel_sweep(values, spacing, 0.02, scheme, 2, tables, rows=rows,
+                              symmetric=True)
+    kernels.mirror_rows(got, na)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-6)
+    six = got.reshape(shape)
+    np.testing.assert_array_equal(six, six.transpose(2, 3, 0, 1, 4, 5))
+
+
+def test_skipping_settled_rows_is_exact():
+    """Sweeping only the rows whose stencil changed gives the same iterates as sweeping all."""
+    rng = np.random.default_rng(5)
+    shape = (6, 5, 4, 6)
+    tables = Tables(rng, shape[:2], shape[2:], radius=-5.0)  # no capture anywhere
+    values = rng.normal(0.0, 0.3, shape).astype(np.float32)
+    values[2:] = 0.25  # attacker rows 10.. sit on their avoid floor: settled after a sweep
+    tables.attacker_free[2:] = -0.25
+    spacing = (0.1, 0.1, 0.1, 0.1)
+    every = values.reshape(30, 24).copy()
+    current, spare = values.reshape(30, 24).copy(), np.empty((30, 24), np.float32)
+    changed = np.ones(30, dtype=np.uint8)
+    all_rows = np.arange(30, dtype=np.int64)
+    skipped_any = False
+    for _ in range(12):
+        rows = kernels.active_rows(all_rows, changed, 1, 30, 5, 6, False)
+        skipped_any |= rows.size < 30
+        spare, _, changed = _kernel_sweep(current.reshape(shape), spacing, 0.03, "godunov", 1,
+                                          tables, rows=rows, out=spare)
+        current, spare = spare, current
+        every, _, _ = _kernel_sweep(every.reshape(shape), spacing, 0.03, "godunov", 1, tables)
+        np.testing.assert_array_equal(current, every)
+    assert skipped_any
+
+
+def test_initial_values_are_max_of_target_and_avoid():
+    rng = np.random.default_rng(11)
+    tables = Tables(rng, (3, 4), (4, 4))
+    for n_attackers in (1, 2):
+        target, avoid = tables.full_sets(n_attackers)
+        rows = 12 ** n_attackers
+        out = np.zeros((rows, 16), np.float32)
+        kernels.initial_values(out, np.arange(rows, dtype=np.int64), n_attackers, 12,
+                               tables.kernel_sets(), tables.kernel_survive())
+        np.testing.assert_allclose(out.reshape(target.shape), np.maximum(target, avoid),
+                                   atol=1e-6)
+
+
+@pytest.mark.parametrize("shape", [(5, 4, 6, 3), (3, 4, 3, 5, 4, 3)])
+def test_interpolation_matches_reference(shape):
+    rng = np.random.default_rng(len(shape))
+    lo = rng.uniform(-1.0, 0.0, len(shape))
+    hi = lo + rng.uniform(0.5, 2.0, len(shape))
+    grid = Grid(tuple(lo), tuple(hi), shape)
+    values = rng.normal(size=shape).astype(np.float32)
+    points = rng.uniform(lo - 0.2, hi + 0.2, (200, len(shape)))
+    points[:10] = grid.mesh().reshape(-1, len(shape))[:10]
+    spacing = np.asarray(grid.spacing)
+    np.testing.assert_allclose(grid.interpolate(values, points),
+                               reference.interpolate(values, lo, spacing, points), atol=1e-6)
+    np.testing.assert_allclose(grid.interpolate_gradient(values, points),
+                               reference.interpolate_gradient(values, lo, spacing, points),
+                               atol=1e-5)
+    nodes = grid.mesh().reshape(-1, len(shape))
+    np.testing.assert_allclose(grid.interpolate(values, nodes), values.reshape(-1), atol=1e-6)
+
+
+def test_interpolation_is_exact_for_linear_functions():
+    grid = Grid((-1.0, 0.0, -1.0, 0.0), (1.0, 2.0, 1.0, 1.0), (7, 5, 6, 4))
+    slope = np.array([0.3, -0.2, 0.7, 0.1])
+    values = (grid.mesh() @ slope).astype(np.float32)
+    points = np.random.default_rng(0).uniform((-1, 0, -1, 0), (1, 2, 1, 1), (100, 4))
+    np.testing.assert_allclose(grid.interpolate(values, points), points @ slope, atol=1e-5)
+    np.testing.assert_allclose(grid.interpolate_gradient(values, points),
+                               np.broadcast_to(slope, (100, 4)), atol=1e-5)
