@@ -92,6 +92,18 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--json", action="store_true",
                       help="print one JSON object instead of a summary")
     play.set_defaults(run=_play)
+    solve = commands.add_parser("solve", help="solve a 1 vs 1 or 2 vs 1 HJ reach-avoid game",
+                                description="Solve a scenario's 1 vs 1 or 2 vs 1 game to "
+                                            "convergence (cached in $REACHAVOID_CACHE_DIR).")
+    solve.add_argument("--scenario", default="paper_2v1", metavar="NAME|FILE.toml",
+                       help="a built-in scenario name or a TOML scenario file "
+                            "(default: %(default)s)")
+    solve.add_argument("--game", choices=["1v1", "2v1"], default="1v1",
+                       help="which game (default: %(default)s)")
+    solve.add_argument("--grid", type=int, default=None, metavar="N",
+                       help="grid nodes per axis (default: 45 for 1v1, 30 for 2v1)")
+    solve.add_argument("--out", metavar="DIR", help="also save the value function here")
+    solve.set_defaults(run=_solve)
     return parser
 
 
@@ -133,6 +145,18 @@ def _play(args: argparse.Namespace) -> int:
         print(json.dumps(_json_report(result, args)))
     else:
         print(_summary(result, args))
+    return 0
+
+
+def _solve(args: argparse.Namespace) -> int:
+    from solvers.hj import solve_game
+
+    try:
+        report = solve_game(args.scenario, args.game, args.grid, out=args.out,
+                            progress=sys.stderr.isatty())
+    except (ValueError, MemoryError) as err:
+        raise UsageError(str(err)) from None
+    print(report.summary())
     return 0
 
 

@@ -34,7 +34,7 @@ from reachavoid_env import GameMap, load_scenario
 from solvers.hj import cache as value_cache
 from solvers.hj import geometry
 from solvers.hj.grid import Grid
-from solvers.hj.reach_avoid import ReachAvoidProblem, SolveResult, solve
+from solvers.hj.reach_avoid import ReachAvoidProblem, SolveResult, check_memory, solve
 from solvers.hj.settings import SOLVER_VERSION, SolverSettings
 from solvers.hj.value import ValueFunction
 
@@ -177,17 +177,23 @@ class SolveReport:
                 f"solve {self.seconds:.1f} s")
 
 
-def solve_game(scenario: str, game: str, grid_points: int, out: str | None = None,
-               grid_points_1v1: int = 45, progress: bool = True) -> SolveReport:
+def solve_game(scenario: str, game: str, grid_points: int | None = None,
+               out: str | None = None, grid_points_1v1: int = 45,
+               progress: bool = True) -> SolveReport:
     """Solve a scenario's 1 vs 1 or 2 vs 1 game (the ``reachavoid solve`` command).
 
     ``scenario`` is a built-in name or a TOML file; speeds and capture radius come from it.
+    ``grid_points`` defaults to the paper's grids: 45 (1 vs 1) and 30 (2 vs 1).
     The 2 vs 1 game uses the scenario's 1 vs 1 value at ``grid_points_1v1`` (cached).
     The value goes to the cache, and is also saved to ``out`` when given.
     """
     if game not in ("1v1", "2v1"):
         raise ValueError(f"game: expected '1v1' or '2v1', got {game!r}")
+    if grid_points is None:
+        grid_points = 45 if game == "1v1" else 30
     sc = load_scenario(scenario)
+    if game == "2v1":
+        check_memory(Grid.for_players(sc.map.domain, 3, grid_points), "2v1 HJ solve")
     speeds = (sc.attacker_speed, sc.defender_speed)
     started = time.perf_counter()
     vf = solve_1v1(sc.map, speeds, sc.capture_radius,
