@@ -1,8 +1,13 @@
-"""Defender and attacker policies (design.md section 3)."""
+"""Defender and attacker policies (design.md section 3).
+
+Importing the package registers the attacker-training envs with Gymnasium and PettingZoo
+(``policies.training``).
+"""
 
 from policies.attackers import RandomAttacker, StraightAttacker
 from policies.base import Policy, overlay_of
 from policies.defenders import GreedyDefender, IdleDefender
+from policies.training import make_attacker_env, make_attackers_parallel_env
 
 __all__ = [
     "GreedyDefender",
@@ -10,5 +15,7 @@ __all__ = [
     "Policy",
     "RandomAttacker",
     "StraightAttacker",
+    "make_attacker_env",
+    "make_attackers_parallel_env",
     "overlay_of",
 ]

@@ -1,0 +1,198 @@
+"""Training envs with named scripted policies, and their Gymnasium / PettingZoo ids.
+
+``reachavoid_env.wrappers`` takes policy objects; this module names them, so an env can be
+made from strings (on the command line, in a registry id, in a subprocess):
+
+    from policies.training import make_attacker_env
+    env = make_attacker_env("paper_2v1", defenders="hj",
+                            defender_options={"grid1": 31, "grid2": 15})
+
+Importing ``policies`` (or this module) registers, for Gymnasium:
+
+- ``reachavoid/Attacker-v0``: ``make_attacker_env`` (``scenario=`` keyword, default
+  ``paper_2v1``);
+- ``reachavoid/Attacker-<builtin>-v0`` for every built-in scenario, e.g.
+  ``reachavoid/Attacker-paper_2v1-v0``;
+
+and for PettingZoo (``pettingzoo.make("parallel", ...)``) ``reachavoid/Attackers-v0``:
+``make_attackers_parallel_env``. Without importing anything first, Gymnasium's
+``"module:id"`` form loads them: ``gymnasium.make("policies:reachavoid/Attacker-paper_2v1-v0")``.
+Keyword arguments of ``gymnasium.make`` / ``make_vec`` go to ``make_attacker_env``.
+
+Defenders default to ``"hj"``, the paper's HJ + MIP defenders
+(``HJDefenderPolicy.for_scenario``): the first env of a game solves its HJ tubes and
+caches them on disk (design.md section 4); later envs, subprocesses included, load them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium
+import pettingzoo
+
+from policies.base import Policy
+from reachavoid_env.scenario import Scenario, builtin_names
+from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
+
+
+def _hj_defenders(scenario: Scenario, **options: Any) -> Policy:
+    from policies.defenders import HJDefenderPolicy
+
+    return HJDefenderPolicy.for_scenario(scenario, **options)
+
+
+def _matching_defenders(scenario: Scenario, **options: Any) -> Policy:
+    from policies.defenders import MatchingDefenderPolicy
+
+    return MatchingDefenderPolicy.for_scenario(scenario, **options)
+
+
+def _greedy_defenders(scenario: Scenario, **options: Any) -> Policy:
+    from policies.defenders import GreedyDefender
+
+    return GreedyDefender(**options)
+
+
+def _idle_defenders(scenario: Scenario, **options: Any) -> Policy:
+    from policies.defenders import IdleDefender
+
+    return IdleDefender(**options)
+
+
+def _straight_attackers(scenario: Scenario, **options: Any) -> Policy:
+    from policies.attackers import StraightAttacker
+
+    return StraightAttacker(**options)
+
+
+def _random_attackers(scenario: Scenario, **options: Any) -> Policy:
+    from policies.attackers import RandomAttacker
+
+    return RandomAttacker(**options)
+
+
+def _hj_attackers(scenario: Scenario, **options: Any) -> Policy:
+    from policies.attackers import HJAttacker
+
+    return HJAttacker.for_scenario(scenario, **options)
+
+
+# name -> (builder(scenario, **options), one line of help)
+DEFENDERS: dict[str, tuple[Callable[..., Policy], str]] = {
+    "hj": (_hj_defenders, "HJ tubes + assignment MIP (HJDefenderPolicy.for_scenario; "
+                          "options: grid1, grid2, idle, progress)"),
+    "matching": (_matching_defenders, "maximum-matching baseline "
+                                      "(MatchingDefenderPolicy.for_scenario; options: grid1, "
+                                      "unmatched, progress)"),
+    "greedy": (_greedy_defenders, "chase the nearest active attacker (GreedyDefender)"),
+    "idle": (_idle_defenders, "stand still (IdleDefender)"),
+}
+ATTACKERS: dict[str, tuple[Callable[..., Policy], str]] = {
+    "straight": (_straight_attackers, "run straight for the nearest target centre "
+                                      "(StraightAttacker)"),
+    "random": (_random_attackers, "random headings (RandomAttacker; options: seed, hold)"),
+    "hj": (_hj_attackers, "1 vs 1 optimal control against the most dangerous defender "
+                          "(HJAttacker.for_scenario; options: grid1, progress)"),
+}
+_TABLES = {"defenders": DEFENDERS, "attackers": ATTACKERS}
+
+
+@dataclass(frozen=True)
+class PolicyFactory:
+    """A picklable ``scenario -> policy`` factory for a named policy.
+
+    ``side`` is ``"defenders"`` or ``"attackers"``; ``name`` a key of ``DEFENDERS`` or
+    ``ATTACKERS``; ``options`` the keyword arguments of its constructor (or
+    ``for_scenario``), as sorted ``(key, value)`` pairs.
+    """
+
+    side: str
+    name: str
+    options: tuple[tuple[str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.side not in _TABLES:
+            raise ValueError(f"side: expected 'defenders' or 'attackers', got {self.side!r}")
+        table = _TABLES[self.side]
+        if self.name not in table:
+            raise ValueError(f"{self.side}: unknown policy {self.name!r} "
+                             f"(choices: {', '.join(table)})")
+
+    def __call__(self, scenario: Scenario) -> Policy:
+        build, _ = _TABLES[self.side][self.name]
+        return build(scenario, **dict(self.options))
+
+
+def defender_factory(name: str = "hj", **options: Any) -> PolicyFactory:
+    """Factory of the defender policy ``name`` (a key of ``DEFENDERS``) with ``options``."""
+    return PolicyFactory("defenders", name, tuple(sorted(options.items())))
+
+
+def attacker_factory(name: str = "straight", **options: Any) -> PolicyFactory:
+    """Factory of the attacker policy ``name`` (a key of ``ATTACKERS``) with ``options``."""
+    return PolicyFactory("attackers", name, tuple(sorted(options.items())))
+
+
+def _source(value: Any, options: Mapping[str, Any] | None, side: str, field: str) -> Any:
+    """A name becomes its factory; a policy or factory passes through."""
+    if isinstance(value, str):
+        return PolicyFactory(side, value, tuple(sorted((options or {}).items())))
+    if options:
+        raise ValueError(f"{field}_options: only used with a policy name, got a "
+                         f"{type(value).__name__} for {field}")
+    return value
+
+
+def make_attacker_env(scenario: str | Scenario = "paper_2v1", defenders: Any = "hj",
+                      teammates: Any = "straight",
+                      defender_options: Mapping[str, Any] | None = None,
+                      teammate_options: Mapping[str, Any] | None = None,
+                      **env_kwargs: Any) -> SingleAttackerEnv:
+    """A ``SingleAttackerEnv``: one learning attacker against scripted defenders.
+
+    ``defenders`` / ``teammates``: a policy name (``DEFENDERS`` / ``ATTACKERS``, built with
+    ``defender_options`` / ``teammate_options``), a policy object or a factory
+    ``scenario -> policy``. Teammates play only where the scenario has more than one
+    attacker. ``env_kwargs``: ``attacker``, ``max_cycles``, ``render_mode``, ``shaping``,
+    ``action_repeat``, ``render_width`` (``SingleAttackerEnv``).
+    """
+    return SingleAttackerEnv(
+        _source(defenders, defender_options, "defenders", "defender"), scenario=scenario,
+        teammates=_source(teammates, teammate_options, "attackers", "teammate"), **env_kwargs)
+
+
+def make_attackers_parallel_env(scenario: str | Scenario = "paper_2v1", defenders: Any = "hj",
+                                defender_options: Mapping[str, Any] | None = None,
+                                **env_kwargs: Any) -> AttackerParallelEnv:
+    """An ``AttackerParallelEnv``: every attacker learns, ``defenders`` (a name, a policy or
+    a factory, as in ``make_attacker_env``) moves the defenders. ``env_kwargs``:
+    ``max_cycles``, ``render_mode``, ``shaping``, ``action_repeat``, ``render_width``."""
+    return AttackerParallelEnv(_source(defenders, defender_options, "defenders", "defender"),
+                               scenario=scenario, **env_kwargs)
+
+
+GYM_ID = "reachavoid/Attacker-v0"
+PETTINGZOO_ID = "reachavoid/Attackers-v0"
+
+
+def gym_id(scenario: str) -> str:
+    """The Gymnasium id of the single-attacker env of built-in ``scenario``."""
+    return f"reachavoid/Attacker-{scenario}-v0"
+
+
+def register_envs() -> None:
+    """Register the ids listed in the module docstring (again: a no-op)."""
+    entry_point = "policies.training:make_attacker_env"
+    ids = {GYM_ID: {}} | {gym_id(name): {"scenario": name} for name in builtin_names()}
+    for env_id, kwargs in ids.items():
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point=entry_point, kwargs=kwargs)
+    if PETTINGZOO_ID not in pettingzoo.parallel_registry:
+        pettingzoo.register("parallel", PETTINGZOO_ID,
+                            entry_point="policies.training:make_attackers_parallel_env")
+
+
+register_envs()

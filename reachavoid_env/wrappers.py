@@ -1,0 +1,322 @@
+"""Training views of the game: attackers learn, scripted policies drive everyone else.
+
+- ``AttackerParallelEnv``: a PettingZoo ``ParallelEnv`` whose agents are the attackers only;
+  a defender policy moves the defenders every step.
+- ``SingleAttackerEnv``: a Gymnasium ``Env`` for one learning attacker; a defender policy
+  moves the defenders and, with more than one attacker, a teammate policy moves the others.
+
+Both take policy objects (``reset(scenario)``, ``act(state)``, as ``policies.base.Policy``)
+or factories ``scenario -> policy``; this module imports no policy. Give a factory when the
+env is pickled or sent to a subprocess (``AsyncVectorEnv``) and the policy is heavy to copy:
+each copy of the env builds its own policy from it. Both inherit ``EzPickle``, so a pickled
+env is rebuilt from its constructor arguments (a fresh, un-reset env).
+
+``action_repeat = k`` holds each learner action for ``k`` env steps (scripted policies still
+act every env step, ``dt`` seconds); rewards are summed over the held steps.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, Protocol
+
+import gymnasium
+import numpy as np
+from gymnasium.utils import EzPickle
+from pettingzoo import ParallelEnv
+
+from reachavoid_env.env import ReachAvoidEnv
+from reachavoid_env.game_state import AttackerStatus, GameState
+from reachavoid_env.rollout import merged_overlay
+from reachavoid_env.scenario import Scenario
+
+
+class ScriptedPolicy(Protocol):
+    """What the wrappers drive (``policies.base.Policy``)."""
+
+    def reset(self, scenario: Scenario) -> None: ...
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]: ...
+
+
+PolicySource = ScriptedPolicy | Callable[[Scenario], ScriptedPolicy]
+
+
+def build_policy(source: Any, scenario: Scenario, field: str) -> ScriptedPolicy:
+    """A policy from ``source``: a policy object as it is, or a factory called with
+    ``scenario``. ``TypeError`` naming ``field`` otherwise."""
+    if isinstance(source, type):
+        raise TypeError(f"{field}: got the class {source.__name__}; pass an instance or a "
+                        f"factory taking the scenario")
+    if callable(getattr(source, "act", None)) and callable(getattr(source, "reset", None)):
+        return source
+    if callable(source):
+        policy = source(scenario)
+        if not (callable(getattr(policy, "act", None))
+                and callable(getattr(policy, "reset", None))):
+            raise TypeError(f"{field}: the factory returned {type(policy).__name__}, which has "
+                            f"no reset(scenario) and act(state)")
+        return policy
+    raise TypeError(f"{field}: expected a policy (reset(scenario), act(state)) or a factory "
+                    f"scenario -> policy, got {type(source).__name__}")
+
+
+def _check_repeat(action_repeat: Any) -> int:
+    if isinstance(action_repeat, bool) or not isinstance(action_repeat, int) \
+            or action_repeat < 1:
+        raise ValueError(f"action_repeat: must be a positive integer, got {action_repeat!r}")
+    return action_repeat
+
+
+class _Scripted:
+    """The game plus the policies that move its scripted players.
+
+    ``scripted`` holds ``(policy, names)``: the policy acts for the agents in ``names``
+    (every other key it returns is ignored).
+    """
+
+    def __init__(self, game: ReachAvoidEnv,
+                 scripted: list[tuple[ScriptedPolicy, frozenset[str]]]) -> None:
+        self.game = game
+        self.scripted = scripted
+
+    def reset(self, seed: int | None, options: dict[str, Any] | None,
+              ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+        observations, infos = self.game.reset(seed=seed, options=options)
+        for policy, _ in self.scripted:
+            policy.reset(self.game.scenario)
+        self._show_overlay()
+        return observations, infos
+
+    def step(self, learner_actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
+        """One env step: scripted actions for the live scripted agents, ``learner_actions``
+        for the live learners (a missing one is a ``KeyError`` naming it)."""
+        game = self.game
+        state = game.game_state()
+        live = game.agents
+        actions: dict[str, Any] = {}
+        for policy, names in self.scripted:
+            chosen = policy.act(state)
+            actions.update((name, chosen[name]) for name in names.intersection(chosen))
+        actions.update(learner_actions)
+        missing = [name for name in live if name not in actions]
+        if missing:
+            raise KeyError(f"step: no action for live agent {missing[0]!r}")
+        result = game.step({name: actions[name] for name in live})
+        self._show_overlay()
+        return result
+
+    def _show_overlay(self) -> None:
+        if self.game.render_mode is not None:
+            self.game.set_overlay(merged_overlay(*(policy for policy, _ in self.scripted)))
+
+
+class AttackerParallelEnv(ParallelEnv, EzPickle):
+    """The attackers of a reach-avoid game as a PettingZoo ``ParallelEnv``; ``defenders``
+    (a policy or a factory ``scenario -> policy``) moves the defenders every step.
+
+    Agents: ``attacker_0 .. attacker_{M-1}``. Observations, actions, rewards, infos, rules,
+    ``state()`` and ``reset`` options are the attackers' part of ``ReachAvoidEnv`` (its
+    docstring has the layout): observation ``Box(-1, 1, (2 + 3 (M + N),))``, own position
+    first, then every attacker and every defender (x, y, active); action ``Box(-1, 1, (2,))``,
+    a velocity as a fraction of the attacker's speed; reward +1 on arrival, -1 on capture
+    (plus the optional ``shaping`` progress term). An attacker leaves ``agents``
+    (terminated) on the step it is captured or arrives; after ``max_cycles`` env steps the
+    rest are truncated. With ``action_repeat = k`` one step here is ``k`` env steps with the
+    attackers' actions held (rewards summed; it ends early when no attacker is left).
+
+    ``game`` is the underlying ``ReachAvoidEnv``; ``game_state()`` its state.
+    """
+
+    metadata = {
+        "name": "reach_avoid_attackers_v0",
+        "render_modes": ["human", "rgb_array"],
+        "render_fps": ReachAvoidEnv.metadata["render_fps"],
+        "is_parallelizable": True,
+    }
+
+    def __init__(self, defenders: PolicySource, scenario: str | Scenario = "paper_2v1",
+                 max_cycles: int | None = None, render_mode: str | None = None,
+                 shaping: float = 0.0, action_repeat: int = 1, render_width: int = 640) -> None:
+        EzPickle.__init__(self, defenders, scenario=scenario, max_cycles=max_cycles,
+                          render_mode=render_mode, shaping=shaping, action_repeat=action_repeat,
+                          render_width=render_width)
+        self.action_repeat = _check_repeat(action_repeat)
+        game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
+                             shaping=shaping, render_width=render_width)
+        self.game = game
+        self.render_mode = render_mode
+        self.defenders = build_policy(defenders, game.base_scenario, "defenders")
+        self.possible_agents = game.base_scenario.attacker_names
+        self._learners = frozenset(self.possible_agents)
+        self._core = _Scripted(game, [(self.defenders,
+                                       frozenset(game.base_scenario.defender_names))])
+        self.agents: list[str] = []
+        self.state_space = game.state_space
+
+    def observation_space(self, agent: str) -> gymnasium.spaces.Box:
+        return self.game.observation_space(agent)
+
+    def action_space(self, agent: str) -> gymnasium.spaces.Box:
+        return self.game.action_space(agent)
+
+    @property
+    def max_cycles(self) -> int:
+        """Env steps before truncation (``parallel_api_test`` sets it)."""
+        return self.game.max_cycles
+
+    @max_cycles.setter
+    def max_cycles(self, value: int) -> None:
+        self.game.max_cycles = value
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None,
+              ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+        observations, infos = self._core.reset(seed, options)
+        self.agents = self.possible_agents[:]
+        return ({name: observations[name] for name in self.agents},
+                {name: infos[name] for name in self.agents})
+
+    def step(self, actions: dict[str, Any]) -> tuple[dict[str, np.ndarray], dict[str, float],
+                                                     dict[str, bool], dict[str, bool],
+                                                     dict[str, dict[str, Any]]]:
+        for name in actions:
+            if name not in self._learners:
+                raise KeyError(f"step: {name!r} is not an agent of this env "
+                               f"(agents: {', '.join(self.possible_agents)})")
+        live = self.agents
+        if not live:
+            return {}, {}, {}, {}, {}
+        observations: dict[str, np.ndarray] = {}
+        rewards = dict.fromkeys(live, 0.0)
+        terminations: dict[str, bool] = {}
+        truncations: dict[str, bool] = {}
+        infos: dict[str, dict[str, Any]] = {}
+        for _ in range(self.action_repeat):
+            held = {name: actions[name] for name in self.game.agents
+                    if name in self._learners and name in actions}
+            obs, rew, term, trunc, info = self._core.step(held)
+            for name in obs.keys() & self._learners:
+                observations[name] = obs[name]
+                rewards[name] += rew[name]
+                terminations[name] = term[name]
+                truncations[name] = trunc[name]
+                infos[name] = info[name]
+            if not any(name in self._learners for name in self.game.agents):
+                break
+        self.agents = [name for name in self.game.agents if name in self._learners]
+        return observations, rewards, terminations, truncations, infos
+
+    def state(self) -> np.ndarray:
+        return self.game.state()
+
+    def game_state(self) -> GameState:
+        return self.game.game_state()
+
+    def render(self) -> np.ndarray | None:
+        return self.game.render()
+
+    def close(self) -> None:
+        self.game.close()
+
+
+class SingleAttackerEnv(gymnasium.Env, EzPickle):
+    """One learning attacker (``attacker_{attacker}``) of a reach-avoid game as a Gymnasium
+    ``Env``; ``defenders`` moves the defenders and ``teammates`` the other attackers (each a
+    policy or a factory ``scenario -> policy``; ``teammates`` is required when the scenario
+    has more than one attacker).
+
+    **Observation**: ``Box(-1, 1, (2 + 3 (M + N),), float32)``, the learner's observation
+    in ``ReachAvoidEnv``, positions normalised to the domain (-1 at ``xmin``/``ymin``, +1 at
+    ``xmax``/``ymax``)::
+
+        [own x, own y,
+         attacker_0 x, attacker_0 y, attacker_0 active, ..., (every attacker)
+         defender_0 x, defender_0 y, defender_0 active, ...] (every defender)
+
+    **Action**: ``Box(-1, 1, (2,), float32)``, the desired velocity as a fraction of the
+    attacker's speed (longer vectors are scaled to length 1), held for ``action_repeat``
+    env steps of ``dt`` seconds each.
+
+    **Reward**: +1 when the learner reaches the target, -1 when it is captured, 0
+    otherwise; with ``shaping > 0`` also ``shaping * (d_before - d_after)`` per env step,
+    ``d`` its signed distance to the target in map units. Summed over held steps.
+
+    **Termination**: the learner is captured or arrives (the episode ends there even if
+    teammates play on). **Truncation**: ``max_cycles`` env steps (default: the scenario's
+    ``max_steps``) pass first. The final step's info has ``is_success`` (the learner
+    arrived); every info has the game's ``status``, ``captured`` and ``arrived``.
+
+    ``reset(seed=, options=)`` takes ``ReachAvoidEnv``'s options (a scenario with the same
+    player counts, start positions). ``game`` is the underlying ``ReachAvoidEnv``.
+    Policies keep their own randomness: a seeded reset reseeds the env, not them.
+    """
+
+    metadata = {
+        "render_modes": ["human", "rgb_array"],
+        "render_fps": ReachAvoidEnv.metadata["render_fps"],
+    }
+
+    def __init__(self, defenders: PolicySource, scenario: str | Scenario = "paper_2v1",
+                 attacker: int = 0, teammates: PolicySource | None = None,
+                 max_cycles: int | None = None, render_mode: str | None = None,
+                 shaping: float = 0.0, action_repeat: int = 1, render_width: int = 640) -> None:
+        EzPickle.__init__(self, defenders, scenario=scenario, attacker=attacker,
+                          teammates=teammates, max_cycles=max_cycles, render_mode=render_mode,
+                          shaping=shaping, action_repeat=action_repeat,
+                          render_width=render_width)
+        self.action_repeat = _check_repeat(action_repeat)
+        game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
+                             shaping=shaping, render_width=render_width)
+        base = game.base_scenario
+        m = base.num_attackers
+        if isinstance(attacker, bool) or not isinstance(attacker, int) \
+                or not 0 <= attacker < m:
+            raise ValueError(f"attacker: must be an attacker index in 0..{m - 1} for scenario "
+                             f"{base.name!r}, got {attacker!r}")
+        self.game = game
+        self.render_mode = render_mode
+        self.learner = f"attacker_{attacker}"
+        self.defenders = build_policy(defenders, base, "defenders")
+        scripted = [(self.defenders, frozenset(base.defender_names))]
+        self.teammates: ScriptedPolicy | None = None
+        if m > 1:
+            if teammates is None:
+                raise ValueError(f"teammates: scenario {base.name!r} has {m} attackers; give "
+                                 f"a policy (or factory) for the ones besides {self.learner}")
+            self.teammates = build_policy(teammates, base, "teammates")
+            others = frozenset(base.attacker_names) - {self.learner}
+            scripted.append((self.teammates, others))
+        self._core = _Scripted(game, scripted)
+        self.observation_space = game.observation_space(self.learner)
+        self.action_space = game.action_space(self.learner)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None,
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        observations, infos = self._core.reset(seed, options)
+        return observations[self.learner], infos[self.learner]
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        learner = self.learner
+        if learner not in self.game.agents:
+            raise RuntimeError("step: the episode has ended; call reset()")
+        total = 0.0
+        for _ in range(self.action_repeat):
+            obs, rewards, terminations, truncations, infos = self._core.step({learner: action})
+            total += rewards[learner]
+            terminated, truncated = terminations[learner], truncations[learner]
+            if terminated or truncated:
+                break
+        info = infos[learner]
+        if terminated or truncated:
+            info["is_success"] = info["status"] is AttackerStatus.ARRIVED
+        return obs[learner], total, terminated, truncated, info
+
+    def game_state(self) -> GameState:
+        return self.game.game_state()
+
+    def render(self) -> np.ndarray | None:
+        return self.game.render()
+
+    def close(self) -> None:
+        self.game.close()
