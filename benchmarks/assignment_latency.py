@@ -1,0 +1,98 @@
+"""Benchmark: solve times of the assignment MIP and the matching (BENCHMARKS.md, "Assignment").
+
+Random instances of the paper's program for 2v1, 6v2, 8v4 and 16v8: each attacker beats
+each defender alone with probability ``--p1``, each pair beats each defender with
+probability ``--p2``. Reported per size, over ``--instances`` instances, as wall time
+(``perf_counter``) and CPU time (``process_time``, less disturbed on a shared machine):
+
+- cold: ``solve_assignment`` / ``max_matching`` on a fresh instance (model built and
+  solved every call);
+- cached: ``AssignmentSolver.solve`` called every step of a sequence in which the inputs
+  change on a share ``--change`` of the steps (one table entry flipped), as the sets
+  ``I_j`` and ``P_j`` do during a game; unchanged steps reuse the last answer.
+
+    python benchmarks/assignment_latency.py [--instances 300] [--p1 0.3] [--p2 0.3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from solvers.assignment import AssignmentSolver, max_matching, solve_assignment
+
+SIZES = ((2, 1), (6, 2), (8, 4), (16, 8))
+
+
+def timed(call: Callable[..., object], *args: object) -> tuple[float, float]:
+    """(wall, cpu) seconds of one call."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    call(*args)
+    return time.perf_counter() - wall, time.process_time() - cpu
+
+
+def instances(rng: np.random.Generator, m: int, n: int, count: int, p1: float, p2: float):
+    for _ in range(count):
+        one = rng.random((m, n)) < p1
+        two = rng.random((m, m, n)) < p2
+        yield one, two | two.transpose(1, 0, 2)
+
+
+def sequence(rng: np.random.Generator, m: int, n: int, steps: int, p1: float, p2: float,
+             change: float):
+    """Inputs of ``steps`` consecutive steps, one random entry flipped on changed steps."""
+    one, two = next(instances(rng, m, n, 1, p1, p2))
+    for _ in range(steps):
+        if rng.random() < change:
+            one, two = one.copy(), two.copy()
+            if rng.random() < 0.5:
+                one[rng.integers(m), rng.integers(n)] ^= True
+            else:
+                a, b, j = rng.integers(m), rng.integers(m), rng.integers(n)
+                two[a, b, j] = two[b, a, j] = not two[a, b, j]
+        yield one, two
+
+
+def summary(samples: list[tuple[float, float]]) -> str:
+    wall, cpu = (np.asarray(s) * 1e3 for s in zip(*samples, strict=True))
+    return (f"{np.median(wall):.3f} / {np.percentile(wall, 99):.2f} / {wall.max():.2f} "
+            f"({np.median(cpu):.3f} / {np.percentile(cpu, 99):.2f})")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--instances", type=int, default=300)
+    parser.add_argument("--p1", type=float, default=0.3, help="P(attacker beats defender 1v1)")
+    parser.add_argument("--p2", type=float, default=0.3, help="P(pair beats defender 2v1)")
+    parser.add_argument("--change", type=float, default=0.1,
+                        help="share of steps whose inputs change (cached runs)")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    rng = np.random.default_rng(args.seed)
+    print(f"machine: {platform.machine()} {platform.processor() or ''}, "
+          f"python {platform.python_version()}; p1={args.p1}, p2={args.p2}, "
+          f"change={args.change}, {args.instances} instances/steps per row")
+    print("times in ms: wall p50 / p99 / max (cpu p50 / p99)")
+    print("| size | MIP cold | MIP cached | matching cold | matching cached | MIP re-solves |")
+    print("|---|---|---|---|---|---|")
+    for m, n in SIZES:
+        solve_assignment(np.zeros((m, n), bool), np.zeros((m, m, n), bool))  # warm-up
+        mip_cold = [timed(solve_assignment, one, two)
+                    for one, two in instances(rng, m, n, args.instances, args.p1, args.p2)]
+        match_cold = [timed(max_matching, one)
+                      for one, _ in instances(rng, m, n, args.instances, args.p1, args.p2)]
+        steps = list(sequence(rng, m, n, args.instances, args.p1, args.p2, args.change))
+        mip, matching = AssignmentSolver("mip"), AssignmentSolver("matching")
+        mip_cached = [timed(mip.solve, one, two) for one, two in steps]
+        match_cached = [timed(matching.solve, one) for one, _ in steps]
+        print(f"| {m}v{n} | {summary(mip_cold)} | {summary(mip_cached)} | "
+              f"{summary(match_cold)} | {summary(match_cached)} | "
+              f"{mip.solves}/{mip.solves + mip.reuses} |")
+
+
+if __name__ == "__main__":
+    main()
