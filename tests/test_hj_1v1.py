@@ -157,3 +157,15 @@ def test_controls_vanish_where_gradient_vanishes():
         vf.attacker_control(state, attacker=1)
     with pytest.raises(ValueError, match="states"):
         vf.value(np.zeros((3, 6)))
+
+
+def test_red_black_and_jacobi_reach_the_same_fixed_point():
+    game_map = builtin_map("paper")
+    high = SolverSettings.with_accuracy("high")
+    red_black = solve_1v1(game_map, grid_points=21, settings=high, cache=False, progress=False)
+    jacobi = solve_1v1(game_map, grid_points=21, settings=high.replace(iteration="jacobi"),
+                       cache=False, progress=False)
+    assert red_black.solver["iteration"] == "red_black"
+    assert np.abs(red_black.values - jacobi.values).max() < 2e-3
+    clear = np.abs(jacobi.values) > 2e-3
+    assert np.array_equal(red_black.values[clear] <= 0, jacobi.values[clear] <= 0)

@@ -42,20 +42,22 @@ class Tables:
 
 
 def _kernel_sweep(values, spacing, dt, scheme, n_attackers, tables, rows=None, symmetric=False,
-                  out=None):
+                  planes=None, in_place=False, chunks=5):
+    """A Jacobi step (one plane, fresh output) or, ``in_place``, a Gauss-Seidel one."""
     shape = values.shape
     m = shape[-2] * shape[-1]
     v2 = values.reshape(-1, m)
-    out = np.zeros_like(v2) if out is None else out
+    out = v2 if in_place else np.zeros_like(v2)
     if rows is None:
         rows = np.arange(v2.shape[0], dtype=np.int64)
-    changed = np.zeros(v2.shape[0], dtype=np.uint8)
+    if planes is None:
+        planes = np.array([0, rows.size], dtype=np.int64)
     inv_h = (1.0 / np.asarray(spacing)).astype(np.float32)
-    residual = kernels.sweep(v2, out, rows, n_attackers, shape[1], shape[0], shape[-1], inv_h,
-                             np.asarray(SPEEDS, np.float32), np.float32(dt), SCHEMES[scheme],
-                             symmetric, tables.kernel_sets(), tables.kernel_survive(), changed,
-                             5)
-    return out, float(residual.max()), changed
+    residual = kernels.sweep(v2, out, rows, planes, False, n_attackers, shape[1], shape[0],
+                             shape[-1], inv_h, np.asarray(SPEEDS, np.float32), np.float32(dt),
+                             SCHEMES[scheme], symmetric, tables.kernel_sets(),
+                             tables.kernel_survive(), chunks)
+    return out, float(residual)
 
 
 @pytest.mark.parametrize("scheme", sorted(SCHEMES))
@@ -72,11 +74,9 @@ def test_sweep_matches_reference(scheme, n_attackers):
     dt = 0.02
     expected, expected_residual = reference.sweep(values, spacing, SPEEDS, dt, scheme, target,
                                                   avoid)
-    got, residual, changed = _kernel_sweep(values, spacing, dt, scheme, n_attackers, tables)
+    got, residual = _kernel_sweep(values, spacing, dt, scheme, n_attackers, tables)
     np.testing.assert_allclose(got.reshape(shape), expected, rtol=0, atol=2e-6)
     assert residual == pytest.approx(expected_residual, abs=2e-6)
-    rows_changed = np.any(got.reshape(len(changed), -1) != values.reshape(len(changed), -1), 1)
-    np.testing.assert_array_equal(changed.astype(bool), rows_changed)
 
 
 @pytest.mark.parametrize("scheme", sorted(SCHEMES))
@@ -88,41 +88,47 @@ def test_symmetric_half_equals_full_sweep(scheme):
     values = (values + values.transpose(2, 3, 0, 1, 4, 5)) / 2
     tables = Tables(rng, attacker_shape, defender_shape)
     spacing = (0.1, 0.15) * 3
-    expected, _, _ = _kernel_sweep(values, spacing, 0.02, scheme, 2, tables)
+    expected, _ = _kernel_sweep(values, spacing, 0.02, scheme, 2, tables)
     na = 20
     rows = np.arange(na * na, dtype=np.int64)
     rows = rows[rows // na >= rows % na]
-    got, _, _ = _kernel_sweep(values, spacing, 0.02, scheme, 2, tables, rows=rows,
-                              symmetric=True)
+    got, _ = _kernel_sweep(values, spacing, 0.02, scheme, 2, tables, rows=rows, symmetric=True)
     kernels.mirror_rows(got, na)
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-6)
     six = got.reshape(shape)
     np.testing.assert_array_equal(six, six.transpose(2, 3, 0, 1, 4, 5))
 
 
-def test_skipping_settled_rows_is_exact():
-    """Sweeping only the rows whose stencil changed gives the same iterates as sweeping all."""
-    rng = np.random.default_rng(5)
-    shape = (6, 5, 4, 6)
-    tables = Tables(rng, shape[:2], shape[2:], radius=-5.0)  # no capture anywhere
+@pytest.mark.parametrize("n_attackers", [1, 2])
+def test_gauss_seidel_planes_match_reference_and_ignore_threading(n_attackers):
+    """In place, plane by plane: each plane sees the planes before it already updated."""
+    rng = np.random.default_rng(21)
+    attacker_shape, defender_shape = (4, 3), (5, 4)
+    shape = attacker_shape * n_attackers + defender_shape
+    spacing = (0.1, 0.12) * (n_attackers + 1)
     values = rng.normal(0.0, 0.3, shape).astype(np.float32)
-    values[2:] = 0.25  # attacker rows 10.. sit on their avoid floor: settled after a sweep
-    tables.attacker_free[2:] = -0.25
-    spacing = (0.1, 0.1, 0.1, 0.1)
-    every = values.reshape(30, 24).copy()
-    current, spare = values.reshape(30, 24).copy(), np.empty((30, 24), np.float32)
-    changed = np.ones(30, dtype=np.uint8)
-    all_rows = np.arange(30, dtype=np.int64)
-    skipped_any = False
-    for _ in range(12):
-        rows = kernels.active_rows(all_rows, changed, 1, 30, 5, 6, False)
-        skipped_any |= rows.size < 30
-        spare, _, changed = _kernel_sweep(current.reshape(shape), spacing, 0.03, "godunov", 1,
-                                          tables, rows=rows, out=spare)
-        current, spare = spare, current
-        every, _, _ = _kernel_sweep(every.reshape(shape), spacing, 0.03, "godunov", 1, tables)
-        np.testing.assert_array_equal(current, every)
-    assert skipped_any
+    tables = Tables(rng, attacker_shape, defender_shape)
+    target, avoid = tables.full_sets(n_attackers)
+    index = np.indices(shape[:-2]).reshape(len(shape) - 2, -1)
+    key = index[0::2].sum(axis=0) + index[1::2].sum(axis=0)
+    rows = np.argsort(key, kind="stable").astype(np.int64)
+    planes = np.concatenate([[0], np.flatnonzero(np.diff(key[rows])) + 1, [rows.size]])
+    expected = values.astype(np.float64).reshape(rows.size, -1)
+    for p in range(planes.size - 1):
+        swept, _ = reference.sweep(expected.reshape(shape), spacing, SPEEDS, 0.02, "godunov",
+                                   target, avoid)
+        mine = rows[planes[p]:planes[p + 1]]
+        expected[mine] = swept.reshape(rows.size, -1)[mine]
+    results = []
+    for chunks in (1, 4):
+        got, _ = _kernel_sweep(values.copy(), spacing, 0.02, "godunov", n_attackers, tables,
+                               rows=rows, planes=planes.astype(np.int64), in_place=True,
+                               chunks=chunks)
+        results.append(got)
+    np.testing.assert_allclose(results[0], expected, rtol=0, atol=2e-6)
+    np.testing.assert_array_equal(results[0], results[1])
+    jacobi, _ = _kernel_sweep(values, spacing, 0.02, "godunov", n_attackers, tables)
+    assert np.abs(jacobi - results[0]).max() > 1e-3
 
 
 def test_initial_values_are_max_of_target_and_avoid():

@@ -104,10 +104,12 @@ def test_cache_reuses_and_recomputes_corrupt_entries(cache_in_tmp):
 
 def test_memory_guard_names_grid_and_need():
     grid = Grid.for_players((-1, 1, -1, 1), 3, 60)
-    assert memory_needed(grid) > 2 * 4 * 60**6
+    red_black, jacobi = SolverSettings(), SolverSettings(iteration="jacobi")
+    assert 4 * 60**6 < memory_needed(grid, red_black) < 1.01 * 4 * 60**6
+    assert 8 * 60**6 < memory_needed(grid, jacobi) < 1.01 * 8 * 60**6
     with pytest.raises(InsufficientMemoryError, match=r"60x60x60x60x60x60 grid needs about"):
-        check_memory(grid, "2v1 HJ solve")
-    check_memory(Grid.for_players((-1, 1, -1, 1), 2, 21), "1v1 HJ solve")
+        check_memory(grid, red_black, "2v1 HJ solve")
+    check_memory(Grid.for_players((-1, 1, -1, 1), 2, 21), red_black, "1v1 HJ solve")
 
 
 def test_solve_game_reports_where_and_how(cache_in_tmp, tmp_path):

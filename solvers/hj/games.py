@@ -71,6 +71,7 @@ def problem_2v1(game_map: GameMap, vf11: ValueFunction, grid: Grid) -> ReachAvoi
 def _solver_meta(settings: SolverSettings, result: SolveResult) -> dict[str, object]:
     return {
         "scheme": settings.scheme,
+        "iteration": settings.iteration,
         "cfl": settings.cfl,
         "tolerance": settings.tolerance,
         "iterations": result.iterations,
@@ -90,7 +91,8 @@ def _key_parts(game: str, game_map: GameMap, speeds: tuple[float, float],
         "speeds": list(speeds),
         "capture_radius": capture_radius,
         "grid": [list(grid.lo), list(grid.hi), list(grid.shape)],
-        "settings": [settings.scheme, settings.cfl, settings.tolerance, settings.max_iterations],
+        "settings": [settings.scheme, settings.iteration, settings.cfl, settings.tolerance,
+                     settings.max_iterations],
         "version": SOLVER_VERSION,
     }
 
@@ -109,6 +111,7 @@ def solve_1v1(game_map: GameMap, speeds: tuple[float, float] = (1.0, 1.5),
     if min(speeds) <= 0 or capture_radius <= 0:
         raise ValueError(f"speeds {speeds} and capture_radius {capture_radius} must be positive")
     grid = Grid.for_players(game_map.domain, 2, grid_points)
+    check_memory(grid, settings, "1v1 HJ solve")
 
     def run() -> ValueFunction:
         problem = problem_1v1(game_map, speeds, float(capture_radius), grid)
@@ -138,6 +141,7 @@ def solve_2v1(game_map: GameMap, vf11: ValueFunction, grid_points: int | Sequenc
         raise ValueError("vf11: solved on another map than game_map")
     grid = Grid.for_players(game_map.domain, 3, grid_points)
     speeds = (vf11.attacker_speed, vf11.defender_speed)
+    check_memory(grid, settings, "2v1 HJ solve")
 
     def run() -> ValueFunction:
         problem = problem_2v1(game_map, vf11, grid)
@@ -193,7 +197,8 @@ def solve_game(scenario: str, game: str, grid_points: int | None = None,
         grid_points = 45 if game == "1v1" else 30
     sc = load_scenario(scenario)
     if game == "2v1":
-        check_memory(Grid.for_players(sc.map.domain, 3, grid_points), "2v1 HJ solve")
+        check_memory(Grid.for_players(sc.map.domain, 3, grid_points), SolverSettings(),
+                     "2v1 HJ solve")
     speeds = (sc.attacker_speed, sc.defender_speed)
     started = time.perf_counter()
     vf = solve_1v1(sc.map, speeds, sc.capture_radius,

@@ -32,6 +32,10 @@ uncaptured) and ``lost = max(gap, -attacker_free[a])`` (> 0: captured or in an o
 2 vs 1: ``l = min(reach(a1), reach(a2), defender_free)``,
 ``g = max(min(lost(a1), survive[a2]), min(lost(a2), survive[a1]))``.
 
+A sweep updates rows plane after plane (``sweep``): all rows at once from a separate output
+array (Jacobi), or in place with planes whose rows are never stencil neighbours of each other
+(red-black Gauss-Seidel), so results never depend on the number of threads.
+
 Convergence is measured on the nodes next to the zero level set: a node counts when its
 absolute value is at most the largest jump to one of its stencil neighbours (so a
 neighbour may have the other sign).
@@ -136,44 +140,38 @@ def _capture_gap(r, ax, ay, dxs, dys, radius):
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def _close_1v1(row, out, ham, jump, dt, a, sets, acc):
-    """Apply the 1 vs 1 sets to a row; returns how many elements changed."""
+def _close_1v1(row, new, ham, jump, dt, a, sets, acc):
+    """Apply the 1 vs 1 sets to a row."""
     target, attacker_free, ax, ay, dxs, dys, defender_free, radius = sets
     t, f, x, y = target[a], attacker_free[a], ax[a], ay[a]
-    changed = 0
     for r in range(row.size):
         v = row[r]
         gap = _capture_gap(r, x, y, dxs, dys, radius)
         reach = min(max(t, gap), defender_free[r])
         lost = max(gap, -f)
-        new = max(min(v + dt * ham[r], reach), lost)
-        out[r] = new
-        step = abs(new - v)
+        updated = max(min(v + dt * ham[r], reach), lost)
+        new[r] = updated
+        step = abs(updated - v)
         acc[r] = max(acc[r], step if abs(v) <= jump[r] else _ZERO)
-        changed += new != v
-    return changed
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def _close_2v1(row, out, ham, jump, dt, a1, a2, sets, survive, acc):
-    """Apply the 2 vs 1 sets to a row; returns how many elements changed."""
+def _close_2v1(row, new, ham, jump, dt, a1, a2, sets, survive, acc):
+    """Apply the 2 vs 1 sets to a row."""
     target, attacker_free, ax, ay, dxs, dys, defender_free, radius = sets
     t1, f1, x1, y1 = target[a1], attacker_free[a1], ax[a1], ay[a1]
     t2, f2, x2, y2 = target[a2], attacker_free[a2], ax[a2], ay[a2]
     survive1, survive2 = survive[a1], survive[a2]
-    changed = 0
     for r in range(row.size):
         v = row[r]
         gap1 = _capture_gap(r, x1, y1, dxs, dys, radius)
         gap2 = _capture_gap(r, x2, y2, dxs, dys, radius)
         reach = min(min(max(t1, gap1), max(t2, gap2)), defender_free[r])
         avoid = max(min(max(gap1, -f1), survive2[r]), min(max(gap2, -f2), survive1[r]))
-        new = max(min(v + dt * ham[r], reach), avoid)
-        out[r] = new
-        step = abs(new - v)
+        updated = max(min(v + dt * ham[r], reach), avoid)
+        new[r] = updated
+        step = abs(updated - v)
         acc[r] = max(acc[r], step if abs(v) <= jump[r] else _ZERO)
-        changed += new != v
-    return changed
 
 
 # ---------------------------------------------------------------------------------------
@@ -217,34 +215,43 @@ def _neighbour_rows(row, n_attackers, na, any_, anx, symmetric, out):
                                        n_attackers, na, symmetric)
 
 
-@njit(cache=True, parallel=True)
-def active_rows(candidates, changed, n_attackers, na, any_, anx, symmetric):
-    """The rows of ``candidates`` whose own values or a neighbour row's changed last sweep.
-
-    A row whose whole stencil is unchanged keeps its values exactly (the update is a
-    function of the stencil), so it need not be recomputed.
-    """
-    n = candidates.size
-    keep = np.zeros(n, dtype=np.bool_)
-    for k in prange(n):
-        row = candidates[k]
-        nbr = np.empty((n_attackers, 4), dtype=np.int64)
-        _neighbour_rows(row, n_attackers, na, any_, anx, symmetric, nbr)
-        hit = changed[row]
-        for player in range(n_attackers):
-            for j in range(4):
-                hit = hit or changed[nbr[player, j]]
-        keep[k] = hit
-    return candidates[keep]
+@njit(cache=True, fastmath=_FASTMATH)
+def _update_row(values, out, row_index, n_attackers, any_, anx, dny, inv_h, speeds, dt, scheme,
+                symmetric, sets, survive, fx, fy, ham, jump, new, acc, nbr):
+    """Update one row: every read of ``values`` happens before ``out[row_index]`` is written,
+    so ``out`` may be ``values`` itself (Gauss-Seidel)."""
+    na = anx * any_
+    row = values[row_index]
+    _row_differences(row, dny, fx, fy)
+    _defender_piece(fx, fy, dny, inv_h[2 * n_attackers], inv_h[2 * n_attackers + 1], speeds[1],
+                    scheme, ham, jump)
+    _neighbour_rows(row_index, n_attackers, na, any_, anx, symmetric, nbr)
+    for player in range(n_attackers):
+        _attacker_piece(row, values[nbr[player, 0]], values[nbr[player, 1]],
+                        values[nbr[player, 2]], values[nbr[player, 3]], inv_h[2 * player],
+                        inv_h[2 * player + 1], speeds[0], scheme, ham, jump)
+    a1 = _attacker_index(row_index, 0, n_attackers, na)
+    if n_attackers == 1:
+        _close_1v1(row, new, ham, jump, dt, a1, sets, acc)
+    else:
+        a2 = _attacker_index(row_index, 1, n_attackers, na)
+        _close_2v1(row, new, ham, jump, dt, a1, a2, sets, survive, acc)
+    target = out[row_index]
+    for r in range(new.size):
+        target[r] = new[r]
 
 
 @njit(cache=True, parallel=True, fastmath=_FASTMATH)
-def sweep(values, out, rows, n_attackers, any_, anx, dny, inv_h, speeds, dt, scheme,
-          symmetric, sets, survive, changed, n_chunks):
-    """One explicit (Jacobi) step of the reach-avoid update on the given rows.
+def sweep(values, out, rows, planes, reverse, n_attackers, any_, anx, dny, inv_h, speeds, dt,
+          scheme, symmetric, sets, survive, n_chunks):
+    """One step of the reach-avoid update over ``rows``, plane after plane.
 
-    - ``values``, ``out``: ``(R, m)`` float32, read and written (distinct arrays).
-    - ``rows``: int64 rows to update; the others are left untouched in ``out``.
+    - ``values``, ``out``: ``(R, m)`` float32. Distinct arrays: a Jacobi step (one plane).
+      The same array: Gauss-Seidel, updated in place; the rows of one plane must not be
+      stencil neighbours of each other (then the result does not depend on threading).
+    - ``rows``: int64 rows to update, grouped by plane: plane ``p`` is
+      ``rows[planes[p]:planes[p + 1]]``; planes run in order, or backwards with ``reverse``.
+      Rows not listed are left untouched in ``out``.
     - ``any_``, ``anx``: attacker grid nodes along y and x (``na = anx * any_``);
       ``dny``: defender nodes along y (``m = dnx * dny``).
     - ``inv_h``: float32 ``(2 * n_attackers + 2,)`` inverse spacings in axis order.
@@ -253,52 +260,35 @@ def sweep(values, out, rows, n_attackers, any_, anx, dny, inv_h, speeds, dt, sch
       dx (m,), dy (m,), defender_free (m,), capture_radius)``, float32 (node coordinates
       ``ax``, ``ay`` of the attacker grid and ``dx``, ``dy`` of the defender grid, flat).
     - ``survive``: ``(na, m)`` 1 vs 1 value table (2 vs 1 only; any 2-D array otherwise).
-    - ``changed``: uint8 ``(R,)``, set to 1 for every updated row whose values changed.
-    - ``n_chunks``: rows are split into this many contiguous chunks for the threads.
+    - ``n_chunks``: the rows of a plane are split into this many chunks for the threads.
 
-    Returns ``(chunks,)`` float32: the largest change near the zero level set per chunk of
-    rows (divide by ``dt`` for the change per unit game time).
+    Returns the largest change near the zero level set (divide by ``dt`` for the change per
+    unit game time).
     """
     m = values.shape[1]
-    na = anx * any_
-    n_rows = rows.size
-    n_chunks = min(n_rows, n_chunks)
-    residual = np.zeros(max(n_chunks, 1), dtype=np.float32)
-    d_ihx = inv_h[2 * n_attackers]
-    d_ihy = inv_h[2 * n_attackers + 1]
-    for chunk in prange(n_chunks):
-        fx = np.empty(m + dny, dtype=np.float32)
-        fy = np.empty(m + 1, dtype=np.float32)
-        ham = np.empty(m, dtype=np.float32)
-        jump = np.empty(m, dtype=np.float32)
-        acc = np.zeros(m, dtype=np.float32)
-        nbr = np.empty((n_attackers, 4), dtype=np.int64)
-        start = chunk * n_rows // n_chunks
-        stop = (chunk + 1) * n_rows // n_chunks
-        for k in range(start, stop):
-            row_index = rows[k]
-            row = values[row_index]
-            _row_differences(row, dny, fx, fy)
-            _defender_piece(fx, fy, dny, d_ihx, d_ihy, speeds[1], scheme, ham, jump)
-            _neighbour_rows(row_index, n_attackers, na, any_, anx, symmetric, nbr)
-            for player in range(n_attackers):
-                _attacker_piece(row, values[nbr[player, 0]], values[nbr[player, 1]],
-                                values[nbr[player, 2]], values[nbr[player, 3]],
-                                inv_h[2 * player], inv_h[2 * player + 1], speeds[0], scheme,
-                                ham, jump)
-            a1 = _attacker_index(row_index, 0, n_attackers, na)
-            if n_attackers == 1:
-                count = _close_1v1(row, out[row_index], ham, jump, dt, a1, sets, acc)
-            else:
-                a2 = _attacker_index(row_index, 1, n_attackers, na)
-                count = _close_2v1(row, out[row_index], ham, jump, dt, a1, a2, sets, survive,
-                                   acc)
-            changed[row_index] = 1 if count > 0 else 0
-        best = _ZERO
+    fx = np.empty((n_chunks, m + dny), dtype=np.float32)
+    fy = np.empty((n_chunks, m + 1), dtype=np.float32)
+    ham = np.empty((n_chunks, m), dtype=np.float32)
+    jump = np.empty((n_chunks, m), dtype=np.float32)
+    new = np.empty((n_chunks, m), dtype=np.float32)
+    acc = np.zeros((n_chunks, m), dtype=np.float32)
+    nbr = np.empty((n_chunks, n_attackers, 4), dtype=np.int64)
+    n_planes = planes.size - 1
+    for step in range(n_planes):
+        plane = n_planes - 1 - step if reverse else step
+        first = planes[plane]
+        count = planes[plane + 1] - first
+        chunks = min(count, n_chunks)
+        for chunk in prange(chunks):
+            for k in range(first + chunk * count // chunks, first + (chunk + 1) * count // chunks):
+                _update_row(values, out, rows[k], n_attackers, any_, anx, dny, inv_h, speeds, dt,
+                            scheme, symmetric, sets, survive, fx[chunk], fy[chunk], ham[chunk],
+                            jump[chunk], new[chunk], acc[chunk], nbr[chunk])
+    best = _ZERO
+    for chunk in range(n_chunks):
         for r in range(m):
-            best = max(best, acc[r])
-        residual[chunk] = best
-    return residual
+            best = max(best, acc[chunk, r])
+    return best
 
 
 @njit(cache=True, parallel=True, fastmath=_FASTMATH)
@@ -306,19 +296,17 @@ def initial_values(out, rows, n_attackers, na, sets, survive):
     """``out[row] = max(l, g)`` on the given rows: the value at zero time-to-go."""
     m = out.shape[1]
     ham = np.zeros(m, dtype=np.float32)
+    huge = np.full(m, _HUGE, dtype=np.float32)
     for k in prange(rows.size):
         row_index = rows[k]
-        row = out[row_index]
-        for r in range(m):
-            row[r] = _HUGE
         acc = np.zeros(m, dtype=np.float32)
         jump = np.zeros(m, dtype=np.float32)
         a1 = _attacker_index(row_index, 0, n_attackers, na)
         if n_attackers == 1:
-            _close_1v1(row, row, ham, jump, _ZERO, a1, sets, acc)
+            _close_1v1(huge, out[row_index], ham, jump, _ZERO, a1, sets, acc)
         else:
             a2 = _attacker_index(row_index, 1, n_attackers, na)
-            _close_2v1(row, row, ham, jump, _ZERO, a1, a2, sets, survive, acc)
+            _close_2v1(huge, out[row_index], ham, jump, _ZERO, a1, a2, sets, survive, acc)
 
 
 @njit(cache=True, parallel=True)

@@ -118,13 +118,15 @@ def time_step(grid: Grid, n_attackers: int, speeds: tuple[float, float],
     return settings.cfl / rate
 
 
-def memory_needed(grid: Grid) -> int:
-    """Bytes a solve on ``grid`` holds at its peak: two float32 value arrays, the
-    ``(na, m)`` 1 vs 1 table (2 vs 1) and bookkeeping (per-row flags, row lists)."""
+def memory_needed(grid: Grid, settings: SolverSettings) -> int:
+    """Bytes a solve on ``grid`` holds at its peak: the float32 value arrays (one for
+    red-black Gauss-Seidel, two for Jacobi), the ``(na, m)`` 1 vs 1 table (2 vs 1) and the
+    row orders."""
     na = grid.shape[0] * grid.shape[1]
     m = grid.shape[-2] * grid.shape[-1]
     rows = grid.size // m
-    return 2 * 4 * grid.size + 4 * na * m + 24 * rows + (32 << 20)
+    arrays = 1 if settings.iteration == "red_black" else 2
+    return arrays * 4 * grid.size + 4 * na * m + 40 * rows + (32 << 20)
 
 
 def available_memory() -> int:
@@ -139,15 +141,15 @@ def available_memory() -> int:
     return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
-def check_memory(grid: Grid, label: str) -> None:
+def check_memory(grid: Grid, settings: SolverSettings, label: str) -> None:
     """Raise ``InsufficientMemoryError`` when a solve on ``grid`` would not fit in memory."""
-    need, have = memory_needed(grid), available_memory()
+    need, have = memory_needed(grid, settings), available_memory()
     if need > have:
         dims = "x".join(str(n) for n in grid.shape)
         raise InsufficientMemoryError(
-            f"{label} on a {dims} grid needs about {need / 2**30:.1f} GiB (two float32 value "
-            f"arrays of {4 * grid.size / 2**30:.1f} GiB) but only {have / 2**30:.1f} GiB is "
-            "available; use a coarser grid")
+            f"{label} on a {dims} grid needs about {need / 2**30:.1f} GiB (float32 value "
+            f"arrays of {4 * grid.size / 2**30:.1f} GiB each, {settings.iteration}) but only "
+            f"{have / 2**30:.1f} GiB is available; use a coarser grid")
 
 
 def _stored_rows(problem: ReachAvoidProblem, symmetric: bool) -> np.ndarray:
@@ -158,6 +160,28 @@ def _stored_rows(problem: ReachAvoidProblem, symmetric: bool) -> np.ndarray:
     return rows
 
 
+Order = tuple[np.ndarray, np.ndarray, bool]
+
+
+def _sweep_orders(problem: ReachAvoidProblem, stored: np.ndarray,
+                  settings: SolverSettings) -> list[Order]:
+    """``(rows, planes, reverse)`` of successive sweeps (``kernels.sweep``).
+
+    Jacobi: all rows in one plane. Red-black: the rows whose attacker node indices have an
+    even sum, then the odd ones, and the other way round on the next sweep. Stencil
+    neighbours differ by one in exactly one index, so they never share a colour; swapping
+    the attackers keeps the sum, so the stored twin of a neighbour never does either.
+    """
+    if settings.iteration == "jacobi":
+        return [(stored, np.array([0, stored.size], dtype=np.int64), False)]
+    na, any_ = problem.attacker_nodes, problem.grid.shape[1]
+    players = [stored % na] if problem.n_attackers == 1 else [stored // na, stored % na]
+    odd = sum(a // any_ + a % any_ for a in players) % 2
+    rows = np.concatenate([stored[odd == 0], stored[odd == 1]])
+    planes = np.array([0, np.count_nonzero(odd == 0), stored.size], dtype=np.int64)
+    return [(rows, planes, False), (rows, planes, True)]
+
+
 def solve(problem: ReachAvoidProblem, settings: SolverSettings, progress: bool = True,
           label: str = "reach-avoid") -> tuple[np.ndarray, SolveResult]:
     """March ``problem`` to convergence; returns the value (float32, ``grid.shape``) and how.
@@ -165,7 +189,7 @@ def solve(problem: ReachAvoidProblem, settings: SolverSettings, progress: bool =
     Nothing is written anywhere; an interrupt (Ctrl-C) between sweeps propagates and frees
     the arrays.
     """
-    check_memory(problem.grid, label)
+    check_memory(problem.grid, settings, label)
     grid = problem.grid
     symmetric = settings.exchange_symmetry and problem.n_attackers == 2
     na, m = problem.attacker_nodes, problem.defender_nodes
@@ -177,13 +201,14 @@ def solve(problem: ReachAvoidProblem, settings: SolverSettings, progress: bool =
     speeds = np.asarray(problem.speeds, dtype=np.float32)
     survive = problem.survive if problem.survive is not None else np.zeros((1, 1), np.float32)
     sets = problem.kernel_sets()
-    n_chunks = 8 * numba.get_num_threads()
+    n_chunks = 4 * numba.get_num_threads()
 
+    jacobi = settings.iteration == "jacobi"
     current = np.empty((problem.rows, m), dtype=np.float32)
-    spare = np.empty((problem.rows, m), dtype=np.float32)
+    spare = np.empty((problem.rows, m), dtype=np.float32) if jacobi else current
     stored = _stored_rows(problem, symmetric)
+    orders = _sweep_orders(problem, stored, settings)
     kernels.initial_values(current, stored, problem.n_attackers, na, sets, survive)
-    changed = np.ones(problem.rows, dtype=np.uint8)
     first = residual = math.inf
     iterations = 0
     converged = False
@@ -191,23 +216,19 @@ def solve(problem: ReachAvoidProblem, settings: SolverSettings, progress: bool =
     bar_format = "{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}{postfix}"
     with tqdm(total=100, desc=label, disable=not progress, bar_format=bar_format) as bar:
         while iterations < settings.max_iterations:
-            rows = (kernels.active_rows(stored, changed, problem.n_attackers, na, any_, anx,
-                                        symmetric)
-                    if settings.skip_settled_rows else stored)
-            changed = np.zeros(problem.rows, dtype=np.uint8)
-            chunk_max = kernels.sweep(current, spare, rows, problem.n_attackers, any_, anx,
-                                      dny, inv_h, speeds, np.float32(dt), scheme, symmetric,
-                                      sets, survive, changed, n_chunks)
+            rows, planes, reverse = orders[iterations % len(orders)]
+            change = kernels.sweep(current, spare, rows, planes, reverse, problem.n_attackers,
+                                   any_, anx, dny, inv_h, speeds, np.float32(dt), scheme,
+                                   symmetric, sets, survive, n_chunks)
             current, spare = spare, current
             iterations += 1
-            residual = float(chunk_max.max()) / dt
+            residual = float(change) / dt
             if iterations == 1:
                 first = max(residual, settings.tolerance * 10)
             done = _progress(first, residual, settings.tolerance)
             if done > bar.n:
                 bar.update(done - bar.n)
-            bar.set_postfix_str(f"iter {iterations}, residual {residual:.2e}, "
-                                f"rows {rows.size / stored.size:.0%}", refresh=False)
+            bar.set_postfix_str(f"iter {iterations}, residual {residual:.2e}", refresh=False)
             if residual < settings.tolerance:
                 converged = True
                 break
