@@ -4,7 +4,7 @@ Importing the package registers the attacker-training envs with Gymnasium and Pe
 (``policies.training``).
 """
 
-from policies.attackers import RandomAttacker, StraightAttacker
+from policies.attackers import RandomAttacker, ShortestPathAttacker, StraightAttacker
 from policies.base import Policy, overlay_of
 from policies.defenders import GreedyDefender, IdleDefender
 from policies.training import make_attacker_env, make_attackers_parallel_env
@@ -14,6 +14,7 @@ __all__ = [
     "IdleDefender",
     "Policy",
     "RandomAttacker",
+    "ShortestPathAttacker",
     "StraightAttacker",
     "make_attacker_env",
     "make_attackers_parallel_env",

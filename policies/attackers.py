@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from policies.geodesic import DEFAULT_CELLS, DistanceField, distance_field
 from reachavoid_env import GameMap, GameState, Scenario
 
 
@@ -90,3 +91,30 @@ class RandomAttacker:
             self._drawn_at = state.step
         return {f"attacker_{i}": self._headings[i].copy()
                 for i in np.flatnonzero(state.active_attackers)}
+
+
+class ShortestPathAttacker:
+    """Every attacker runs at full speed along the shortest path to the target around
+    obstacles, ignoring defenders: the paper's scripted attacker.
+
+    It descends the map's geodesic distance field (``policies.geodesic``; obstacles grown
+    by the scenario's player radius, ``cells`` grid cells along the longer side of the
+    domain), sliding along walls and round their corners. Inside the target it stands
+    still. ``field`` is the field in use (after ``reset``).
+    """
+
+    def __init__(self, cells: int = DEFAULT_CELLS) -> None:
+        self.cells = cells
+        self.field: DistanceField | None = None
+
+    def reset(self, scenario: Scenario) -> None:
+        self.field = distance_field(scenario.map, scenario.player_radius, self.cells)
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]:
+        if self.field is None:
+            raise RuntimeError("ShortestPathAttacker.act called before reset(scenario)")
+        active = np.flatnonzero(state.active_attackers)
+        positions = state.attacker_positions[active]
+        headings = self.field.descent(positions).astype(np.float32)
+        headings[self.field.game_map.in_target(positions)] = 0.0
+        return {f"attacker_{i}": headings[k] for k, i in enumerate(active)}
