@@ -110,16 +110,19 @@ def test_descent_reaches_the_target_within_the_field_time(starts):
     assert lowest > 0.5 * RADIUS  # never cuts a corner or grazes into a wall
 
 
-def test_attacker_reaches_the_target_in_the_env():
+@pytest.mark.parametrize("starts", ["behind_walls", "random"])
+def test_attacker_reaches_the_target_in_the_env(starts):
+    # One idle defender in a corner, away from every path: only the attackers move.
+    points = BEHIND_WALLS if starts == "behind_walls" else free_starts(PAPER, 40, seed=4)
+    points = points[np.linalg.norm(points - [0.95, -0.95], axis=1) > 0.2]
     scenario = reachavoid_env.builtin_scenario("paper_2v1")
-    scenario = scenario.with_players(len(BEHIND_WALLS), 1).with_starts(
-        BEHIND_WALLS, np.array([[0.95, -0.95]]))
+    scenario = scenario.with_players(len(points), 1).with_starts(points, np.array([[0.95, -0.95]]))
     env = reachavoid_env.parallel_env(scenario=scenario)
     env.reset(seed=0)
     attackers, defenders = ShortestPathAttacker(), IdleDefender()
     attackers.reset(env.unwrapped.scenario)
     defenders.reset(env.unwrapped.scenario)
-    arrival = np.full(len(BEHIND_WALLS), np.inf)
+    arrival = np.full(len(points), np.inf)
     while env.agents:
         state = env.unwrapped.game_state()
         actions = {**attackers.act(state), **defenders.act(state)}
@@ -130,7 +133,7 @@ def test_attacker_reaches_the_target_in_the_env():
                 arrival[i] = after.time
     env.close()
     assert np.all(np.isfinite(arrival)), arrival
-    bound = attackers.field.distance(BEHIND_WALLS) / scenario.attacker_speed
+    bound = attackers.field.distance(points) / scenario.attacker_speed
     assert np.all(arrival <= 1.03 * bound + 3 * scenario.dt)
 
 
