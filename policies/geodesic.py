@@ -54,7 +54,7 @@ class DistanceField:
         """Node spacing ``(hx, hy)``, map units."""
         return (float(self.xs[1] - self.xs[0]), float(self.ys[1] - self.ys[0]))
 
-    def _corners(self, points: np.ndarray):
+    def _corners(self, points: np.ndarray) -> tuple[np.ndarray, ...]:
         p = np.asarray(points, dtype=np.float64)
         if p.shape[-1:] != (2,):
             raise ValueError(f"points: expected shape (..., 2), got {p.shape}")
