@@ -68,6 +68,12 @@ def _straight_attackers(scenario: Scenario, **options: Any) -> Policy:
     return StraightAttacker(**options)
 
 
+def _shortest_path_attackers(scenario: Scenario, **options: Any) -> Policy:
+    from policies.attackers import ShortestPathAttacker
+
+    return ShortestPathAttacker(**options)
+
+
 def _random_attackers(scenario: Scenario, **options: Any) -> Policy:
     from policies.attackers import RandomAttacker
 
@@ -91,6 +97,9 @@ DEFENDERS: dict[str, tuple[Callable[..., Policy], str]] = {
     "idle": (_idle_defenders, "stand still (IdleDefender)"),
 }
 ATTACKERS: dict[str, tuple[Callable[..., Policy], str]] = {
+    "shortest-path": (_shortest_path_attackers, "the paper's scripted attacker: shortest path "
+                                                "to the target around obstacles "
+                                                "(ShortestPathAttacker; options: cells)"),
     "straight": (_straight_attackers, "run straight for the nearest target centre "
                                       "(StraightAttacker)"),
     "random": (_random_attackers, "random headings (RandomAttacker; options: seed, hold)"),
@@ -131,7 +140,7 @@ def defender_factory(name: str = "hj", **options: Any) -> PolicyFactory:
     return PolicyFactory("defenders", name, tuple(sorted(options.items())))
 
 
-def attacker_factory(name: str = "straight", **options: Any) -> PolicyFactory:
+def attacker_factory(name: str = "shortest-path", **options: Any) -> PolicyFactory:
     """Factory of the attacker policy ``name`` (a key of ``ATTACKERS``) with ``options``."""
     return PolicyFactory("attackers", name, tuple(sorted(options.items())))
 
@@ -147,7 +156,7 @@ def _source(value: Any, options: Mapping[str, Any] | None, side: str, field: str
 
 
 def make_attacker_env(scenario: str | Scenario = "paper_2v1", defenders: Any = "hj",
-                      teammates: Any = "straight",
+                      teammates: Any = "shortest-path",
                       defender_options: Mapping[str, Any] | None = None,
                       teammate_options: Mapping[str, Any] | None = None,
                       **env_kwargs: Any) -> SingleAttackerEnv:

@@ -1,0 +1,152 @@
+"""Training throughput: env steps per second with the defenders driven by a policy.
+
+For each scenario (default ``paper_1v1``, ``paper_2v1``, ``paper_8v4``) and each defender
+policy (default ``greedy`` and ``hj``), measures with uniform random attacker actions drawn
+beforehand, 1000-step episodes, resets included:
+
+- ``game``: ``ReachAvoidEnv`` alone, random actions for the defenders too (the floor);
+- ``attackers``: ``AttackerParallelEnv`` (every attacker random, defenders by the policy);
+- ``single``: ``SingleAttackerEnv`` (``attacker_0`` random, the others ``straight``).
+
+Each figure is env steps per second, the best and the median of ``--repeats`` runs, with
+the share of the time spent in the defender policy's ``act`` and the mean number of
+attackers still in play per step (fewer attackers make the HJ defenders cheaper). The
+target is at least 1,000 steps/s for ``attackers`` on ``paper_8v4`` with ``hj`` on one core:
+
+    taskset -c 0 .venv/bin/python benchmarks/training_throughput.py [--steps 3000]
+
+``hj`` defenders load (or solve and cache) their tubes at ``--grid1`` / ``--grid2`` first.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import time
+from typing import Any
+
+import numpy as np
+
+from policies import StraightAttacker
+from policies.training import DEFENDERS, defender_factory
+from reachavoid_env import ReachAvoidEnv, load_scenario
+from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
+
+EPISODE_STEPS = 1000
+
+
+class Timed:
+    """A policy whose ``act`` time is added up in ``seconds``."""
+
+    def __init__(self, policy: Any) -> None:
+        self.policy = policy
+        self.seconds = 0.0
+
+    def reset(self, scenario: Any) -> None:
+        self.policy.reset(scenario)
+
+    def act(self, state: Any) -> dict[str, np.ndarray]:
+        start = time.perf_counter()
+        actions = self.policy.act(state)
+        self.seconds += time.perf_counter() - start
+        return actions
+
+
+def random_actions(steps: int, players: int, seed: int) -> np.ndarray:
+    return np.random.default_rng(seed).uniform(-1, 1, (steps, players, 2)).astype(np.float32)
+
+
+def run_game(env: ReachAvoidEnv, actions: np.ndarray) -> tuple[float, float]:
+    """Seconds for ``len(actions)`` steps and the mean live attackers per step."""
+    index = {name: k for k, name in enumerate(env.possible_agents)}
+    env.reset(seed=0)
+    live_attackers = 0
+    start = time.perf_counter()
+    for drawn in actions:
+        if not env.agents:
+            env.reset()
+        env.step({name: drawn[index[name]] for name in env.agents})
+        live_attackers += sum(name.startswith("attacker") for name in env.agents)
+    return time.perf_counter() - start, live_attackers / len(actions)
+
+
+def run_attackers(env: AttackerParallelEnv, actions: np.ndarray) -> tuple[float, float]:
+    index = {name: k for k, name in enumerate(env.possible_agents)}
+    env.reset(seed=0)
+    live_attackers = 0
+    start = time.perf_counter()
+    for drawn in actions:
+        if not env.agents:
+            env.reset()
+        env.step({name: drawn[index[name]] for name in env.agents})
+        live_attackers += len(env.agents)
+    return time.perf_counter() - start, live_attackers / len(actions)
+
+
+def run_single(env: SingleAttackerEnv, actions: np.ndarray) -> tuple[float, float]:
+    env.reset(seed=0)
+    live_attackers = 0
+    start = time.perf_counter()
+    for drawn in actions:
+        _, _, terminated, truncated, _ = env.step(drawn[0])
+        if terminated or truncated:
+            env.reset()
+        live_attackers += int(env.game_state().active_attackers.sum())
+    return time.perf_counter() - start, live_attackers / len(actions)
+
+
+def measure(label: str, run, env: Any, actions: np.ndarray, timed: Timed | None,
+            repeats: int) -> None:
+    rates, shares, live = [], [], []
+    for _ in range(repeats):
+        if timed is not None:
+            timed.seconds = 0.0
+        seconds, attackers = run(env, actions)
+        rates.append(len(actions) / seconds)
+        shares.append(timed.seconds / seconds if timed is not None else 0.0)
+        live.append(attackers)
+    policy = f"defenders {statistics.median(shares):>4.0%}" if timed is not None else ""
+    print(f"{label:<28} best {max(rates):>7,.0f}/s  median {statistics.median(rates):>7,.0f}/s"
+          f"  {policy:<15} live attackers {statistics.mean(live):.1f}", flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--scenarios", nargs="+", default=["paper_1v1", "paper_2v1",
+                                                             "paper_8v4"])
+    parser.add_argument("--defenders", nargs="+", default=["greedy", "hj"],
+                        choices=list(DEFENDERS))
+    parser.add_argument("--grid1", type=int, default=31, help="hj 1v1 tube nodes per axis")
+    parser.add_argument("--grid2", type=int, default=15, help="hj 2v1 tube nodes per axis")
+    parser.add_argument("--steps", type=int, default=3000, help="env steps per timed run")
+    parser.add_argument("--repeats", type=int, default=3, help="timed runs per figure")
+    args = parser.parse_args()
+
+    cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else "?"
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores "
+          f"(this process may run on {cores}), Python {platform.python_version()}; load "
+          f"average {', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    for name in args.scenarios:
+        scenario = load_scenario(name)
+        players = scenario.num_attackers + scenario.num_defenders
+        actions = random_actions(args.steps, players, seed=0)
+        print(f"\n{name} ({scenario.num_attackers} vs {scenario.num_defenders})")
+        game = ReachAvoidEnv(scenario=scenario, max_cycles=EPISODE_STEPS)
+        measure("game, all random", run_game, game, actions, None, args.repeats)
+        for defenders in args.defenders:
+            options = ({"grid1": args.grid1, "grid2": args.grid2, "progress": False}
+                       if defenders == "hj" else {})
+            policy = Timed(defender_factory(defenders, **options)(scenario))
+            env = AttackerParallelEnv(policy, scenario=scenario, max_cycles=EPISODE_STEPS)
+            measure(f"attackers, {defenders}", run_attackers, env, actions, policy,
+                    args.repeats)
+            single = SingleAttackerEnv(policy, scenario=scenario, max_cycles=EPISODE_STEPS,
+                                       teammates=StraightAttacker())
+            measure(f"single, {defenders}", run_single, single, actions, policy,
+                    args.repeats)
+
+
+if __name__ == "__main__":
+    main()

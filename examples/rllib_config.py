@@ -1,0 +1,82 @@
+"""The attacker-only env under RLlib: PPO with one policy shared by all attackers.
+
+RLlib is not a dependency of this project (``ray[rllib]`` pins its own Gymnasium; install
+it in an environment of its own). The env reaches RLlib through its PettingZoo wrapper,
+``ParallelPettingZooEnv``; the defenders are scripted inside the env:
+
+    python examples/rllib_config.py --scenario paper_6v2 --defenders greedy --iterations 5
+
+``build_config`` is the part to reuse.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from typing import Any
+
+from ray.rllib.algorithms.ppo import PPOConfig
+from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv
+from ray.tune.registry import register_env
+
+from policies.training import DEFENDERS, make_attackers_parallel_env
+
+ENV_NAME = "reachavoid_attackers"
+
+
+def env_creator(config: dict[str, Any]) -> ParallelPettingZooEnv:
+    """RLlib's env factory: ``config`` holds ``make_attackers_parallel_env`` keywords."""
+    return ParallelPettingZooEnv(make_attackers_parallel_env(**config))
+
+
+register_env(ENV_NAME, env_creator)
+
+
+def build_config(scenario: str = "paper_6v2", defenders: str = "hj",
+                 defender_options: dict[str, Any] | None = None, action_repeat: int = 10,
+                 shaping: float = 1.0, train_batch_size: int = 2000) -> PPOConfig:
+    """PPO on the attackers of ``scenario``; every attacker maps to the policy
+    ``"attacker"`` (parameter sharing: the observation starts with the own position)."""
+    env_config = {"scenario": scenario, "defenders": defenders,
+                  "defender_options": defender_options, "action_repeat": action_repeat,
+                  "shaping": shaping}
+    return (
+        PPOConfig()
+        .environment(ENV_NAME, env_config=env_config)
+        .env_runners(num_env_runners=0)
+        .multi_agent(policies={"attacker"},
+                     policy_mapping_fn=lambda agent_id, episode, **kwargs: "attacker")
+        .training(train_batch_size=train_batch_size,
+                  minibatch_size=min(256, train_batch_size), num_epochs=5)
+    )
+
+
+def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--scenario", default="paper_6v2")
+    parser.add_argument("--defenders", default="hj", choices=DEFENDERS)
+    parser.add_argument("--grid1", type=int, default=31, help="hj defenders' 1v1 grid")
+    parser.add_argument("--grid2", type=int, default=15, help="hj defenders' 2v1 grid")
+    parser.add_argument("--iterations", type=int, default=5)
+    parser.add_argument("--batch", type=int, default=2000, help="train batch (agent steps)")
+    args = parser.parse_args(argv)
+    options = ({"grid1": args.grid1, "grid2": args.grid2, "progress": False}
+               if args.defenders == "hj" else None)
+    algo = build_config(args.scenario, args.defenders, options,
+                        train_batch_size=args.batch).build_algo()
+    results = []
+    try:
+        for iteration in range(args.iterations):
+            result = algo.train()
+            runners = result.get("env_runners", {})
+            print(f"iteration {iteration}: episode return mean "
+                  f"{runners.get('episode_return_mean', float('nan')):.3f}, "
+                  f"{runners.get('num_env_steps_sampled_lifetime', 0)} agent steps")
+            results.append(result)
+    finally:
+        algo.stop()
+    return results
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,195 @@
+"""Named training envs, their registry ids, the examples, and a PPO smoke run."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import pickle
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import gymnasium
+import numpy as np
+import pettingzoo
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from policies import GreedyDefender, IdleDefender, RandomAttacker, StraightAttacker
+from policies.training import (
+    ATTACKERS,
+    DEFENDERS,
+    GYM_ID,
+    PETTINGZOO_ID,
+    PolicyFactory,
+    attacker_factory,
+    defender_factory,
+    gym_id,
+    make_attacker_env,
+    make_attackers_parallel_env,
+)
+from reachavoid_env import builtin_names, builtin_scenario
+from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def example(name: str):
+    """Import ``examples/<name>.py`` as a module."""
+    spec = importlib.util.spec_from_file_location(f"example_{name}",
+                                                  ROOT / "examples" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+# ------------------------------------------------------------------ named policies
+def test_factories_build_the_named_policies_and_pickle():
+    scenario = builtin_scenario("paper_2v1")
+    assert isinstance(defender_factory("greedy")(scenario), GreedyDefender)
+    assert isinstance(defender_factory("idle")(scenario), IdleDefender)
+    assert isinstance(attacker_factory("straight")(scenario), StraightAttacker)
+    factory = attacker_factory("random", seed=3, hold=0.5)
+    assert factory.options == (("hold", 0.5), ("seed", 3))
+    copy = pickle.loads(pickle.dumps(factory))
+    assert copy == factory
+    built = copy(scenario)
+    assert isinstance(built, RandomAttacker) and built.hold == 0.5
+
+
+def test_unknown_names_list_the_choices():
+    with pytest.raises(ValueError, match=r"defenders: unknown policy 'hjj' \(choices: hj, "):
+        defender_factory("hjj")
+    with pytest.raises(ValueError, match="attackers: unknown policy"):
+        make_attacker_env("paper_2v1", defenders="greedy", teammates="nobody")
+    with pytest.raises(ValueError, match="side"):
+        PolicyFactory("referees", "greedy")
+    assert set(DEFENDERS) >= {"hj", "matching", "greedy", "idle"}
+    assert set(ATTACKERS) >= {"shortest-path", "straight", "random", "hj"}
+
+
+def test_options_go_with_names_only():
+    with pytest.raises(ValueError, match="defender_options: only used with a policy name"):
+        make_attacker_env("paper_1v1", defenders=GreedyDefender(),
+                          defender_options={"grid1": 21})
+    env = make_attacker_env("paper_2v1", defenders=GreedyDefender(),
+                            teammates=lambda scenario: StraightAttacker())
+    assert isinstance(env.teammates, StraightAttacker)
+
+
+def test_defaults_are_hj_defenders_and_shortest_path_teammates():
+    assert defender_factory().name == "hj"
+    assert attacker_factory().name == "shortest-path"
+    env = make_attacker_env("paper_2v1", defenders="greedy")
+    assert type(env.teammates).__name__ == "ShortestPathAttacker"
+
+
+def test_hj_defenders_by_name(monkeypatch, tmp_path):
+    defenders = pytest.importorskip("policies.defenders")
+    if not hasattr(defenders, "HJDefenderPolicy"):
+        pytest.skip("HJDefenderPolicy has not landed")
+    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path))
+    env = make_attackers_parallel_env(
+        "paper_2v1", defender_options={"grid1": 11, "grid2": 7, "progress": False})
+    assert isinstance(env.defenders, defenders.HJDefenderPolicy)
+    env.reset(seed=0)
+    env.step({name: np.zeros(2, dtype=np.float32) for name in env.agents})
+    assert all(d.startswith("defender_") and a.startswith("attacker_")
+               for d, a in env.defenders.assignment)
+    assert env.game_state().defender_positions[0].tolist() != [0.3, -0.3]
+
+
+# ------------------------------------------------------------------ registry ids
+def test_gymnasium_ids_are_registered_for_every_builtin():
+    assert GYM_ID in gymnasium.registry
+    for name in builtin_names():
+        spec = gymnasium.spec(gym_id(name))
+        assert spec.kwargs == {"scenario": name}
+        assert spec.entry_point == "policies.training:make_attacker_env"
+
+
+def test_check_env_through_the_registry():
+    env = gymnasium.make(gym_id("paper_2v1"), defenders="greedy", action_repeat=5)
+    inner = env.unwrapped
+    assert isinstance(inner, SingleAttackerEnv) and inner.action_repeat == 5
+    assert env.observation_space.shape == (11,)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(inner)  # with a spec, so the other render mode is made and checked too
+    assert [str(w.message) for w in caught if w.category is not DeprecationWarning] == []
+
+
+@pytest.mark.parametrize("mode", ["sync", "async"])
+def test_make_vec(mode):
+    envs = gymnasium.make_vec(gym_id("paper_1v1"), num_envs=2, vectorization_mode=mode,
+                              defenders="greedy", action_repeat=25)
+    try:
+        obs, _ = envs.reset(seed=0)
+        assert obs.shape == (2, 8)
+        finished = 0
+        for _ in range(50):
+            obs, rewards, terminated, truncated, infos = envs.step(
+                np.zeros((2, 2), dtype=np.float32))
+            finished += int((terminated | truncated).sum())
+        assert finished >= 2  # standing still, each env's attacker is caught at least once
+    finally:
+        envs.close()
+
+
+def test_module_colon_id_loads_the_ids_in_a_fresh_interpreter():
+    code = ("import gymnasium; env = gymnasium.make("
+            "'policies:reachavoid/Attacker-paper_1v1-v0', defenders='greedy'); "
+            "print(env.reset(seed=0)[0].shape)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=ROOT, timeout=120, check=True)
+    assert done.stdout.strip() == "(8,)"
+
+
+def test_pettingzoo_id():
+    env = pettingzoo.make("parallel", PETTINGZOO_ID, scenario="paper_6v2", defenders="greedy")
+    assert isinstance(env, AttackerParallelEnv)
+    assert env.possible_agents == [f"attacker_{i}" for i in range(6)]
+
+
+# ------------------------------------------------------------------ examples
+def test_multi_agent_loop_example(capsys):
+    loop = example("multi_agent_loop")
+    results = loop.main(["--scenario", "paper_6v2", "--defenders", "greedy",
+                         "--episodes", "1"])
+    assert set(results[0]["outcome"]) == {f"attacker_{i}" for i in range(6)}
+    assert "episode 0:" in capsys.readouterr().out
+
+
+def test_toward_target_hook_reads_positions_from_observations():
+    loop = example("multi_agent_loop")
+    env = make_attackers_parallel_env("paper_1v1", defenders="idle")
+    hooks = {"attacker_0": loop.toward_target(env.game.base_scenario)}
+    result = loop.play(env, hooks, seed=0)
+    assert result["outcome"] == {"attacker_0": "arrived"}
+    assert result["returns"]["attacker_0"] == 1.0
+
+
+def test_train_attacker_example_beats_random(tmp_path):
+    """PPO smoke run (a few thousand steps) through the example, as written."""
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3 import PPO
+
+    train = example("train_attacker_sb3")
+    report = train.main(["--defenders", "idle", "--timesteps", "3072", "--envs", "2",
+                         "--episodes", "20", "--seed", "0", "--out", str(tmp_path)])
+    assert report["trained"]["arrived_rate"] > report["random"]["arrived_rate"]
+    assert json.loads((tmp_path / "report.json").read_text()) == report
+    assert (tmp_path / "trained.mp4").stat().st_size > 0
+    model = PPO.load(tmp_path / "model.zip", device="cpu")
+    assert model.observation_space.shape == (8,)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.zip", "report.json",
+                                                          "trained.mp4"]
+
+
+def test_rllib_example_trains_one_iteration():
+    pytest.importorskip("ray.rllib")
+    rllib = example("rllib_config")
+    results = rllib.main(["--scenario", "paper_2v1", "--defenders", "greedy",
+                          "--iterations", "1", "--batch", "200"])
+    assert results[0]["env_runners"]["num_env_steps_sampled_lifetime"] >= 200
