@@ -11,12 +11,16 @@ env is pickled or sent to a subprocess (``AsyncVectorEnv``) and the policy is he
 each copy of the env builds its own policy from it. Both inherit ``EzPickle``, so a pickled
 env is rebuilt from its constructor arguments (a fresh, un-reset env).
 
-``action_repeat = k`` holds each learner action for ``k`` env steps (scripted policies still
-act every env step, ``dt`` seconds); rewards are summed over the held steps.
+``action_repeat = k`` holds each learner action for ``k`` env steps; rewards are summed
+over the held steps. The scripted policies act every env step (``dt`` seconds) unless
+``scripted_every = k > 1``: then they are asked every ``k`` env steps, and at once when a
+player leaves the game, and their actions are held in between (a zero-order hold, for
+training throughput with expensive policies; ``benchmarks/training_throughput.py``).
 """
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Callable
 from typing import Any, Protocol
 
@@ -61,30 +65,42 @@ def build_policy(source: Any, scenario: Scenario, field: str) -> ScriptedPolicy:
                     f"scenario -> policy, got {type(source).__name__}")
 
 
-def _check_repeat(action_repeat: Any) -> int:
-    if isinstance(action_repeat, bool) or not isinstance(action_repeat, int) \
-            or action_repeat < 1:
-        raise ValueError(f"action_repeat: must be a positive integer, got {action_repeat!r}")
-    return action_repeat
+def _check_finite(value: Any, field: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) \
+            or not np.isfinite(value):
+        raise ValueError(f"{field}: must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _check_positive(value: Any, field: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(f"{field}: must be a positive integer, got {value!r}")
+    return value
 
 
 class _Scripted:
     """The game plus the policies that move its scripted players.
 
     ``scripted`` holds ``(policy, names)``: the policy acts for the agents in ``names``
-    (every other key it returns is ignored).
+    (every other key it returns is ignored). The policies are asked every ``every`` env
+    steps, and whenever a player has left the game; their actions are held in between.
     """
 
     def __init__(self, game: ReachAvoidEnv,
-                 scripted: list[tuple[ScriptedPolicy, frozenset[str]]]) -> None:
+                 scripted: list[tuple[ScriptedPolicy, frozenset[str]]], every: int) -> None:
         self.game = game
         self.scripted = scripted
+        self.every = every
+        self._held: dict[str, Any] = {}
+        self._since = 0
+        self._live = 0
 
     def reset(self, seed: int | None, options: dict[str, Any] | None,
               ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
         observations, infos = self.game.reset(seed=seed, options=options)
         for policy, _ in self.scripted:
             policy.reset(self.game.scenario)
+        self._held, self._since = {}, self.every
         self._show_overlay()
         return observations, infos
 
@@ -92,19 +108,24 @@ class _Scripted:
         """One env step: scripted actions for the live scripted agents, ``learner_actions``
         for the live learners (a missing one is a ``KeyError`` naming it)."""
         game = self.game
-        state = game.game_state()
         live = game.agents
-        actions: dict[str, Any] = {}
-        for policy, names in self.scripted:
-            chosen = policy.act(state)
-            actions.update((name, chosen[name]) for name in names.intersection(chosen))
-        actions.update(learner_actions)
+        if self._since >= self.every or len(live) != self._live:
+            self._decide()
+        self._since += 1
+        actions = {**self._held, **learner_actions}
         missing = [name for name in live if name not in actions]
         if missing:
             raise KeyError(f"step: no action for live agent {missing[0]!r}")
-        result = game.step({name: actions[name] for name in live})
+        return game.step({name: actions[name] for name in live})
+
+    def _decide(self) -> None:
+        state = self.game.game_state()
+        held: dict[str, Any] = {}
+        for policy, names in self.scripted:
+            chosen = policy.act(state)
+            held.update((name, chosen[name]) for name in names.intersection(chosen))
+        self._held, self._since, self._live = held, 0, len(self.game.agents)
         self._show_overlay()
-        return result
 
     def _show_overlay(self) -> None:
         if self.game.render_mode is not None:
@@ -120,10 +141,12 @@ class AttackerParallelEnv(ParallelEnv, EzPickle):
     docstring has the layout): observation ``Box(-1, 1, (2 + 3 (M + N),))``, own position
     first, then every attacker and every defender (x, y, active); action ``Box(-1, 1, (2,))``,
     a velocity as a fraction of the attacker's speed; reward +1 on arrival, -1 on capture
-    (plus the optional ``shaping`` progress term). An attacker leaves ``agents``
+    (plus the optional ``shaping`` progress term, and ``timeout_reward`` for an attacker
+    still in play when the episode is truncated). An attacker leaves ``agents``
     (terminated) on the step it is captured or arrives; after ``max_cycles`` env steps the
     rest are truncated. With ``action_repeat = k`` one step here is ``k`` env steps with the
     attackers' actions held (rewards summed; it ends early when no attacker is left).
+    ``scripted_every``: see the module docstring.
 
     ``game`` is the underlying ``ReachAvoidEnv``; ``game_state()`` its state.
     """
@@ -137,11 +160,15 @@ class AttackerParallelEnv(ParallelEnv, EzPickle):
 
     def __init__(self, defenders: PolicySource, scenario: str | Scenario = "paper_2v1",
                  max_cycles: int | None = None, render_mode: str | None = None,
-                 shaping: float = 0.0, action_repeat: int = 1, render_width: int = 640) -> None:
+                 shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
+                 scripted_every: int = 1, render_width: int = 640) -> None:
         EzPickle.__init__(self, defenders, scenario=scenario, max_cycles=max_cycles,
-                          render_mode=render_mode, shaping=shaping, action_repeat=action_repeat,
-                          render_width=render_width)
-        self.action_repeat = _check_repeat(action_repeat)
+                          render_mode=render_mode, shaping=shaping,
+                          timeout_reward=timeout_reward, action_repeat=action_repeat,
+                          scripted_every=scripted_every, render_width=render_width)
+        self.timeout_reward = _check_finite(timeout_reward, "timeout_reward")
+        self.action_repeat = _check_positive(action_repeat, "action_repeat")
+        self.scripted_every = _check_positive(scripted_every, "scripted_every")
         game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
                              shaping=shaping, render_width=render_width)
         self.game = game
@@ -150,7 +177,8 @@ class AttackerParallelEnv(ParallelEnv, EzPickle):
         self.possible_agents = game.base_scenario.attacker_names
         self._learners = frozenset(self.possible_agents)
         self._core = _Scripted(game, [(self.defenders,
-                                       frozenset(game.base_scenario.defender_names))])
+                                       frozenset(game.base_scenario.defender_names))],
+                               self.scripted_every)
         self.agents: list[str] = []
         self.state_space = game.state_space
 
@@ -197,7 +225,7 @@ class AttackerParallelEnv(ParallelEnv, EzPickle):
             obs, rew, term, trunc, info = self._core.step(held)
             for name in obs.keys() & self._learners:
                 observations[name] = obs[name]
-                rewards[name] += rew[name]
+                rewards[name] += rew[name] + (self.timeout_reward if trunc[name] else 0.0)
                 terminations[name] = term[name]
                 truncations[name] = trunc[name]
                 infos[name] = info[name]
@@ -239,7 +267,9 @@ class SingleAttackerEnv(gymnasium.Env, EzPickle):
 
     **Reward**: +1 when the learner reaches the target, -1 when it is captured, 0
     otherwise; with ``shaping > 0`` also ``shaping * (d_before - d_after)`` per env step,
-    ``d`` its signed distance to the target in map units. Summed over held steps.
+    ``d`` its signed distance to the target in map units. Summed over held steps. On
+    truncation a learner still in play also gets ``timeout_reward`` (default 0; -1 scores
+    running out the clock as a loss, as in the reach-avoid game, where only arrival wins).
 
     **Termination**: the learner is captured or arrives (the episode ends there even if
     teammates play on). **Truncation**: ``max_cycles`` env steps (default: the scenario's
@@ -248,6 +278,7 @@ class SingleAttackerEnv(gymnasium.Env, EzPickle):
 
     ``reset(seed=, options=)`` takes ``ReachAvoidEnv``'s options (a scenario with the same
     player counts, start positions). ``game`` is the underlying ``ReachAvoidEnv``.
+    ``scripted_every``: see the module docstring.
     Policies keep their own randomness: a seeded reset reseeds the env, not them.
     """
 
@@ -259,12 +290,16 @@ class SingleAttackerEnv(gymnasium.Env, EzPickle):
     def __init__(self, defenders: PolicySource, scenario: str | Scenario = "paper_2v1",
                  attacker: int = 0, teammates: PolicySource | None = None,
                  max_cycles: int | None = None, render_mode: str | None = None,
-                 shaping: float = 0.0, action_repeat: int = 1, render_width: int = 640) -> None:
+                 shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
+                 scripted_every: int = 1, render_width: int = 640) -> None:
         EzPickle.__init__(self, defenders, scenario=scenario, attacker=attacker,
                           teammates=teammates, max_cycles=max_cycles, render_mode=render_mode,
-                          shaping=shaping, action_repeat=action_repeat,
+                          shaping=shaping, timeout_reward=timeout_reward,
+                          action_repeat=action_repeat, scripted_every=scripted_every,
                           render_width=render_width)
-        self.action_repeat = _check_repeat(action_repeat)
+        self.timeout_reward = _check_finite(timeout_reward, "timeout_reward")
+        self.action_repeat = _check_positive(action_repeat, "action_repeat")
+        self.scripted_every = _check_positive(scripted_every, "scripted_every")
         game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
                              shaping=shaping, render_width=render_width)
         base = game.base_scenario
@@ -286,7 +321,7 @@ class SingleAttackerEnv(gymnasium.Env, EzPickle):
             self.teammates = build_policy(teammates, base, "teammates")
             others = frozenset(base.attacker_names) - {self.learner}
             scripted.append((self.teammates, others))
-        self._core = _Scripted(game, scripted)
+        self._core = _Scripted(game, scripted, self.scripted_every)
         self.observation_space = game.observation_space(self.learner)
         self.action_space = game.action_space(self.learner)
 
@@ -307,6 +342,8 @@ class SingleAttackerEnv(gymnasium.Env, EzPickle):
             terminated, truncated = terminations[learner], truncations[learner]
             if terminated or truncated:
                 break
+        if truncated:
+            total += self.timeout_reward
         info = infos[learner]
         if terminated or truncated:
             info["is_success"] = info["status"] is AttackerStatus.ARRIVED

@@ -138,6 +138,19 @@ def test_defender_policy_is_reset_with_the_episode_scenario_and_acts_every_env_s
     assert recorder.steps == [0, 1]
 
 
+def test_scripted_every_holds_scripted_actions_and_redecides_when_a_player_leaves():
+    recorder = Recorder()
+    env = AttackerParallelEnv(recorder, scenario="paper_2v1", scripted_every=20)
+    env.reset(seed=0, options={"attackers": [[0.55, 0.2], [-0.5, 0.0]]})
+    for _ in range(55):
+        env.step({name: np.array([1.0, 0.0], dtype=np.float32) for name in env.agents})
+    arrival = recorder.steps[1]
+    assert env.agents == ["attacker_1"] and 0 < arrival < 20
+    assert recorder.steps == [0, arrival, arrival + 20, arrival + 40]
+    with pytest.raises(ValueError, match="scripted_every"):
+        SingleAttackerEnv(recorder, scenario="paper_1v1", scripted_every=0)
+
+
 def test_parallel_step_errors_name_the_agent():
     env = AttackerParallelEnv(GreedyDefender(), scenario="paper_2v1")
     env.reset(seed=0)
@@ -216,13 +229,26 @@ def test_learner_arrives_running_at_the_target_past_idle_defenders():
     assert env.game_state().attacker_status[0] is AttackerStatus.ACTIVE  # teammate plays on
 
 
-def test_episode_truncates_after_max_cycles_env_steps():
+def test_episode_truncates_after_max_cycles_env_steps_with_the_timeout_reward():
     env = SingleAttackerEnv(IdleDefender(), scenario="paper_1v1", max_cycles=25,
-                            action_repeat=10)
+                            action_repeat=10, timeout_reward=-1.0)
     env.reset(seed=0)
-    flags = [env.step(np.zeros(2, dtype=np.float32))[2:4] for _ in range(3)]
-    assert flags == [(False, False), (False, False), (False, True)]
+    steps = [env.step(np.zeros(2, dtype=np.float32))[1:4] for _ in range(3)]
+    assert steps == [(0.0, False, False), (0.0, False, False), (-1.0, False, True)]
     assert env.game_state().step == 25
+
+
+def test_parallel_timeout_reward_goes_to_attackers_still_in_play():
+    env = AttackerParallelEnv(IdleDefender(), scenario="paper_2v1", max_cycles=30,
+                              timeout_reward=-0.5, action_repeat=20)
+    env.reset(seed=0, options={"attackers": [[0.55, 0.2], [-0.5, 0.0]]})
+    _, rewards, terminations, _, _ = env.step(
+        {"attacker_0": np.array([1.0, 0.0], np.float32), "attacker_1": np.zeros(2)})
+    assert rewards == {"attacker_0": 1.0, "attacker_1": 0.0} and terminations["attacker_0"]
+    _, rewards, _, truncations, _ = env.step({"attacker_1": np.zeros(2)})
+    assert rewards == {"attacker_1": -0.5} and truncations == {"attacker_1": True}
+    with pytest.raises(ValueError, match="timeout_reward"):
+        AttackerParallelEnv(IdleDefender(), timeout_reward=float("nan"))
 
 
 def test_teammates_move_the_other_attackers():
@@ -264,12 +290,13 @@ def test_rgb_render_draws_the_defenders_overlay():
 def test_pickled_envs_rebuild_from_their_arguments():
     single = SingleAttackerEnv(greedy_factory, scenario="paper_2v1",
                                teammates=straight_factory, action_repeat=3)
-    parallel = AttackerParallelEnv(greedy_factory, scenario="paper_6v2", shaping=0.5)
+    parallel = AttackerParallelEnv(greedy_factory, scenario="paper_6v2", shaping=0.5,
+                                   scripted_every=4)
     for env in (single, parallel):
         copy = pickle.loads(pickle.dumps(env))
         first, second = env.reset(seed=2), copy.reset(seed=2)
         assert repr(first) == repr(second)
-    assert copy.game.shaping == 0.5
+    assert copy.game.shaping == 0.5 and copy.scripted_every == 4
     assert pickle.loads(pickle.dumps(single)).action_repeat == 3
 
 
