@@ -4,14 +4,22 @@ Importing the package registers the attacker-training envs with Gymnasium and Pe
 (``policies.training``).
 """
 
-from policies.attackers import RandomAttacker, ShortestPathAttacker, StraightAttacker
+from policies.attackers import HJAttacker, RandomAttacker, ShortestPathAttacker, StraightAttacker
 from policies.base import Policy, overlay_of
-from policies.defenders import GreedyDefender, IdleDefender
+from policies.defenders import (
+    GreedyDefender,
+    HJDefenderPolicy,
+    IdleDefender,
+    MatchingDefenderPolicy,
+)
 from policies.training import make_attacker_env, make_attackers_parallel_env
 
 __all__ = [
     "GreedyDefender",
+    "HJAttacker",
+    "HJDefenderPolicy",
     "IdleDefender",
+    "MatchingDefenderPolicy",
     "Policy",
     "RandomAttacker",
     "ShortestPathAttacker",

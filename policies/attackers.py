@@ -11,6 +11,7 @@ import numpy as np
 
 from policies.geodesic import DEFAULT_CELLS, DistanceField, distance_field
 from reachavoid_env import GameMap, GameState, Scenario
+from solvers.hj import ValueFunction, solve_1v1
 
 
 def target_centres(game_map: GameMap, samples: int = 41) -> np.ndarray:
@@ -91,6 +92,50 @@ class RandomAttacker:
             self._drawn_at = state.step
         return {f"attacker_{i}": self._headings[i].copy()
                 for i in np.flatnonzero(state.active_attackers)}
+
+
+class HJAttacker:
+    """Every attacker plays the 1 vs 1 optimal control against its most dangerous defender.
+
+    The most dangerous defender of attacker ``i`` is the one with the largest 1 vs 1 value
+    ``V11(a_i, d_j)`` (the one it is furthest from beating). The heading is
+    ``-p_A / |p_A|`` of that game; where the gradient vanishes the attacker heads straight
+    for the nearest target centre.
+    """
+
+    def __init__(self, vf11: ValueFunction) -> None:
+        if vf11.game != "1v1":
+            raise ValueError(f"vf11: expected a 1v1 value function, got {vf11.game!r}")
+        self.vf11 = vf11
+        self._straight = StraightAttacker()
+
+    @classmethod
+    def for_scenario(cls, scenario: Scenario, grid1: int = 45,
+                     progress: bool = True) -> HJAttacker:
+        """Load (or solve and cache) the scenario's 1 vs 1 tube."""
+        vf11 = solve_1v1(scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
+                         capture_radius=scenario.capture_radius, grid_points=grid1,
+                         progress=progress)
+        return cls(vf11)
+
+    def reset(self, scenario: Scenario) -> None:
+        self._straight.reset(scenario)
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]:
+        actions = self._straight.act(state)
+        active = np.flatnonzero(state.active_attackers)
+        if len(active) == 0:
+            return actions
+        attackers, defenders = state.attacker_positions[active], state.defender_positions
+        m, n = len(active), len(defenders)
+        states = np.concatenate([np.broadcast_to(attackers[:, None], (m, n, 2)),
+                                 np.broadcast_to(defenders[None], (m, n, 2))], axis=-1)
+        danger = np.argmax(self.vf11.value(states), axis=1)
+        controls = self.vf11.attacker_control(states[np.arange(m), danger])
+        for k, i in enumerate(active):
+            if np.linalg.norm(controls[k]) > 0:
+                actions[f"attacker_{i}"] = controls[k].astype(np.float32)
+        return actions
 
 
 class ShortestPathAttacker:

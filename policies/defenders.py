@@ -7,9 +7,13 @@ defender's speed) for every defender.
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 import numpy as np
 
 from reachavoid_env import GameState, Overlay, Scenario
+from solvers.assignment import Assignment, AssignmentSolver
+from solvers.hj import ValueFunction, solve_1v1, solve_2v1
 
 
 class IdleDefender:
@@ -53,3 +57,231 @@ class GreedyDefender:
 
     def overlay(self) -> Overlay:
         return Overlay(edges=self._edges)
+
+
+def pair_states(attackers: np.ndarray, defenders: np.ndarray) -> np.ndarray:
+    """1 vs 1 states ``(M, N, 4)``: every attacker against every defender, axes
+    ``(xA, yA, xD, yD)``."""
+    m, n = len(attackers), len(defenders)
+    return np.concatenate([np.broadcast_to(attackers[:, None, :], (m, n, 2)),
+                           np.broadcast_to(defenders[None, :, :], (m, n, 2))], axis=-1)
+
+
+def triple_states(attackers: np.ndarray, pairs: np.ndarray, defenders: np.ndarray) -> np.ndarray:
+    """2 vs 1 states ``(P, N, 6)`` for attacker index pairs ``(P, 2)`` against every defender,
+    axes ``(xA1, yA1, xA2, yA2, xD, yD)``."""
+    p, n = len(pairs), len(defenders)
+    first = np.broadcast_to(attackers[pairs[:, 0]][:, None, :], (p, n, 2))
+    second = np.broadcast_to(attackers[pairs[:, 1]][:, None, :], (p, n, 2))
+    return np.concatenate([first, second, np.broadcast_to(defenders[None], (p, n, 2))], axis=-1)
+
+
+def _heading(control: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """``control`` where it is non-zero, else the unit vector along ``fallback``."""
+    if np.linalg.norm(control) > 0:
+        return control.astype(np.float32)
+    length = np.linalg.norm(fallback)
+    return (fallback / length if length > 0 else np.zeros(2)).astype(np.float32)
+
+
+class _AssignmentDefender(ABC):
+    """Shared machinery of the HJ + MIP defenders and the matching baseline.
+
+    Each step it reads the 1 vs 1 tube (and the 2 vs 1 tube for the MIP) at the current
+    positions (multilinear interpolation), solves the assignment, and drives each assigned
+    defender by the optimal control of its game. ``solver`` (an ``AssignmentSolver``)
+    counts the solves and the reused answers.
+    """
+
+    def __init__(self, vf11: ValueFunction, vf21: ValueFunction | None, method: str) -> None:
+        self.vf11 = vf11
+        self.vf21 = vf21
+        self.solver = AssignmentSolver(method)
+        self._assignment: Assignment | None = None
+        self._names: list[str] = []
+
+    def reset(self, scenario: Scenario) -> None:
+        _check_tube(self.vf11, scenario, "vf11")
+        self.solver.reset()
+        self._assignment = None
+
+    @property
+    def assignment(self) -> list[tuple[str, str]]:
+        """The current ``(defender, attacker)`` assignment edges."""
+        if self._assignment is None:
+            return []
+        return [(f"defender_{j}", f"attacker_{i}") for i, j in self._assignment.pairs]
+
+    def overlay(self) -> Overlay:
+        return Overlay(edges=tuple(self.assignment))
+
+    def _beats_1v1(self, state: GameState) -> np.ndarray:
+        states = pair_states(state.attacker_positions, state.defender_positions)
+        return self.vf11.value(states) <= 0.0
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]:
+        active = state.active_attackers
+        names = state.defender_names
+        if not active.any():
+            self._assignment = None
+            return {name: np.zeros(2, dtype=np.float32) for name in names}
+        beats = self._beats_1v1(state)
+        self._assignment = self._assign(state, beats, active)
+        attackers, defenders = state.attacker_positions, state.defender_positions
+        actions = {}
+        for j, name in enumerate(names):
+            mine = self._assignment.by_defender[j]
+            if len(mine) == 2:
+                x = np.concatenate([attackers[mine[0]], attackers[mine[1]], defenders[j]])
+                assert self.vf21 is not None, "only the MIP assigns two attackers"
+                control = self.vf21.defender_control(x[None])[0]
+                nearer = min(mine, key=lambda i: np.linalg.norm(attackers[i] - defenders[j]))
+                actions[name] = _heading(control, attackers[nearer] - defenders[j])
+            elif len(mine) == 1:
+                x = np.concatenate([attackers[mine[0]], defenders[j]])
+                control = self.vf11.defender_control(x[None])[0]
+                actions[name] = _heading(control, attackers[mine[0]] - defenders[j])
+            else:
+                actions[name] = self._idle_action(state, j, beats)
+        return actions
+
+    @abstractmethod
+    def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
+        """The assignment for this step from the 1 vs 1 table ``beats (M, N)``."""
+
+    @abstractmethod
+    def _idle_action(self, state: GameState, j: int, beats: np.ndarray) -> np.ndarray:
+        """The action of defender ``j`` when nobody is assigned to it."""
+
+
+def _check_tube(vf: ValueFunction, scenario: Scenario, name: str) -> None:
+    """Refuse a tube solved for another map, other speeds or another capture radius."""
+    mismatches = [
+        field for field, ours, theirs in (
+            ("attacker_speed", scenario.attacker_speed, vf.attacker_speed),
+            ("defender_speed", scenario.defender_speed, vf.defender_speed),
+            ("capture_radius", scenario.capture_radius, vf.capture_radius),
+        ) if not np.isclose(ours, theirs)
+    ]
+    if vf.game_map.to_dict() != scenario.map.to_dict():
+        mismatches.append("map")
+    if mismatches:
+        raise ValueError(f"{name}: the value function was solved for another game "
+                         f"(differs in {', '.join(mismatches)}) than scenario {scenario.name!r}")
+
+
+class HJDefenderPolicy(_AssignmentDefender):
+    """The paper's iterative capture algorithm (Algorithm 1): HJ tubes + the assignment MIP.
+
+    Every step: ``I_j`` from the 1 vs 1 tube, ``P_j`` from the 2 vs 1 tube at the current
+    positions, the MIP (c1)-(c5) solved to optimality on CP-SAT; a defender with two
+    attackers plays the 2 vs 1 optimal control, with one the 1 vs 1 optimal control.
+
+    ``idle`` says what an unassigned defender does: ``"shadow"`` (default) plays the 1 vs 1
+    optimal control against the unassigned attacker it is best placed against (largest
+    1 vs 1 value; any attacker if none is unassigned), which touches no other defender's
+    guarantee; ``"stand"`` stands still, as in the paper's simulations.
+    ``guaranteed_captures`` is the MIP objective of the last step.
+    """
+
+    def __init__(self, vf11: ValueFunction, vf21: ValueFunction, idle: str = "shadow") -> None:
+        if idle not in ("shadow", "stand"):
+            raise ValueError(f"idle: expected 'shadow' or 'stand', got {idle!r}")
+        if vf11.game != "1v1" or vf21.game != "2v1":
+            raise ValueError(f"vf11, vf21: expected a 1v1 and a 2v1 value function, got "
+                             f"{vf11.game!r} and {vf21.game!r}")
+        super().__init__(vf11, vf21, "mip")
+        self.vf21: ValueFunction = vf21
+        self.idle = idle
+
+    @classmethod
+    def for_scenario(cls, scenario: Scenario, grid1: int = 45, grid2: int = 30,
+                     idle: str = "shadow", progress: bool = True) -> HJDefenderPolicy:
+        """Load (or solve, with a progress bar, and cache) the scenario's tubes."""
+        vf11 = solve_1v1(scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
+                         capture_radius=scenario.capture_radius, grid_points=grid1,
+                         progress=progress)
+        vf21 = solve_2v1(scenario.map, vf11, grid_points=grid2, progress=progress)
+        return cls(vf11, vf21, idle=idle)
+
+    def reset(self, scenario: Scenario) -> None:
+        super().reset(scenario)
+        _check_tube(self.vf21, scenario, "vf21")
+
+    @property
+    def guaranteed_captures(self) -> int:
+        """Attackers the defenders are guaranteed to capture from now on (MIP objective)."""
+        return 0 if self._assignment is None else self._assignment.captures
+
+    def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
+        m, n = beats.shape
+        beats_2v1 = np.zeros((m, m, n), dtype=bool)
+        takers = np.flatnonzero(active & ~beats.all(axis=1))
+        if len(takers) >= 2:
+            first, second = np.triu_indices(len(takers), k=1)
+            pairs = np.stack([takers[first], takers[second]], axis=1)
+            states = triple_states(state.attacker_positions, pairs, state.defender_positions)
+            wins = self.vf21.value(states) <= 0.0
+            beats_2v1[pairs[:, 0], pairs[:, 1]] = wins
+            beats_2v1[pairs[:, 1], pairs[:, 0]] = wins
+        return self.solver.solve(beats, beats_2v1, active)
+
+    def _idle_action(self, state: GameState, j: int, beats: np.ndarray) -> np.ndarray:
+        if self.idle == "stand":
+            return np.zeros(2, dtype=np.float32)
+        assert self._assignment is not None
+        active = state.active_attackers
+        taken = np.zeros(len(active), dtype=bool)
+        for i, _ in self._assignment.pairs:
+            taken[i] = True
+        pool = np.flatnonzero(active & ~taken)
+        if len(pool) == 0:
+            pool = np.flatnonzero(active)
+        attackers, defender = state.attacker_positions, state.defender_positions[j]
+        states = np.concatenate([attackers[pool], np.broadcast_to(defender, (len(pool), 2))],
+                                axis=1)
+        best = int(np.argmax(self.vf11.value(states)))
+        control = self.vf11.defender_control(states[best:best + 1])[0]
+        return _heading(control, attackers[pool[best]] - defender)
+
+
+class MatchingDefenderPolicy(_AssignmentDefender):
+    """The maximum-matching baseline (Chen, Zhou, Tomlin 2014) as the paper ran it.
+
+    Each step a defender is matched to at most one attacker it beats 1 vs 1 (maximum
+    cardinality matching) and plays the 1 vs 1 optimal control against it. Unmatched
+    defenders stand still (``unmatched="stand"``, the paper) or pursue the nearest active
+    attacker (``unmatched="pursue"``).
+    """
+
+    def __init__(self, vf11: ValueFunction, unmatched: str = "stand") -> None:
+        if unmatched not in ("stand", "pursue"):
+            raise ValueError(f"unmatched: expected 'stand' or 'pursue', got {unmatched!r}")
+        if vf11.game != "1v1":
+            raise ValueError(f"vf11: expected a 1v1 value function, got {vf11.game!r}")
+        super().__init__(vf11, None, "matching")
+        self.unmatched = unmatched
+
+    @classmethod
+    def for_scenario(cls, scenario: Scenario, grid1: int = 45, unmatched: str = "stand",
+                     progress: bool = True) -> MatchingDefenderPolicy:
+        """Load (or solve and cache) the scenario's 1 vs 1 tube."""
+        vf11 = solve_1v1(scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
+                         capture_radius=scenario.capture_radius, grid_points=grid1,
+                         progress=progress)
+        return cls(vf11, unmatched=unmatched)
+
+    @property
+    def guaranteed_captures(self) -> int:
+        """Size of the last matching: captures the baseline guarantees from now on."""
+        return 0 if self._assignment is None else self._assignment.captures
+
+    def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
+        return self.solver.solve(beats, None, active)
+
+    def _idle_action(self, state: GameState, j: int, beats: np.ndarray) -> np.ndarray:
+        if self.unmatched == "stand":
+            return np.zeros(2, dtype=np.float32)
+        active = np.flatnonzero(state.active_attackers)
+        gaps = state.attacker_positions[active] - state.defender_positions[j]
+        return _heading(np.zeros(2), gaps[int(np.argmin(np.linalg.norm(gaps, axis=1)))])

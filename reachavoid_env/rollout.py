@@ -20,7 +20,7 @@ from reachavoid_env.scenario import Scenario
 from reachavoid_env.video import VideoWriter, check_video_path
 
 
-class _Policy(Protocol):
+class PolicyLike(Protocol):
     def reset(self, scenario: Scenario) -> None: ...
 
     def act(self, state: GameState) -> dict[str, np.ndarray]: ...
@@ -33,17 +33,27 @@ class EpisodeResult:
     ``steps`` and ``game_time`` (seconds of game time) count to the end of the episode;
     ``captured`` / ``arrived`` list attacker names in name order; ``seconds`` is the wall
     clock time of the whole loop (video encoding included); ``frames`` the video frames
-    written (0 without a video).
+    written (0 without a video). ``num_attackers`` is the number of attackers in the game.
+
+    ``guarantees`` is filled when the defenders report a ``guaranteed_captures`` count (the
+    HJ + MIP defenders do): after each decision, the attackers captured so far plus those
+    guaranteed never to reach the target from then on. The paper's Algorithm 1 promises
+    that this never decreases and that at least that many attackers never arrive. A
+    reach-avoid win of the defender keeps its attacker out of the target, by capture or by
+    delaying it indefinitely, so an attacker still held off when the episode is truncated
+    counts as stopped (``stopped_count``), not as a broken guarantee.
     """
 
     scenario: str
     seed: int | None
+    num_attackers: int
     steps: int
     game_time: float
     captured: tuple[str, ...]
     arrived: tuple[str, ...]
     seconds: float
     frames: int = 0
+    guarantees: tuple[int, ...] = ()
 
     @property
     def captured_count(self) -> int:
@@ -53,11 +63,27 @@ class EpisodeResult:
     def arrived_count(self) -> int:
         return len(self.arrived)
 
+    @property
+    def stopped_count(self) -> int:
+        """Attackers that never reached the target (captured, or held off to the end)."""
+        return self.num_attackers - self.arrived_count
+
+    @property
+    def guarantee_violations(self) -> int:
+        """Decisions whose guarantee was broken: it fell below an earlier one, or more
+        attackers arrived than it allowed."""
+        trace = np.asarray(self.guarantees, dtype=np.int64)
+        if len(trace) == 0:
+            return 0
+        fell = int(np.sum(trace < np.maximum.accumulate(trace)))
+        return fell + int(np.sum(trace > self.stopped_count))
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready fields (design.md section 6, without the policy names)."""
         return {
             "scenario": self.scenario,
             "seed": self.seed,
+            "num_attackers": self.num_attackers,
             "steps": self.steps,
             "game_time": self.game_time,
             "captured": list(self.captured),
@@ -65,7 +91,9 @@ class EpisodeResult:
             "captured_count": self.captured_count,
             "arrived_count": self.arrived_count,
             "seconds": self.seconds,
-        }
+        } | ({"guaranteed_captures_initial": self.guarantees[0],
+              "guaranteed_captures_final": self.guarantees[-1],
+              "guarantee_violations": self.guarantee_violations} if self.guarantees else {})
 
 
 def merged_overlay(*policies: object) -> Overlay | None:
@@ -81,7 +109,7 @@ def merged_overlay(*policies: object) -> Overlay | None:
                    lines=tuple(line for o in overlays for line in o.lines))
 
 
-def run_episode(env: ParallelEnv, attackers: _Policy, defenders: _Policy, *,
+def run_episode(env: ParallelEnv, attackers: PolicyLike, defenders: PolicyLike, *,
                 seed: int | None = None, video: str | os.PathLike[str] | None = None,
                 fps: float | None = None, every: int = 1,
                 progress: bool = False) -> EpisodeResult:
@@ -116,11 +144,15 @@ def run_episode(env: ParallelEnv, attackers: _Policy, defenders: _Policy, *,
             writer.append(env.render())
 
     bar = tqdm(total=scenario.max_steps, unit="step", disable=not progress, leave=False)
+    guarantees: list[int] = []
     try:
         state = game.game_state()
         while env.agents:
             live = set(env.agents)
             actions = {**attackers.act(state), **defenders.act(state)}
+            guaranteed = getattr(defenders, "guaranteed_captures", None)
+            if guaranteed is not None:
+                guarantees.append(len(state.captured) + guaranteed)
             game.set_overlay(merged_overlay(attackers, defenders))
             if state.step % every == 0:
                 show()
@@ -139,10 +171,12 @@ def run_episode(env: ParallelEnv, attackers: _Policy, defenders: _Policy, *,
     return EpisodeResult(
         scenario=scenario.name,
         seed=seed,
+        num_attackers=len(state.attacker_status),
         steps=state.step,
         game_time=state.time,
         captured=tuple(state.captured),
         arrived=tuple(state.arrived),
         seconds=time.perf_counter() - started,
         frames=writer.frames if writer is not None else 0,
+        guarantees=tuple(guarantees),
     )

@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 import os
 import sys
-import tempfile
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
@@ -18,6 +17,7 @@ from typing import Any
 import numpy as np
 import tomli_w
 
+from reachavoid_env.files import atomic_write
 from reachavoid_env.shapes import Box, Circle, Polygon, ShapeError, shape_from_dict
 
 if sys.version_info >= (3, 11):
@@ -426,13 +426,5 @@ def load_scenario(source: str | os.PathLike[str]) -> Scenario:
 
 def save_scenario(scenario: Scenario, path: str | os.PathLike[str]) -> None:
     """Write ``scenario`` as TOML (to a temporary name, then renamed into place)."""
-    path = Path(path)
-    data = scenario.to_dict()
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            tomli_w.dump(data, handle)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_write(path, "wb") as handle:
+        tomli_w.dump(scenario.to_dict(), handle)

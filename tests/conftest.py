@@ -1,6 +1,29 @@
 """Test-wide settings: pygame draws offscreen (PettingZoo's render_test opens "human")."""
 
+import atexit
 import os
+import shutil
+import tempfile
+
+import pytest
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+# Tubes that tests solve through the cache go to a throwaway folder, never ~/.cache.
+_CACHE = tempfile.mkdtemp(prefix="reachavoid-test-cache-")
+os.environ["REACHAVOID_CACHE_DIR"] = _CACHE
+atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
+
+
+@pytest.fixture(scope="session")
+def coarse_tubes():
+    """The paper map's 1 vs 1 (25^4) and 2 vs 1 (13^6) tubes, solved once per test session
+    without touching the on-disk cache (about 10 s on 2 cores)."""
+    import reachavoid_env
+    from solvers.hj import solve_1v1, solve_2v1
+
+    scenario = reachavoid_env.builtin_scenario("paper_2v1")
+    vf11 = solve_1v1(scenario.map, (scenario.attacker_speed, scenario.defender_speed),
+                     scenario.capture_radius, 25, cache=False, progress=False)
+    vf21 = solve_2v1(scenario.map, vf11, 13, cache=False, progress=False)
+    return vf11, vf21

@@ -14,6 +14,8 @@ from reachavoid_env.cli import ATTACKER_POLICIES, DEFENDER_POLICIES, main
 
 JSON_KEYS = ["scenario", "defenders", "attackers", "seed", "steps", "captured", "arrived",
              "captured_count", "arrived_count", "seconds", "game_time", "video"]
+SIMPLE = ("--attackers", "straight", "--defenders", "greedy")
+COARSE = ("--grid1", "21", "--grid2", "11")
 
 
 def play_json(capsys, *args: str) -> dict:
@@ -24,7 +26,7 @@ def play_json(capsys, *args: str) -> dict:
 
 
 def test_play_json(capsys):
-    report = play_json(capsys, "--scenario", "paper_6v2", "--seed", "2")
+    report = play_json(capsys, "--scenario", "paper_6v2", "--seed", "2", *SIMPLE)
     assert list(report) == JSON_KEYS
     assert report["scenario"] == "paper_6v2" and report["seed"] == 2
     assert (report["attackers"], report["defenders"]) == ("straight", "greedy")
@@ -39,12 +41,19 @@ def test_play_json(capsys):
 @pytest.mark.parametrize("defenders", list(DEFENDER_POLICIES))
 def test_every_policy_choice_plays(capsys, attackers, defenders):
     report = play_json(capsys, "--scenario", "paper_2v1", "--attackers", attackers,
-                       "--defenders", defenders)
+                       "--defenders", defenders, *COARSE)
     assert (report["attackers"], report["defenders"]) == (attackers, defenders)
+    if defenders in ("hj", "matching"):
+        promised = {"hj": 2, "matching": 1}[defenders]
+        assert report["guaranteed_captures_initial"] == promised
+        assert report["guaranteed_captures_final"] >= promised
+    else:
+        assert "guaranteed_captures_initial" not in report
 
 
 def test_seeded_random_play_repeats(capsys):
-    args = ("--scenario", "paper_6v2", "--attackers", "random", "--seed", "7")
+    args = ("--scenario", "paper_6v2", "--attackers", "random", "--defenders", "greedy",
+            "--seed", "7")
     first, again = play_json(capsys, *args), play_json(capsys, *args)
     first.pop("seconds"), again.pop("seconds")
     assert first == again
@@ -53,7 +62,8 @@ def test_seeded_random_play_repeats(capsys):
 def test_scenario_file_and_human_summary(tmp_path, capsys):
     path = tmp_path / "mine.toml"
     save_scenario(builtin_scenario("paper_2v1"), path)
-    assert main(["play", "--scenario", str(path), "--defenders", "idle"]) == 0
+    assert main(["play", "--scenario", str(path), "--defenders", "idle", "--attackers",
+                 "straight"]) == 0
     out, _ = capsys.readouterr()
     assert out.startswith("paper_2v1 (seed 0): idle defenders vs straight attackers")
     assert "arrived  2: attacker_0, attacker_1" in out
@@ -62,7 +72,7 @@ def test_scenario_file_and_human_summary(tmp_path, capsys):
 def test_play_writes_a_video(tmp_path, capsys):
     path = tmp_path / "out.mp4"
     report = play_json(capsys, "--scenario", "paper_2v1", "--video", str(path), "--every", "4",
-                       "--width", "320")
+                       "--width", "320", *SIMPLE)
     frames = iio.imread(path)
     assert report["video"] == str(path)
     assert len(frames) == len(range(0, report["steps"], 4)) + 1
@@ -117,7 +127,8 @@ def test_bad_scenario_files(capsys, tmp_path, text, message):
 def test_help_exits_zero(capsys):
     assert main(["play", "--help"]) == 0
     out, _ = capsys.readouterr()
-    assert "--attackers {straight,random}" in out and "greedy: chase" in out
+    assert "--attackers {shortest-path,hj,straight,random}" in out and "greedy: chase" in out
+    assert "--grid1 N" in out
 
 
 def test_console_process_reports_errors_without_traceback(tmp_path):
@@ -125,6 +136,51 @@ def test_console_process_reports_errors_without_traceback(tmp_path):
                           write(tmp_path, "[map")], capture_output=True, text=True)
     assert bad.returncode == 2
     assert "malformed TOML" in bad.stderr and "Traceback" not in bad.stderr
-    good = subprocess.run([sys.executable, "-m", "reachavoid_env.cli", "play", "--json"],
-                          capture_output=True, text=True)
+    good = subprocess.run([sys.executable, "-m", "reachavoid_env.cli", "play", "--json",
+                           *SIMPLE], capture_output=True, text=True)
     assert good.returncode == 0 and json.loads(good.stdout)["scenario"] == "paper_6v2"
+
+
+def test_bench_compares_methods_on_the_same_starts(tmp_path, capsys):
+    path = tmp_path / "episodes.csv"
+    args = ["bench", "--config", "3v1", "--episodes", "3", "--seed", "5", "--defenders",
+            "hj,matching,greedy", "--attackers", "shortest-path", "--csv", str(path), *COARSE]
+    assert main([*args, "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert [m["label"] for m in report["methods"]] == ["hj", "matching", "greedy"]
+    for method in report["methods"]:
+        low, high = method["capture_rate_ci"]
+        assert 0.0 <= low <= method["capture_rate"] <= high <= 1.0
+        assert method["episodes"] == 3 and method["attackers"] == 3
+    assert report["methods"][0]["guaranteed_initial"] is not None
+    assert report["methods"][2]["guaranteed_initial"] is None
+    rows = path.read_text().splitlines()
+    assert len(rows) == 1 + 9 and rows[0].startswith("defenders,attackers,scenario,seed")
+    assert main(args) == 0
+    table = capsys.readouterr().out
+    assert "capture rate [95% CI]" in table and "matching" in table
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["bench", "--config", "six"], "--config: expected MvN"),
+    (["bench", "--defenders", "hj,nobody"], "--defenders: unknown method(s) ['nobody']"),
+    (["bench", "--episodes", "0"], "--episodes: must be a positive integer"),
+    (["play", "--grid2", "2"], "--grid2: need at least 5 nodes"),
+])
+def test_bench_and_grid_errors(capsys, args, message):
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err
+
+
+def test_paper_command_writes_table_and_figure(tmp_path, capsys):
+    out = tmp_path / "paper"
+    assert main(["paper", "--out", str(out), "--no-video", *COARSE]) == 0
+    printed = capsys.readouterr().out
+    table = json.loads((out / "table.json").read_text())
+    assert list(table) == ["paper_2v1", "paper_6v2", "paper_8v4"]
+    assert table["paper_2v1"]["paper"] == {"hj": 2, "matching": 1}
+    for row in table.values():
+        assert row["hj"]["captured_count"] >= row["hj"]["guaranteed_captures_initial"] - 1
+    assert (out / "tubes.png").stat().st_size > 10_000
+    assert "2v1" in printed and "baseline" in printed

@@ -1,0 +1,75 @@
+"""Benchmark: per-step decision latency of the defender policies (BENCHMARKS.md, "Policies").
+
+One decision is ``defenders.act(state)``: the 1 vs 1 and 2 vs 1 tube lookups at the current
+positions, the assignment (CP-SAT MIP or matching, reused when its inputs are unchanged)
+and the optimal controls. Episodes are the paper's 8 vs 4 game and seeded random 8 vs 4
+starts, played by shortest-path attackers. Reported: p50, p90, p99 and max over all
+decisions, with the share of steps that re-solved the assignment.
+
+    python benchmarks/policy_latency.py [--grid1 45] [--grid2 30] [--episodes 10]
+
+The tubes are loaded from the cache (solved once if missing).
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+
+import numpy as np
+
+import reachavoid_env
+from policies import HJDefenderPolicy, MatchingDefenderPolicy, ShortestPathAttacker
+
+
+def decision_times(env, defenders, episodes: int) -> tuple[np.ndarray, int]:
+    """Wall times (s) of every ``defenders.act`` call over ``episodes`` episodes."""
+    attackers = ShortestPathAttacker()
+    times = []
+    for seed in range(episodes):
+        env.reset(seed=seed)
+        scenario = env.unwrapped.scenario
+        attackers.reset(scenario)
+        defenders.reset(scenario)
+        while env.agents:
+            state = env.unwrapped.game_state()
+            started = time.perf_counter()
+            actions = defenders.act(state)
+            times.append(time.perf_counter() - started)
+            actions.update(attackers.act(state))
+            live = set(env.agents)
+            env.step({agent: a for agent, a in actions.items() if agent in live})
+    return np.asarray(times), len(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--grid1", type=int, default=45)
+    parser.add_argument("--grid2", type=int, default=30)
+    parser.add_argument("--episodes", type=int, default=10)
+    args = parser.parse_args()
+
+    paper = reachavoid_env.builtin_scenario("paper_8v4")
+    reference = HJDefenderPolicy.for_scenario(paper, grid1=args.grid1, grid2=args.grid2)
+    policies = {"hj (MIP)": reference, "matching": MatchingDefenderPolicy(reference.vf11)}
+    print(f"machine: {platform.processor() or platform.machine()}, "
+          f"tubes {args.grid1}^4 and {args.grid2}^6")
+    print(f"{'policy':<10} {'games':<22} {'decisions':>9} {'p50 ms':>8} {'p90 ms':>8} "
+          f"{'p99 ms':>8} {'max ms':>8} {'solves':>7}")
+    for label, policy in policies.items():
+        for games, scenario, episodes in (("paper_8v4", paper, 1),
+                                          ("random 8v4", paper.with_players(8, 4),
+                                           args.episodes)):
+            env = reachavoid_env.parallel_env(scenario=scenario)
+            decision_times(env, policy, 1)  # numba compile and first page-ins
+            solver = policy.solver
+            solves_before = solver.solves
+            times, count = decision_times(env, policy, episodes)
+            p50, p90, p99 = np.percentile(times, [50, 90, 99]) * 1e3
+            print(f"{label:<10} {games:<22} {count:>9} {p50:>8.3f} {p90:>8.3f} {p99:>8.3f} "
+                  f"{times.max() * 1e3:>8.3f} {(solver.solves - solves_before) / count:>7.1%}")
+
+
+if __name__ == "__main__":
+    main()
