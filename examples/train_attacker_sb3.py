@@ -7,8 +7,10 @@ Needs the ``rl`` extra (``pip install -e '.[rl]'``: torch and stable-baselines3)
 
 By default the game is ``paper_1v1`` with random starts (``--fixed-starts`` keeps the
 scenario's), one env step is held for ``--action-repeat 10`` steps of the game (0.05 s),
-and the reward has the potential-based progress term (``--shaping 1``). The defenders'
-HJ tubes are solved once (``--grid1``/``--grid2`` nodes per axis) and cached on disk.
+the reward has the potential-based progress term (``--shaping 1``), and still being in
+play at the time limit scores -1 like a capture (``--timeout-reward -1``: in the game
+only arrival wins, so hiding from the defenders earns nothing). The defenders' HJ tubes
+are solved once (``--grid1``/``--grid2`` nodes per axis) and cached on disk.
 
 Writes into ``--out``: ``model.zip`` (the PPO policy), ``report.json`` (arrival, capture
 and timeout rates over ``--episodes`` evaluation episodes of the trained attacker, a
@@ -67,6 +69,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="game steps per agent step (default: %(default)s)")
     parser.add_argument("--shaping", type=float, default=1.0,
                         help="weight of the progress reward (default: %(default)s)")
+    parser.add_argument("--timeout-reward", type=float, default=-1.0,
+                        help="reward for still being in play at the time limit; -1 scores "
+                             "it as a loss, as in the game (default: %(default)s)")
     parser.add_argument("--episodes", type=int, default=100,
                         help="evaluation episodes per attacker (default: %(default)s)")
     parser.add_argument("--seed", type=int, default=0, help="seed (default: %(default)s)")
@@ -91,7 +96,8 @@ def env_kwargs(args: argparse.Namespace, scenario: Scenario) -> dict[str, Any]:
     options = ({"grid1": args.grid1, "grid2": args.grid2, "progress": False}
                if args.defenders == "hj" else None)
     return {"scenario": scenario, "defenders": args.defenders, "defender_options": options,
-            "action_repeat": args.action_repeat, "shaping": args.shaping}
+            "action_repeat": args.action_repeat, "shaping": args.shaping,
+            "timeout_reward": args.timeout_reward}
 
 
 def evaluate(kwargs: dict[str, Any], act: Act, episodes: int) -> dict[str, float]:
@@ -186,7 +192,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         "scenario": scenario.name, "defenders": args.defenders,
         "grids": [args.grid1, args.grid2] if args.defenders == "hj" else None,
         "timesteps": args.timesteps, "seed": args.seed, "action_repeat": args.action_repeat,
-        "shaping": args.shaping, "episodes": args.episodes,
+        "shaping": args.shaping, "timeout_reward": args.timeout_reward,
+        "episodes": args.episodes,
         "eval_seeds": [EVAL_SEED, EVAL_SEED + args.episodes - 1],
     }
     for name, act in (("trained", model_act(model)), ("random", random_act(args.seed)),

@@ -176,8 +176,9 @@ def test_train_attacker_example_beats_random(tmp_path):
     from stable_baselines3 import PPO
 
     train = example("train_attacker_sb3")
-    report = train.main(["--defenders", "idle", "--timesteps", "3072", "--envs", "2",
-                         "--episodes", "20", "--seed", "0", "--out", str(tmp_path)])
+    report = train.main(["--defenders", "idle", "--timesteps", "4096", "--envs", "2",
+                         "--timeout-reward", "0", "--episodes", "20", "--seed", "0",
+                         "--out", str(tmp_path)])
     assert report["trained"]["arrived_rate"] > report["random"]["arrived_rate"]
     assert json.loads((tmp_path / "report.json").read_text()) == report
     assert (tmp_path / "trained.mp4").stat().st_size > 0
