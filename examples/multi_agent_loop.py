@@ -4,7 +4,7 @@ The attacker-only env (``reachavoid/Attackers-v0``) moves the defenders itself; 
 attacker is driven by a hook, a callable ``observation -> action`` (a float32 ``(2,)``
 velocity in ``[-1, 1]``). Plug a trained network in here, one per attacker or shared:
 
-    python examples/multi_agent_loop.py --scenario paper_6v2 --defenders greedy
+    python examples/multi_agent_loop.py --scenario paper_6v2 --defenders hj
     python examples/multi_agent_loop.py --scenario paper_1v1 --policy runs/attacker/model.zip
 
 ``--policy toward-target`` (default) steers each attacker straight at the target from its
@@ -78,7 +78,7 @@ def play(env: pettingzoo.ParallelEnv, hooks: Mapping[str, Hook], seed: int,
 def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--scenario", default="paper_6v2", help="built-in name or TOML file")
-    parser.add_argument("--defenders", default="greedy", choices=DEFENDERS)
+    parser.add_argument("--defenders", default="hj", choices=DEFENDERS)
     parser.add_argument("--grid1", type=int, default=31, help="hj defenders' 1v1 grid")
     parser.add_argument("--grid2", type=int, default=15, help="hj defenders' 2v1 grid")
     parser.add_argument("--policy", default="toward-target",

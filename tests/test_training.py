@@ -16,7 +16,13 @@ import pettingzoo
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from policies import GreedyDefender, IdleDefender, RandomAttacker, StraightAttacker
+from policies import (
+    GreedyDefender,
+    HJDefenderPolicy,
+    IdleDefender,
+    RandomAttacker,
+    StraightAttacker,
+)
 from policies.training import (
     ATTACKERS,
     DEFENDERS,
@@ -33,6 +39,9 @@ from reachavoid_env import builtin_names, builtin_scenario
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 
 ROOT = Path(__file__).resolve().parents[1]
+# Tubes coarse enough to solve in seconds (conftest.py points the cache at a throwaway
+# folder, so each grid is solved once per test session).
+COARSE = {"grid1": 11, "grid2": 7, "progress": False}
 
 
 def example(name: str):
@@ -85,14 +94,10 @@ def test_defaults_are_hj_defenders_and_shortest_path_teammates():
     assert type(env.teammates).__name__ == "ShortestPathAttacker"
 
 
-def test_hj_defenders_by_name(monkeypatch, tmp_path):
-    defenders = pytest.importorskip("policies.defenders")
-    if not hasattr(defenders, "HJDefenderPolicy"):
-        pytest.skip("HJDefenderPolicy has not landed")
-    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path))
-    env = make_attackers_parallel_env(
-        "paper_2v1", defender_options={"grid1": 11, "grid2": 7, "progress": False})
-    assert isinstance(env.defenders, defenders.HJDefenderPolicy)
+def test_hj_defenders_by_name():
+    env = make_attackers_parallel_env("paper_2v1", defender_options=COARSE)
+    assert isinstance(env.defenders, HJDefenderPolicy)
+    assert env.defenders.vf11.grid.shape == (11,) * 4
     env.reset(seed=0)
     env.step({name: np.zeros(2, dtype=np.float32) for name in env.agents})
     assert all(d.startswith("defender_") and a.startswith("attacker_")
@@ -110,9 +115,10 @@ def test_gymnasium_ids_are_registered_for_every_builtin():
 
 
 def test_check_env_through_the_registry():
-    env = gymnasium.make(gym_id("paper_2v1"), defenders="greedy", action_repeat=5)
+    env = gymnasium.make(gym_id("paper_2v1"), defender_options=COARSE, action_repeat=5)
     inner = env.unwrapped
     assert isinstance(inner, SingleAttackerEnv) and inner.action_repeat == 5
+    assert isinstance(inner.defenders, HJDefenderPolicy)
     assert env.observation_space.shape == (11,)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -123,7 +129,7 @@ def test_check_env_through_the_registry():
 @pytest.mark.parametrize("mode", ["sync", "async"])
 def test_make_vec(mode):
     envs = gymnasium.make_vec(gym_id("paper_1v1"), num_envs=2, vectorization_mode=mode,
-                              defenders="greedy", action_repeat=25)
+                              defender_options=COARSE, action_repeat=25)
     try:
         obs, _ = envs.reset(seed=0)
         assert obs.shape == (2, 8)
@@ -133,6 +139,7 @@ def test_make_vec(mode):
                 np.zeros((2, 2), dtype=np.float32))
             finished += int((terminated | truncated).sum())
         assert finished >= 2  # standing still, each env's attacker is caught at least once
+        assert envs.call("defenders")[0].vf21.grid.shape == (7,) * 6
     finally:
         envs.close()
 
@@ -155,8 +162,8 @@ def test_pettingzoo_id():
 # ------------------------------------------------------------------ examples
 def test_multi_agent_loop_example(capsys):
     loop = example("multi_agent_loop")
-    results = loop.main(["--scenario", "paper_6v2", "--defenders", "greedy",
-                         "--episodes", "1"])
+    results = loop.main(["--scenario", "paper_6v2", "--defenders", "hj", "--grid1", "11",
+                         "--grid2", "7", "--episodes", "1"])
     assert set(results[0]["outcome"]) == {f"attacker_{i}" for i in range(6)}
     assert "episode 0:" in capsys.readouterr().out
 
@@ -170,8 +177,19 @@ def test_toward_target_hook_reads_positions_from_observations():
     assert result["returns"]["attacker_0"] == 1.0
 
 
+def test_train_attacker_example_runs_against_hj_defenders(tmp_path):
+    pytest.importorskip("stable_baselines3")
+    train = example("train_attacker_sb3")
+    report = train.main(["--grid1", "11", "--grid2", "7", "--timesteps", "256", "--envs", "1",
+                         "--episodes", "2", "--no-video", "--out", str(tmp_path)])
+    assert report["defenders"] == "hj" and report["grids"] == [11, 7]
+    for attacker in ("trained", "random", "shortest-path"):
+        assert sum(report[attacker].values()) == pytest.approx(1.0)
+
+
 def test_train_attacker_example_beats_random(tmp_path):
-    """PPO smoke run (a few thousand steps) through the example, as written."""
+    """PPO smoke run (a few thousand steps) through the example, as written. The defenders
+    stand still, so that so short a run learns something a test can check."""
     pytest.importorskip("stable_baselines3")
     from stable_baselines3 import PPO
 

@@ -14,7 +14,7 @@ from gymnasium.utils.env_checker import check_env
 from pettingzoo.test import api_test, parallel_api_test
 from pettingzoo.utils import parallel_to_aec
 
-from policies import GreedyDefender, IdleDefender, StraightAttacker
+from policies import GreedyDefender, HJDefenderPolicy, IdleDefender, StraightAttacker
 from reachavoid_env import AttackerStatus, builtin_scenario
 from reachavoid_env.env import ReachAvoidEnv
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv, build_policy
@@ -33,6 +33,18 @@ def checked(check, *args, **kwargs) -> None:
         check(*args, **kwargs)
     messages = [str(w.message) for w in caught if w.category is not DeprecationWarning]
     assert messages == []
+
+
+@pytest.fixture
+def hj(coarse_tubes):
+    """A fresh HJ + MIP defender policy on the paper map's coarse tubes (25^4, 13^6)."""
+    return HJDefenderPolicy(*coarse_tubes)
+
+
+def reference_defenders(scenario, coarse_tubes):
+    """HJ defenders where the tubes fit the scenario (the paper's map, speeds and capture
+    radius), greedy ones otherwise."""
+    return GreedyDefender() if scenario is CROWDED else HJDefenderPolicy(*coarse_tubes)
 
 
 def greedy_factory(scenario):
@@ -61,20 +73,22 @@ class Recorder:
 # ------------------------------------------------------------------ parallel env
 @pytest.mark.parametrize("scenario", ["paper_2v1", "paper_6v2", CROWDED_PARAM])
 @pytest.mark.parametrize("repeat", [1, 3])
-def test_parallel_api(scenario, repeat):
-    env = AttackerParallelEnv(GreedyDefender(), scenario=scenario, action_repeat=repeat)
+def test_parallel_api(scenario, repeat, coarse_tubes):
+    env = AttackerParallelEnv(reference_defenders(scenario, coarse_tubes), scenario=scenario,
+                              action_repeat=repeat)
     checked(parallel_api_test, env, num_cycles=300)
 
 
 @pytest.mark.parametrize("scenario", ["paper_6v2", CROWDED_PARAM])
-def test_aec_api(scenario):
-    env = parallel_to_aec(AttackerParallelEnv(greedy_factory, scenario=scenario,
-                                              max_cycles=120))
+def test_aec_api(scenario, coarse_tubes):
+    env = parallel_to_aec(AttackerParallelEnv(reference_defenders(scenario, coarse_tubes),
+                                              scenario=scenario, max_cycles=120))
     checked(api_test, env, num_cycles=120)
 
 
-def test_parallel_env_has_attackers_only_and_their_part_of_the_game():
-    env = AttackerParallelEnv(GreedyDefender(), scenario="paper_6v2", shaping=0.5)
+def test_parallel_env_has_attackers_only_and_their_part_of_the_game(coarse_tubes):
+    env = AttackerParallelEnv(HJDefenderPolicy(*coarse_tubes), scenario="paper_6v2",
+                              shaping=0.5)
     game = ReachAvoidEnv(scenario="paper_6v2", shaping=0.5)
     assert env.possible_agents == [f"attacker_{i}" for i in range(6)]
     obs, infos = env.reset(seed=3)
@@ -83,7 +97,7 @@ def test_parallel_env_has_attackers_only_and_their_part_of_the_game():
         np.testing.assert_array_equal(obs[name], game_obs[name])
         assert infos[name] == game_infos[name]
         assert env.observation_space(name) is env.observation_space(name)
-    defenders = GreedyDefender()
+    defenders = HJDefenderPolicy(*coarse_tubes)
     defenders.reset(game.scenario)
     rng = np.random.default_rng(0)
     while env.agents:
@@ -191,18 +205,19 @@ def test_build_policy_takes_policies_and_factories_and_refuses_the_rest():
 # ------------------------------------------------------------------ gymnasium env
 @pytest.mark.parametrize("scenario,repeat", [("paper_1v1", 1), ("paper_2v1", 4),
                                              pytest.param(CROWDED, 2, id="crowded_4v3-2")])
-def test_gymnasium_check_env(scenario, repeat):
-    env = SingleAttackerEnv(GreedyDefender(), scenario=scenario, teammates=StraightAttacker(),
+def test_gymnasium_check_env(scenario, repeat, coarse_tubes):
+    defenders = reference_defenders(scenario, coarse_tubes)
+    env = SingleAttackerEnv(defenders, scenario=scenario, teammates=StraightAttacker(),
                             action_repeat=repeat)
     env.spec = gymnasium.envs.registration.EnvSpec(
         "Test-v0", entry_point=SingleAttackerEnv,
-        kwargs={"defenders": GreedyDefender(), "scenario": scenario,
+        kwargs={"defenders": defenders, "scenario": scenario,
                 "teammates": StraightAttacker(), "action_repeat": repeat})
     checked(check_env, env)
 
 
-def test_learner_is_captured_standing_still_against_greedy_defenders():
-    env = SingleAttackerEnv(GreedyDefender(), scenario="paper_1v1")
+def test_learner_is_captured_standing_still_against_hj_defenders(hj):
+    env = SingleAttackerEnv(hj, scenario="paper_1v1")
     obs, info = env.reset(seed=0)
     assert env.observation_space.contains(obs) and info["status"] is AttackerStatus.ACTIVE
     steps, terminated, truncated = 0, False, False
@@ -275,8 +290,8 @@ def test_gymnasium_env_argument_errors():
         env.step(np.array([np.inf, 0.0]))
 
 
-def test_rgb_render_draws_the_defenders_overlay():
-    env = SingleAttackerEnv(GreedyDefender(), scenario="paper_1v1", render_mode="rgb_array",
+def test_rgb_render_draws_the_defenders_overlay(hj):
+    env = SingleAttackerEnv(hj, scenario="paper_1v1", render_mode="rgb_array",
                             render_width=160)
     env.reset(seed=0)
     env.step(np.zeros(2, dtype=np.float32))
