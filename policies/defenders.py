@@ -112,6 +112,11 @@ class _AssignmentDefender(ABC):
             return []
         return [(f"defender_{j}", f"attacker_{i}") for i, j in self._assignment.pairs]
 
+    @property
+    def last_assignment(self) -> Assignment | None:
+        """The last step's ``Assignment`` (indices), ``None`` before the first step."""
+        return self._assignment
+
     def overlay(self) -> Overlay:
         return Overlay(edges=tuple(self.assignment))
 
