@@ -5,7 +5,8 @@ attacker is driven by a hook, a callable ``observation -> action`` (a float32 ``
 velocity in ``[-1, 1]``). Plug a trained network in here, one per attacker or shared:
 
     python examples/multi_agent_loop.py --scenario paper_6v2 --defenders hj
-    python examples/multi_agent_loop.py --scenario paper_1v1 --policy runs/attacker/model.zip
+    python examples/multi_agent_loop.py --scenario paper_1v1 --policy runs/attacker/model.zip \
+        --action-repeat 10
 
 ``--policy toward-target`` (default) steers each attacker straight at the target from its
 observation alone; ``random`` draws uniform actions; a ``.zip`` path loads a
@@ -83,13 +84,17 @@ def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
     parser.add_argument("--grid2", type=int, default=15, help="hj defenders' 2v1 grid")
     parser.add_argument("--policy", default="toward-target",
                         help="toward-target, random, or a Stable-Baselines3 PPO .zip")
+    parser.add_argument("--action-repeat", type=int, default=1,
+                        help="env steps per hook call; match the training's (10 for "
+                             "train_attacker_sb3.py)")
     parser.add_argument("--episodes", type=int, default=3)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
 
     options = {"grid1": args.grid1, "grid2": args.grid2} if args.defenders == "hj" else None
     env = pettingzoo.make("parallel", PETTINGZOO_ID, scenario=args.scenario,
-                          defenders=args.defenders, defender_options=options)
+                          defenders=args.defenders, defender_options=options,
+                          action_repeat=args.action_repeat)
     scenario = env.game.base_scenario
     if args.policy == "toward-target":
         shared = toward_target(scenario)
