@@ -25,7 +25,8 @@ import pettingzoo
 
 import policies  # noqa: F401  (registers reachavoid/Attackers-v0)
 from policies.attackers import target_centres
-from policies.training import DEFENDERS, PETTINGZOO_ID
+from policies.registry import DEFENDERS
+from policies.training import PETTINGZOO_ID
 from reachavoid_env import Scenario
 
 Hook = Callable[[np.ndarray], np.ndarray]

@@ -19,7 +19,8 @@ from ray.rllib.algorithms.ppo import PPOConfig
 from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv
 from ray.tune.registry import register_env
 
-from policies.training import DEFENDERS, make_attackers_parallel_env
+from policies.registry import DEFENDERS
+from policies.training import make_attackers_parallel_env
 
 ENV_NAME = "reachavoid_attackers"
 

@@ -36,7 +36,8 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-from policies.training import DEFENDERS, attacker_factory, defender_factory, make_attacker_env
+from policies.registry import DEFENDERS
+from policies.training import attacker_factory, defender_factory, make_attacker_env
 from reachavoid_env import AttackerStatus, Scenario, load_scenario
 from reachavoid_env.video import VideoWriter
 from reachavoid_env.wrappers import SingleAttackerEnv

@@ -26,7 +26,7 @@ caches them on disk (design.md section 4); later envs, subprocesses included, lo
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,87 +34,18 @@ import gymnasium
 import pettingzoo
 
 from policies.base import Policy
+from policies.registry import make_policy, named_policy
 from reachavoid_env.scenario import Scenario, builtin_names
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
-
-
-def _hj_defenders(scenario: Scenario, **options: Any) -> Policy:
-    from policies.defenders import HJDefenderPolicy
-
-    return HJDefenderPolicy.for_scenario(scenario, **options)
-
-
-def _matching_defenders(scenario: Scenario, **options: Any) -> Policy:
-    from policies.defenders import MatchingDefenderPolicy
-
-    return MatchingDefenderPolicy.for_scenario(scenario, **options)
-
-
-def _greedy_defenders(scenario: Scenario, **options: Any) -> Policy:
-    from policies.defenders import GreedyDefender
-
-    return GreedyDefender(**options)
-
-
-def _idle_defenders(scenario: Scenario, **options: Any) -> Policy:
-    from policies.defenders import IdleDefender
-
-    return IdleDefender(**options)
-
-
-def _straight_attackers(scenario: Scenario, **options: Any) -> Policy:
-    from policies.attackers import StraightAttacker
-
-    return StraightAttacker(**options)
-
-
-def _shortest_path_attackers(scenario: Scenario, **options: Any) -> Policy:
-    from policies.attackers import ShortestPathAttacker
-
-    return ShortestPathAttacker(**options)
-
-
-def _random_attackers(scenario: Scenario, **options: Any) -> Policy:
-    from policies.attackers import RandomAttacker
-
-    return RandomAttacker(**options)
-
-
-def _hj_attackers(scenario: Scenario, **options: Any) -> Policy:
-    from policies.attackers import HJAttacker
-
-    return HJAttacker.for_scenario(scenario, **options)
-
-
-# name -> (builder(scenario, **options), one line of help)
-DEFENDERS: dict[str, tuple[Callable[..., Policy], str]] = {
-    "hj": (_hj_defenders, "HJ tubes + assignment MIP (HJDefenderPolicy.for_scenario; "
-                          "options: grid1, grid2, idle, progress)"),
-    "matching": (_matching_defenders, "maximum-matching baseline "
-                                      "(MatchingDefenderPolicy.for_scenario; options: grid1, "
-                                      "unmatched, progress)"),
-    "greedy": (_greedy_defenders, "chase the nearest active attacker (GreedyDefender)"),
-    "idle": (_idle_defenders, "stand still (IdleDefender)"),
-}
-ATTACKERS: dict[str, tuple[Callable[..., Policy], str]] = {
-    "shortest-path": (_shortest_path_attackers, "the paper's scripted attacker: shortest path "
-                                                "to the target around obstacles "
-                                                "(ShortestPathAttacker; options: cells)"),
-    "straight": (_straight_attackers, "run straight for the nearest target centre "
-                                      "(StraightAttacker)"),
-    "random": (_random_attackers, "random headings (RandomAttacker; options: seed, hold)"),
-    "hj": (_hj_attackers, "1 vs 1 optimal control against the most dangerous defender "
-                          "(HJAttacker.for_scenario; options: grid1, progress)"),
-}
-_TABLES = {"defenders": DEFENDERS, "attackers": ATTACKERS}
 
 
 @dataclass(frozen=True)
 class PolicyFactory:
     """A picklable ``scenario -> policy`` factory for a named policy.
 
-    ``side`` is ``"defenders"`` or ``"attackers"``; ``name`` a key of ``DEFENDERS`` or
-    ``ATTACKERS``; ``options`` the keyword arguments of its constructor (or
+    ``side`` is ``"defenders"`` or ``"attackers"``; ``name`` a key of
+    ``policies.registry.DEFENDERS`` or ``ATTACKERS``; ``options`` the keyword arguments of
+    its constructor (or
     ``for_scenario``), as sorted ``(key, value)`` pairs.
     """
 
@@ -123,16 +54,10 @@ class PolicyFactory:
     options: tuple[tuple[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
-        if self.side not in _TABLES:
-            raise ValueError(f"side: expected 'defenders' or 'attackers', got {self.side!r}")
-        table = _TABLES[self.side]
-        if self.name not in table:
-            raise ValueError(f"{self.side}: unknown policy {self.name!r} "
-                             f"(choices: {', '.join(table)})")
+        named_policy(self.side, self.name)
 
     def __call__(self, scenario: Scenario) -> Policy:
-        build, _ = _TABLES[self.side][self.name]
-        return build(scenario, **dict(self.options))
+        return make_policy(self.side, self.name, scenario, **dict(self.options))
 
 
 def defender_factory(name: str = "hj", **options: Any) -> PolicyFactory:

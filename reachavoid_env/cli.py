@@ -15,21 +15,11 @@ import argparse
 import json
 import re
 import sys
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import NoReturn
 
-from policies import (
-    GreedyDefender,
-    HJAttacker,
-    HJDefenderPolicy,
-    IdleDefender,
-    MatchingDefenderPolicy,
-    Policy,
-    RandomAttacker,
-    ShortestPathAttacker,
-    StraightAttacker,
-)
+from policies import HJDefenderPolicy, MatchingDefenderPolicy, Policy, ShortestPathAttacker
+from policies.registry import ATTACKERS, DEFENDERS, NamedPolicy, accepted_options, make_policy
 from reachavoid_env.evaluation import run_episodes, summarize, write_csv
 from reachavoid_env.files import atomic_write
 from reachavoid_env.rollout import EpisodeResult, run_episode
@@ -38,45 +28,6 @@ from reachavoid_env.video import check_video_path
 
 EXIT_USAGE = 2
 
-
-@dataclass(frozen=True)
-class PolicyChoice:
-    """One ``--attackers`` / ``--defenders`` option: a help line and a factory.
-
-    ``make(scenario, options)`` builds the policy for the scenario about to be played;
-    ``options`` carries ``seed``, ``grid1`` and ``grid2`` (tube resolutions) and ``progress``.
-    Solver-backed policies load their tubes from the cache, or solve them once.
-    """
-
-    help: str
-    make: Callable[[Scenario, argparse.Namespace], Policy]
-
-
-ATTACKER_POLICIES: dict[str, PolicyChoice] = {
-    "shortest-path": PolicyChoice("the time-optimal path to the target around obstacles, "
-                                  "ignoring defenders (the paper's attackers)",
-                                  lambda scenario, o: ShortestPathAttacker()),
-    "hj": PolicyChoice("1 vs 1 optimal control against the most dangerous defender",
-                       lambda scenario, o: HJAttacker.for_scenario(
-                           scenario, grid1=o.grid1, progress=o.progress)),
-    "straight": PolicyChoice("run straight for the nearest target centre",
-                             lambda scenario, o: StraightAttacker()),
-    "random": PolicyChoice("run in random directions, redrawn every 0.25 s (uses --seed)",
-                           lambda scenario, o: RandomAttacker(o.seed)),
-}
-
-DEFENDER_POLICIES: dict[str, PolicyChoice] = {
-    "hj": PolicyChoice("the reference: HJ tubes + the paper's assignment MIP (CP-SAT), "
-                       "re-solved every step",
-                       lambda scenario, o: HJDefenderPolicy.for_scenario(
-                           scenario, grid1=o.grid1, grid2=o.grid2, progress=o.progress)),
-    "matching": PolicyChoice("the maximum-matching baseline (unmatched defenders stand still)",
-                             lambda scenario, o: MatchingDefenderPolicy.for_scenario(
-                                 scenario, grid1=o.grid1, progress=o.progress)),
-    "greedy": PolicyChoice("chase the nearest active attacker",
-                           lambda scenario, o: GreedyDefender()),
-    "idle": PolicyChoice("stand still", lambda scenario, o: IdleDefender()),
-}
 
 PAPER_TABLE = {"paper_2v1": (2, 1), "paper_6v2": (6, 4), "paper_8v4": (8, 6)}
 
@@ -90,7 +41,7 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def _choices_help(table: dict[str, PolicyChoice]) -> str:
+def _choices_help(table: dict[str, NamedPolicy]) -> str:
     return "; ".join(f"{name}: {choice.help}" for name, choice in table.items())
 
 
@@ -103,12 +54,12 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--scenario", default="paper_6v2", metavar="NAME|FILE.toml",
                       help="a built-in scenario name or a TOML scenario file "
                            "(default: %(default)s)")
-    play.add_argument("--attackers", choices=ATTACKER_POLICIES, default="shortest-path",
+    play.add_argument("--attackers", choices=ATTACKERS, default="shortest-path",
                       help=f"attacker policy (default: %(default)s). "
-                           f"{_choices_help(ATTACKER_POLICIES)}")
-    play.add_argument("--defenders", choices=DEFENDER_POLICIES, default="hj",
+                           f"{_choices_help(ATTACKERS)}")
+    play.add_argument("--defenders", choices=DEFENDERS, default="hj",
                       help=f"defender policy (default: %(default)s). "
-                           f"{_choices_help(DEFENDER_POLICIES)}")
+                           f"{_choices_help(DEFENDERS)}")
     _add_grid_options(play)
     play.add_argument("--seed", type=int, default=0,
                       help="seed of the env (random starts) and random policies "
@@ -149,8 +100,8 @@ def build_parser() -> argparse.ArgumentParser:
                             "(default: %(default)s)")
     bench.add_argument("--defenders", default="hj,matching", metavar="A,B",
                        help=f"comma-separated defender methods (default: %(default)s); "
-                            f"from {', '.join(DEFENDER_POLICIES)}")
-    bench.add_argument("--attackers", choices=ATTACKER_POLICIES, default="shortest-path",
+                            f"from {', '.join(DEFENDERS)}")
+    bench.add_argument("--attackers", choices=ATTACKERS, default="shortest-path",
                        help="attacker policy (default: %(default)s)")
     bench.add_argument("--episodes", type=int, default=200,
                        help="episodes per method (default: %(default)s)")
@@ -191,6 +142,13 @@ def _check_grids(args: argparse.Namespace) -> None:
     args.progress = sys.stderr.isatty()
 
 
+def _policy(side: str, name: str, scenario: Scenario, args: argparse.Namespace) -> Policy:
+    """The named policy, given whichever of --seed, --grid1, --grid2 it takes."""
+    options = accepted_options(side, name, seed=args.seed, grid1=args.grid1, grid2=args.grid2,
+                               progress=args.progress)
+    return make_policy(side, name, scenario, **options)
+
+
 def _load(source: str) -> Scenario:
     try:
         return load_scenario(source)
@@ -214,8 +172,8 @@ def _play(args: argparse.Namespace) -> int:
             raise UsageError(f"--width: need at least 16 pixels, got {args.width}")
     _check_grids(args)
     scenario = _load(args.scenario)
-    attackers = ATTACKER_POLICIES[args.attackers].make(scenario, args)
-    defenders = DEFENDER_POLICIES[args.defenders].make(scenario, args)
+    attackers = _policy("attackers", args.attackers, scenario, args)
+    defenders = _policy("defenders", args.defenders, scenario, args)
     env = reachavoid_env.parallel_env(
         scenario=scenario, render_mode="rgb_array" if args.video else None,
         render_width=args.width)
@@ -280,17 +238,17 @@ def _bench(args: argparse.Namespace) -> int:
     if args.episodes < 1:
         raise UsageError(f"--episodes: must be a positive integer, got {args.episodes}")
     methods = [m.strip() for m in args.defenders.split(",") if m.strip()]
-    unknown = [m for m in methods if m not in DEFENDER_POLICIES]
+    unknown = [m for m in methods if m not in DEFENDERS]
     if unknown or not methods:
         raise UsageError(f"--defenders: unknown method(s) {unknown or args.defenders!r} "
-                         f"(choose from {', '.join(DEFENDER_POLICIES)})")
+                         f"(choose from {', '.join(DEFENDERS)})")
     num_attackers, num_defenders = int(match[1]), int(match[2])
     scenario = _load(args.scenario).with_players(num_attackers, num_defenders)
     env = reachavoid_env.parallel_env(scenario=scenario)
     summaries, rows = [], []
     for method in methods:
-        attackers = ATTACKER_POLICIES[args.attackers].make(scenario, args)
-        defenders = DEFENDER_POLICIES[method].make(scenario, args)
+        attackers = _policy("attackers", args.attackers, scenario, args)
+        defenders = _policy("defenders", method, scenario, args)
         results = run_episodes(env, attackers, defenders, args.episodes, seed=args.seed,
                                progress=args.progress, description=method)
         summaries.append(summarize(method, results, num_attackers))

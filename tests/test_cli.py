@@ -9,8 +9,9 @@ import sys
 import imageio.v3 as iio
 import pytest
 
+from policies.registry import ATTACKERS, DEFENDERS
 from reachavoid_env import builtin_scenario, save_scenario
-from reachavoid_env.cli import ATTACKER_POLICIES, DEFENDER_POLICIES, main
+from reachavoid_env.cli import main
 
 JSON_KEYS = ["scenario", "defenders", "attackers", "seed", "steps", "captured", "arrived",
              "captured_count", "arrived_count", "seconds", "game_time", "video"]
@@ -37,8 +38,8 @@ def test_play_json(capsys):
     assert report["steps"] >= 1 and report["video"] is None
 
 
-@pytest.mark.parametrize("attackers", list(ATTACKER_POLICIES))
-@pytest.mark.parametrize("defenders", list(DEFENDER_POLICIES))
+@pytest.mark.parametrize("attackers", list(ATTACKERS))
+@pytest.mark.parametrize("defenders", list(DEFENDERS))
 def test_every_policy_choice_plays(capsys, attackers, defenders):
     report = play_json(capsys, "--scenario", "paper_2v1", "--attackers", attackers,
                        "--defenders", defenders, *COARSE)

@@ -23,9 +23,8 @@ from policies import (
     RandomAttacker,
     StraightAttacker,
 )
+from policies.registry import ATTACKERS, DEFENDERS
 from policies.training import (
-    ATTACKERS,
-    DEFENDERS,
     GYM_ID,
     PETTINGZOO_ID,
     PolicyFactory,
