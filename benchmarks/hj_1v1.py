@@ -68,13 +68,17 @@ def worker_hj_reachability(grid: int, horizon: float, out: str) -> dict:
     from reachavoid_env import builtin_map
     from solvers.hj.games import problem_1v1
     from solvers.hj.grid import Grid
+    from solvers.hj.kernels_reference import game_sets
 
     game_map = builtin_map("paper")
     ours = Grid.for_players(game_map.domain, 2, grid)
     problem = problem_1v1(game_map, SPEEDS, RADIUS, ours)
     shape = ours.shape
-    target = np.minimum(problem.reach, problem.defender_free[None, :]).reshape(shape)
-    avoid = problem.lost.reshape(shape)
+    planar = shape[:2]
+    target, avoid = game_sets(problem.target.reshape(planar),
+                              problem.attacker_free.reshape(planar),
+                              problem.defender_free.reshape(planar), ours.sub((0, 1)).mesh(),
+                              ours.sub((2, 3)).mesh(), RADIUS, None)
 
     class Pursuit(hj.ControlAndDisturbanceAffineDynamics):
         def __init__(self) -> None:

@@ -87,6 +87,8 @@ def build_parser() -> argparse.ArgumentParser:
     solve.add_argument("--grid", type=int, default=None, metavar="N",
                        help="grid nodes per axis (default: 45 for 1v1, 30 for 2v1)")
     solve.add_argument("--out", metavar="DIR", help="also save the value function here")
+    solve.add_argument("--plot", metavar="OUT.png",
+                       help="draw the value's slices at the scenario's starts (paper Fig. 2)")
     solve.set_defaults(run=_solve)
 
     bench = commands.add_parser(
@@ -196,7 +198,7 @@ def _solve(args: argparse.Namespace) -> int:
 
     try:
         report = solve_game(args.scenario, args.game, args.grid, out=args.out,
-                            progress=sys.stderr.isatty())
+                            plot=args.plot, progress=sys.stderr.isatty())
     except (ValueError, MemoryError) as err:
         raise UsageError(str(err)) from None
     print(report.summary())

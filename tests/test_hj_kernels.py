@@ -144,14 +144,15 @@ def test_initial_values_are_max_of_target_and_avoid():
                                    atol=1e-6)
 
 
+@pytest.mark.parametrize("count", [200, 5000])  # serial and parallel kernels
 @pytest.mark.parametrize("shape", [(5, 4, 6, 3), (3, 4, 3, 5, 4, 3)])
-def test_interpolation_matches_reference(shape):
+def test_interpolation_matches_reference(shape, count):
     rng = np.random.default_rng(len(shape))
     lo = rng.uniform(-1.0, 0.0, len(shape))
     hi = lo + rng.uniform(0.5, 2.0, len(shape))
     grid = Grid(tuple(lo), tuple(hi), shape)
     values = rng.normal(size=shape).astype(np.float32)
-    points = rng.uniform(lo - 0.2, hi + 0.2, (200, len(shape)))
+    points = rng.uniform(lo - 0.2, hi + 0.2, (count, len(shape)))
     points[:10] = grid.mesh().reshape(-1, len(shape))[:10]
     spacing = np.asarray(grid.spacing)
     np.testing.assert_allclose(grid.interpolate(values, points),
@@ -171,3 +172,23 @@ def test_interpolation_is_exact_for_linear_functions():
     np.testing.assert_allclose(grid.interpolate(values, points), points @ slope, atol=1e-5)
     np.testing.assert_allclose(grid.interpolate_gradient(values, points),
                                np.broadcast_to(slope, (100, 4)), atol=1e-5)
+
+
+def test_grid_indices_and_coordinates():
+    grid = Grid.for_players((-1.0, 1.0, 0.0, 2.0), 2, (5, 3, 9, 5))
+    assert grid.spacing == (0.5, 1.0, 0.25, 0.5) and grid.size == 5 * 3 * 9 * 5
+    np.testing.assert_allclose(grid.coordinates(2), np.linspace(-1.0, 1.0, 9))
+    index = np.array([[0, 0, 0, 0], [4, 2, 8, 4], [1, 2, 3, 4]])
+    points = grid.points(index)
+    np.testing.assert_allclose(points[1], grid.hi)
+    np.testing.assert_array_equal(grid.nearest_index(points + 0.1), index)
+    np.testing.assert_array_equal(grid.nearest_index(np.full((1, 4), 9.0)), [[4, 2, 8, 4]])
+    assert grid.sub((2, 3)) == Grid((-1.0, 0.0), (1.0, 2.0), (9, 5))
+    with pytest.raises(ValueError, match="at least 3 nodes"):
+        Grid((0.0,), (1.0,), (2,))
+    with pytest.raises(ValueError, match="lo < hi"):
+        Grid((0.0, 1.0), (1.0, 1.0), (3, 3))
+    with pytest.raises(ValueError, match="grid_points"):
+        Grid.for_players((-1, 1, -1, 1), 2, (5, 5))
+    with pytest.raises(ValueError, match="C-contiguous float32"):
+        grid.interpolate(np.zeros(grid.shape), points)

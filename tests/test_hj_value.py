@@ -118,8 +118,10 @@ def test_solve_game_reports_where_and_how(cache_in_tmp, tmp_path):
     assert report.iterations > 0 and report.converged
     text = report.summary()
     assert "iterations" in text and str(report.path) in text
-    cached = solve_game("paper_1v1", "1v1", 11, progress=False)
+    cached = solve_game("paper_1v1", "1v1", 11, plot=str(tmp_path / "slices.png"),
+                        progress=False)
     assert cached.path.parent == cache_in_tmp
+    assert (tmp_path / "slices.png").stat().st_size > 10000 and "slices" in cached.summary()
     with pytest.raises(ValueError, match="game"):
         solve_game("paper_1v1", "3v1", 11, progress=False)
 

@@ -173,29 +173,35 @@ class SolveReport:
     residual: float
     converged: bool
     seconds: float
+    plot: Path | None = None
 
     def summary(self) -> str:
-        return (f"{self.game} value {'x'.join(map(str, self.shape))} -> {self.path}\n"
+        text = (f"{self.game} value {'x'.join(map(str, self.shape))} -> {self.path}\n"
                 f"iterations {self.iterations}, residual {self.residual:.2e} per unit game "
                 f"time ({'converged' if self.converged else 'NOT converged'}), "
                 f"solve {self.seconds:.1f} s")
+        return text + (f"\nslices -> {self.plot}" if self.plot is not None else "")
 
 
 def solve_game(scenario: str, game: str, grid_points: int | None = None,
-               out: str | None = None, grid_points_1v1: int = 45,
+               out: str | None = None, grid_points_1v1: int = 45, plot: str | None = None,
                progress: bool = True) -> SolveReport:
     """Solve a scenario's 1 vs 1 or 2 vs 1 game (the ``reachavoid solve`` command).
 
     ``scenario`` is a built-in name or a TOML file; speeds and capture radius come from it.
     ``grid_points`` defaults to the paper's grids: 45 (1 vs 1) and 30 (2 vs 1).
     The 2 vs 1 game uses the scenario's 1 vs 1 value at ``grid_points_1v1`` (cached).
-    The value goes to the cache, and is also saved to ``out`` when given.
+    The value goes to the cache, and is also saved to ``out`` when given. ``plot``: a PNG
+    of the value's slices at the scenario's fixed starts (``plot.scenario_panels``).
     """
     if game not in ("1v1", "2v1"):
         raise ValueError(f"game: expected '1v1' or '2v1', got {game!r}")
     if grid_points is None:
         grid_points = 45 if game == "1v1" else 30
     sc = load_scenario(scenario)
+    if plot is not None and (sc.attackers is None or sc.defenders is None):
+        raise ValueError(f"plot: scenario {sc.name!r} has random starts; the slices need "
+                         "fixed ones")
     if game == "2v1":
         check_memory(Grid.for_players(sc.map.domain, 3, grid_points), SolverSettings(),
                      "2v1 HJ solve")
@@ -206,11 +212,16 @@ def solve_game(scenario: str, game: str, grid_points: int | None = None,
     if game == "2v1":
         vf = solve_2v1(sc.map, vf, grid_points, progress=progress)
     path = vf.save(out) if out is not None else _cached_location(vf)
+    if plot is not None:
+        from solvers.hj.plot import scenario_panels, tube_figure
+
+        tube_figure(scenario_panels(vf, sc.attackers, sc.defenders[0]), plot)
     return SolveReport(path=path, game=game, shape=vf.grid.shape,
                        iterations=int(vf.solver.get("iterations", 0)),
                        residual=float(vf.solver.get("residual", float("nan"))),
                        converged=bool(vf.solver.get("converged", False)),
-                       seconds=time.perf_counter() - started)
+                       seconds=time.perf_counter() - started,
+                       plot=Path(plot) if plot is not None else None)
 
 
 def _cached_location(vf: ValueFunction) -> Path:

@@ -82,7 +82,8 @@ class Grid:
         return np.asarray(self.lo) + index * np.asarray(self.spacing)
 
     def nearest_index(self, points: np.ndarray) -> np.ndarray:
-        """Index of the nearest node for points ``(..., ndim)``, clipped into the grid."""
+        """Index ``(K, ndim)`` of the nearest node to each of ``points (K, ndim)``, clipped
+        into the grid."""
         points = self._points(points)
         index = np.rint((points - np.asarray(self.lo)) / np.asarray(self.spacing))
         return np.clip(index, 0, np.asarray(self.shape) - 1).astype(np.int64)

@@ -348,65 +348,118 @@ def _strides(shape):
     return strides
 
 
+@njit(cache=True)
+def _locate(point, shape, lo, spacing, strides, frac, lower):
+    """Flat index of the cell's lowest corner; fills ``frac`` and ``lower`` per axis."""
+    base = 0
+    for k in range(shape.size):
+        i, t = _cell(point[k], lo[k], spacing[k], shape[k])
+        base += i * strides[k]
+        frac[k] = t
+        lower[k] = i
+    return base
+
+
+@njit(cache=True)
+def _corner(corner, base, frac, strides):
+    """Weight and flat index of one corner (bit ``k`` of ``corner``: upper node on axis k)."""
+    weight = 1.0
+    offset = base
+    for k in range(frac.size):
+        if (corner >> k) & 1:
+            weight *= frac[k]
+            offset += strides[k]
+        else:
+            weight *= 1.0 - frac[k]
+    return weight, offset
+
+
+@njit(cache=True)
+def _value_at(values, point, shape, lo, spacing, strides, frac, lower):
+    base = _locate(point, shape, lo, spacing, strides, frac, lower)
+    total = 0.0
+    for corner in range(1 << shape.size):
+        weight, offset = _corner(corner, base, frac, strides)
+        if weight != 0.0:
+            total += weight * values[offset]
+    return total
+
+
+@njit(cache=True)
+def _gradient_at(values, point, shape, lo, spacing, strides, frac, lower, out):
+    base = _locate(point, shape, lo, spacing, strides, frac, lower)
+    for k in range(shape.size):
+        out[k] = 0.0
+    for corner in range(1 << shape.size):
+        weight, offset = _corner(corner, base, frac, strides)
+        if weight == 0.0:
+            continue
+        for k in range(shape.size):
+            node = lower[k] + ((corner >> k) & 1)
+            up = offset + strides[k] if node < shape[k] - 1 else offset
+            down = offset - strides[k] if node > 0 else offset
+            span = (up - down) // strides[k]
+            out[k] += weight * (values[up] - values[down]) / (span * spacing[k])
+
+
+_PARALLEL_FROM = 4096
+"""Below this many query points the serial kernels are faster (no thread start-up)."""
+
+
+@njit(cache=True)
+def _interpolate_serial(values, shape, lo, spacing, points):
+    strides = _strides(shape)
+    frac = np.empty(shape.size, dtype=np.float64)
+    lower = np.empty(shape.size, dtype=np.int64)
+    result = np.empty(points.shape[0], dtype=np.float64)
+    for q in range(points.shape[0]):
+        result[q] = _value_at(values, points[q], shape, lo, spacing, strides, frac, lower)
+    return result
+
+
 @njit(cache=True, parallel=True)
-def interpolate(values, shape, lo, spacing, points):
-    """Multilinear interpolation of flat C-order ``values`` at ``points (K, ndim)`` (float64)."""
-    ndim = shape.size
+def _interpolate_parallel(values, shape, lo, spacing, points):
     strides = _strides(shape)
     result = np.empty(points.shape[0], dtype=np.float64)
     for q in prange(points.shape[0]):
-        base = 0
-        frac = np.empty(ndim, dtype=np.float64)
-        for k in range(ndim):
-            i, t = _cell(points[q, k], lo[k], spacing[k], shape[k])
-            base += i * strides[k]
-            frac[k] = t
-        total = 0.0
-        for corner in range(1 << ndim):
-            weight = 1.0
-            offset = base
-            for k in range(ndim):
-                if (corner >> k) & 1:
-                    weight *= frac[k]
-                    offset += strides[k]
-                else:
-                    weight *= 1.0 - frac[k]
-            if weight != 0.0:
-                total += weight * values[offset]
-        result[q] = total
+        frac = np.empty(shape.size, dtype=np.float64)
+        lower = np.empty(shape.size, dtype=np.int64)
+        result[q] = _value_at(values, points[q], shape, lo, spacing, strides, frac, lower)
+    return result
+
+
+@njit(cache=True)
+def _gradient_serial(values, shape, lo, spacing, points):
+    strides = _strides(shape)
+    frac = np.empty(shape.size, dtype=np.float64)
+    lower = np.empty(shape.size, dtype=np.int64)
+    result = np.empty((points.shape[0], shape.size), dtype=np.float64)
+    for q in range(points.shape[0]):
+        _gradient_at(values, points[q], shape, lo, spacing, strides, frac, lower, result[q])
     return result
 
 
 @njit(cache=True, parallel=True)
-def interpolate_gradient(values, shape, lo, spacing, points):
-    """Nodal central differences (one-sided on the edges), interpolated multilinearly."""
-    ndim = shape.size
+def _gradient_parallel(values, shape, lo, spacing, points):
     strides = _strides(shape)
-    result = np.zeros((points.shape[0], ndim), dtype=np.float64)
+    result = np.empty((points.shape[0], shape.size), dtype=np.float64)
     for q in prange(points.shape[0]):
-        base = 0
-        frac = np.empty(ndim, dtype=np.float64)
-        lower = np.empty(ndim, dtype=np.int64)
-        for k in range(ndim):
-            i, t = _cell(points[q, k], lo[k], spacing[k], shape[k])
-            base += i * strides[k]
-            frac[k] = t
-            lower[k] = i
-        for corner in range(1 << ndim):
-            weight = 1.0
-            offset = base
-            for k in range(ndim):
-                if (corner >> k) & 1:
-                    weight *= frac[k]
-                    offset += strides[k]
-                else:
-                    weight *= 1.0 - frac[k]
-            if weight == 0.0:
-                continue
-            for k in range(ndim):
-                node = lower[k] + ((corner >> k) & 1)
-                up = offset + strides[k] if node < shape[k] - 1 else offset
-                down = offset - strides[k] if node > 0 else offset
-                span = (up - down) // strides[k]
-                result[q, k] += weight * (values[up] - values[down]) / (span * spacing[k])
+        frac = np.empty(shape.size, dtype=np.float64)
+        lower = np.empty(shape.size, dtype=np.int64)
+        _gradient_at(values, points[q], shape, lo, spacing, strides, frac, lower, result[q])
     return result
+
+
+def interpolate(values: np.ndarray, shape: np.ndarray, lo: np.ndarray, spacing: np.ndarray,
+                points: np.ndarray) -> np.ndarray:
+    """Multilinear interpolation of flat C-order ``values`` at ``points (K, ndim)``, clamped
+    into the grid (float64)."""
+    kernel = _interpolate_parallel if len(points) >= _PARALLEL_FROM else _interpolate_serial
+    return kernel(values, shape, lo, spacing, points)
+
+
+def interpolate_gradient(values: np.ndarray, shape: np.ndarray, lo: np.ndarray,
+                         spacing: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Nodal central differences (one-sided on the edges), interpolated multilinearly."""
+    kernel = _gradient_parallel if len(points) >= _PARALLEL_FROM else _gradient_serial
+    return kernel(values, shape, lo, spacing, points)

@@ -108,6 +108,19 @@ def tube_figure(panels: Sequence[tuple[ValueFunction, str, Mapping[str, Point]]]
     return figure
 
 
+def scenario_panels(vf: ValueFunction, attackers: Sequence[Point], defender: Point
+                    ) -> list[tuple[ValueFunction, str, dict[str, Point]]]:
+    """The paper's Fig. 2 slices at given starts: 1 vs 1, the attacker free (defender
+    fixed) and the defender free; 2 vs 1, attacker 2 free (A1 and D fixed) and the defender
+    free (both attackers fixed)."""
+    if vf.game == "1v1":
+        return [(vf, "A", {"D": defender}), (vf, "D", {"A": attackers[0]})]
+    if len(attackers) < 2:
+        raise ValueError("attackers: the 2v1 slices need two attacker positions")
+    return [(vf, "A2", {"A1": attackers[0], "D": defender}),
+            (vf, "D", {"A1": attackers[0], "A2": attackers[1]})]
+
+
 def save_figure(figure: Figure, path: str | os.PathLike[str]) -> Path:
     """Save ``figure`` as PNG through a temporary file and ``os.replace``."""
     path = Path(path)

@@ -146,9 +146,11 @@ def check_memory(grid: Grid, settings: SolverSettings, label: str) -> None:
     need, have = memory_needed(grid, settings), available_memory()
     if need > have:
         dims = "x".join(str(n) for n in grid.shape)
+        arrays = "one float32 value array" if settings.iteration == "red_black" else \
+            "two float32 value arrays"
         raise InsufficientMemoryError(
-            f"{label} on a {dims} grid needs about {need / 2**30:.1f} GiB (float32 value "
-            f"arrays of {4 * grid.size / 2**30:.1f} GiB each, {settings.iteration}) but only "
+            f"{label} on a {dims} grid needs about {need / 2**30:.1f} GiB ({arrays} of "
+            f"{4 * grid.size / 2**30:.1f} GiB, {settings.iteration} iteration) but only "
             f"{have / 2**30:.1f} GiB is available; use a coarser grid")
 
 

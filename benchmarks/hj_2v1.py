@@ -1,0 +1,123 @@
+"""Benchmark: the 2 vs 1 HJ solve on the paper map at several grids (BENCHMARKS.md).
+
+Each grid runs in a fresh subprocess so that its peak RSS is its own. Reported per grid:
+iterations, time to convergence (the solve loop; numba compile or cache load excluded),
+wall time of the whole call (tables, solve, save), process peak RSS against the solver's
+own memory estimate, and the paper's example (defender (0.3, -0.3) vs attackers
+(-0.5, 0) and (0, 0.8)). Then the memory guard on bigger grids: the estimate, the
+available memory, and whether the solver refuses (checked by calling it).
+
+    python benchmarks/hj_2v1.py [--grids 20 25 30] [--threads 2] [--store] [--probe 36 40 45]
+
+``--store`` solves into the real cache (``$REACHAVOID_CACHE_DIR`` or ``~/.cache/reachavoid``)
+and leaves the tubes there for the policies; without it a temporary cache is used. The 1 vs
+1 value is the 45^4 solve (the paper's), from the same cache.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+
+EXAMPLE = [-0.5, 0.0, 0.0, 0.8, 0.3, -0.3]
+
+
+def worker(grid: int) -> dict:
+    import numba
+    import numpy as np
+
+    from reachavoid_env import builtin_map
+    from solvers.hj import SolverSettings, solve_1v1, solve_2v1
+    from solvers.hj.grid import Grid
+    from solvers.hj.reach_avoid import memory_needed
+
+    game_map = builtin_map("paper")
+    vf11 = solve_1v1(game_map, grid_points=45, progress=False)
+    start = time.perf_counter()
+    solve_2v1(game_map, vf11, grid_points=7, cache=False, progress=False)
+    compile_seconds = time.perf_counter() - start
+    start = time.perf_counter()
+    vf = solve_2v1(game_map, vf11, grid_points=grid, progress=sys.stderr.isatty())
+    wall = time.perf_counter() - start
+    solver = vf.solver
+    estimate = memory_needed(Grid.for_players(game_map.domain, 3, grid), SolverSettings())
+    stored_points = (grid**2 * (grid**2 + 1) // 2) * grid**2
+    return {
+        "grid": f"{grid}^6", "threads": numba.get_num_threads(),
+        "iterations": solver["iterations"], "converged": solver["converged"],
+        "residual": solver["residual"], "game_time": solver["iterations"] * solver["dt"],
+        "solve_s": solver["seconds"], "wall_s": wall, "compile_or_load_s": compile_seconds,
+        "sweep_s": solver["seconds"] / solver["iterations"],
+        "mpoints_per_s": stored_points * solver["iterations"] / solver["seconds"] / 1e6,
+        "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
+        "estimate_gb": estimate / 2**30,
+        "example_value": float(vf.value(np.array(EXAMPLE))),
+        "example_1v1": [float(v) for v in vf11.value(np.array([EXAMPLE[:2] + EXAMPLE[4:],
+                                                               EXAMPLE[2:]]))],
+        "cached_at": str(getattr(vf.values, "filename", "")),
+    }
+
+
+def probe(grid: int) -> dict:
+    from reachavoid_env import builtin_map
+    from solvers.hj import InsufficientMemoryError, SolverSettings, solve_1v1, solve_2v1
+    from solvers.hj.grid import Grid
+    from solvers.hj.reach_avoid import available_memory, memory_needed
+
+    game_map = builtin_map("paper")
+    need = memory_needed(Grid.for_players(game_map.domain, 3, grid), SolverSettings())
+    report = {"grid": f"{grid}^6", "estimate_gb": need / 2**30,
+              "available_gb": available_memory() / 2**30}
+    if need <= available_memory():
+        report["verdict"] = "fits: the solver would run it (not run here)"
+        return report
+    vf11 = solve_1v1(game_map, grid_points=45, progress=False)
+    try:
+        solve_2v1(game_map, vf11, grid_points=grid, progress=False)
+    except InsufficientMemoryError as err:
+        report["verdict"] = f"refused: {err}"
+    return report
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--grids", type=int, nargs="*", default=[20, 25, 30])
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--store", action="store_true")
+    parser.add_argument("--probe", type=int, nargs="*", default=[36, 40, 45])
+    parser.add_argument("--worker", type=int, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker is not None:
+        print(json.dumps(worker(args.worker)))
+        return
+    print(f"# hj_2v1: paper map, vA=1, vD=1.5, R=0.1, 1v1 at 45^4, {args.threads} threads, "
+          f"{os.cpu_count()} CPUs visible, {time.strftime('%Y-%m-%d %H:%M')}", flush=True)
+    with tempfile.TemporaryDirectory() as scratch:
+        env = dict(os.environ, NUMBA_NUM_THREADS=str(args.threads))
+        if not args.store:
+            env["REACHAVOID_CACHE_DIR"] = scratch
+        results = []
+        for grid in args.grids:
+            run = subprocess.run([sys.executable, __file__, "--worker", str(grid)], env=env,
+                                 check=True, stdout=subprocess.PIPE, text=True)
+            results.append(json.loads(run.stdout.strip().splitlines()[-1]))
+            print(json.dumps(results[-1]), flush=True)
+        if len(results) >= 2:
+            first, last = results[0], results[-1]
+            ratio = args.grids[-1] / args.grids[0]
+            print(f"# {first['grid']} -> {last['grid']}: time x"
+                  f"{last['solve_s'] / first['solve_s']:.1f}, iterations x"
+                  f"{last['iterations'] / first['iterations']:.2f}, points x{ratio**6:.1f}",
+                  flush=True)
+        for grid in args.probe:
+            print(json.dumps(probe(grid)), flush=True)
+
+
+if __name__ == "__main__":
+    main()
