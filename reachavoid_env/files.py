@@ -21,7 +21,10 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "w", **open_kwargs: A
         raise ValueError(f"mode: expected a writing mode ('w', 'wb'), got {mode!r}")
     path = Path(path)
     fd, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    umask = os.umask(0)
+    os.umask(umask)
     try:
+        os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; keep the usual file mode
         with os.fdopen(fd, mode.replace("x", "w"), **open_kwargs) as handle:
             yield handle
         os.replace(temporary, path)
