@@ -118,7 +118,12 @@ class _AssignmentDefender(ABC):
         return self._assignment
 
     def overlay(self) -> Overlay:
-        return Overlay(edges=tuple(self.assignment))
+        """The assignment edges, and the guaranteed captures as a text line."""
+        if self._assignment is None:
+            return Overlay()
+        method = "MIP" if self.solver.method == "mip" else "matching"
+        return Overlay(edges=tuple(self.assignment),
+                       lines=(f"{method}: {self._assignment.captures} guaranteed",))
 
     def _beats_1v1(self, state: GameState) -> np.ndarray:
         states = pair_states(state.attacker_positions, state.defender_positions)
