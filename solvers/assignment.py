@@ -219,10 +219,17 @@ class AssignmentSolver:
         """The optimal assignment for these tables (``beats_2v1`` unused by ``matching``)."""
         if self.method == "mip" and beats_2v1 is None:
             raise ValueError("beats_2v1: required by the 'mip' method")
-        one = np.asarray(beats_1v1)
-        mask = np.ones(one.shape[0], dtype=bool) if active is None else np.asarray(active)
-        parts = [one, mask] if self.method == "matching" else [one, np.asarray(beats_2v1), mask]
-        key = tuple(np.ascontiguousarray(p).tobytes() + repr(p.shape).encode() for p in parts)
+        one, two, mask, _ = _check_inputs(beats_1v1, beats_2v1 if self.method == "mip" else None,
+                                          active, None)
+        # The answer depends only on what the program reads: which (attacker, defender)
+        # pairs are candidates, and, for the MIP, which pairs of one defender's candidates
+        # beat it together. Keying on those alone skips re-solves when only irrelevant
+        # entries flip (an attacker that already beats a defender, an inactive one).
+        candidates = ~one & mask[:, None]
+        parts = [candidates]
+        if two is not None:
+            parts.append(two & candidates[:, None, :] & candidates[None, :, :])
+        key = tuple(p.tobytes() + repr(p.shape).encode() for p in parts)
         if self._last is not None and key == self._key:
             self.reuses += 1
             return self._last

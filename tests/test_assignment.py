@@ -229,3 +229,27 @@ def test_same_input_same_answer():
         one, two, active = random_instance(rng, 8, 4)
         assert solve_assignment(one, two, active) == solve_assignment(one, two, active)
         assert max_matching(one, active) == max_matching(one, active)
+
+
+def test_solver_reuses_when_only_unread_entries_change():
+    beats_1v1 = np.array([[True, False], [False, False], [False, False]])
+    beats_2v1 = np.zeros((3, 3, 2), dtype=bool)
+    active = np.array([True, True, True])
+    solver = AssignmentSolver("mip")
+    first = solver.solve(beats_1v1, beats_2v1, active)
+    # Attacker 0 beats defender 0 alone, so no pair with it is ever read for defender 0.
+    flipped = beats_2v1.copy()
+    flipped[0, 1, 0] = flipped[1, 0, 0] = True
+    assert solver.solve(beats_1v1, flipped, active) is first
+    # Attacker 2 leaves the game: what it would beat no longer matters either.
+    gone = np.array([True, True, False])
+    second = solver.solve(beats_1v1, beats_2v1, gone)
+    changed = beats_1v1.copy()
+    changed[2] = [True, True]
+    assert solver.solve(changed, beats_2v1, gone) is second
+    assert (solver.solves, solver.reuses) == (2, 2)
+    # A pair both of whose attackers defender 1 could take does matter.
+    relevant = beats_2v1.copy()
+    relevant[1, 2, 1] = relevant[2, 1, 1] = True
+    solver.solve(beats_1v1, relevant, active)
+    assert solver.solves == 3
