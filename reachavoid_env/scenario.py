@@ -52,12 +52,13 @@ class GameMap:
         if not self.target:
             raise ScenarioError("map.target: at least one target shape is required")
         for i, shape in enumerate(self.target):
+            name = "map.target" if len(self.target) == 1 else f"map.target[{i}]"
             bx0, bx1, by0, by1 = shape.bounds()
             if bx0 < xmin or bx1 > xmax or by0 < ymin or by1 > ymax:
-                raise ScenarioError(f"map.target[{i}]: extends outside the domain {self.domain}")
+                raise ScenarioError(f"{name}: extends outside the domain {self.domain}")
             for k, obstacle in enumerate(self.obstacles):
                 if _shapes_overlap(shape, obstacle):
-                    raise ScenarioError(f"map.target[{i}]: overlaps obstacle {k}")
+                    raise ScenarioError(f"{name}: overlaps obstacle {k}")
 
     @property
     def size(self) -> tuple[float, float]:

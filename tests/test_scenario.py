@@ -83,7 +83,7 @@ def test_valid_file_loads(tmp_path):
      "players.attackers[1]: (0.3, -0.25) starts captured by defenders[0]"),
     ('target = { type = "box", min = [0.6, 0.1], max = [0.8, 0.3] }',
      'target = { type = "box", min = [0.45, -0.45], max = [0.8, 0.3] }',
-     "map.target[0]: overlaps obstacle 1"),
+     "map.target: overlaps obstacle 1"),
     ("[sim]", "[sim]\nspeed = 3", "sim: unknown keys ['speed']"),
 ])
 def test_validation_error_names_the_field(tmp_path, old, new, field):
