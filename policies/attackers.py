@@ -10,8 +10,9 @@ from __future__ import annotations
 import numpy as np
 
 from policies.geodesic import DEFAULT_CELLS, DistanceField, distance_field
+from policies.tubes import tube_1v1
 from reachavoid_env import GameMap, GameState, Scenario
-from solvers.hj import ValueFunction, solve_1v1
+from solvers.hj import ValueFunction
 
 
 def target_centres(game_map: GameMap, samples: int = 41) -> np.ndarray:
@@ -113,10 +114,7 @@ class HJAttacker:
     def for_scenario(cls, scenario: Scenario, grid1: int = 45,
                      progress: bool = True) -> HJAttacker:
         """Load (or solve and cache) the scenario's 1 vs 1 tube."""
-        vf11 = solve_1v1(scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
-                         capture_radius=scenario.capture_radius, grid_points=grid1,
-                         progress=progress)
-        return cls(vf11)
+        return cls(tube_1v1(scenario, grid1, progress))
 
     def reset(self, scenario: Scenario) -> None:
         self._straight.reset(scenario)

@@ -11,9 +11,10 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
+from policies.tubes import tube_1v1, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario
 from solvers.assignment import Assignment, AssignmentSolver
-from solvers.hj import ValueFunction, solve_1v1, solve_2v1
+from solvers.hj import ValueFunction
 
 
 class IdleDefender:
@@ -98,7 +99,6 @@ class _AssignmentDefender(ABC):
         self.vf21 = vf21
         self.solver = AssignmentSolver(method)
         self._assignment: Assignment | None = None
-        self._names: list[str] = []
 
     def reset(self, scenario: Scenario) -> None:
         _check_tube(self.vf11, scenario, "vf11")
@@ -111,6 +111,12 @@ class _AssignmentDefender(ABC):
         if self._assignment is None:
             return []
         return [(f"defender_{j}", f"attacker_{i}") for i, j in self._assignment.pairs]
+
+    @property
+    def guaranteed_captures(self) -> int:
+        """Attackers guaranteed never to reach the target from now on: the size of the last
+        assignment (the MIP objective; the matching size for the baseline)."""
+        return 0 if self._assignment is None else self._assignment.captures
 
     @property
     def last_assignment(self) -> Assignment | None:
@@ -208,20 +214,11 @@ class HJDefenderPolicy(_AssignmentDefender):
     def for_scenario(cls, scenario: Scenario, grid1: int = 45, grid2: int = 30,
                      idle: str = "shadow", progress: bool = True) -> HJDefenderPolicy:
         """Load (or solve, with a progress bar, and cache) the scenario's tubes."""
-        vf11 = solve_1v1(scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
-                         capture_radius=scenario.capture_radius, grid_points=grid1,
-                         progress=progress)
-        vf21 = solve_2v1(scenario.map, vf11, grid_points=grid2, progress=progress)
-        return cls(vf11, vf21, idle=idle)
+        return cls(*tube_2v1(scenario, grid1, grid2, progress), idle=idle)
 
     def reset(self, scenario: Scenario) -> None:
         super().reset(scenario)
         _check_tube(self.vf21, scenario, "vf21")
-
-    @property
-    def guaranteed_captures(self) -> int:
-        """Attackers the defenders are guaranteed to capture from now on (MIP objective)."""
-        return 0 if self._assignment is None else self._assignment.captures
 
     def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
         m, n = beats.shape
@@ -276,15 +273,7 @@ class MatchingDefenderPolicy(_AssignmentDefender):
     def for_scenario(cls, scenario: Scenario, grid1: int = 45, unmatched: str = "stand",
                      progress: bool = True) -> MatchingDefenderPolicy:
         """Load (or solve and cache) the scenario's 1 vs 1 tube."""
-        vf11 = solve_1v1(scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
-                         capture_radius=scenario.capture_radius, grid_points=grid1,
-                         progress=progress)
-        return cls(vf11, unmatched=unmatched)
-
-    @property
-    def guaranteed_captures(self) -> int:
-        """Size of the last matching: captures the baseline guarantees from now on."""
-        return 0 if self._assignment is None else self._assignment.captures
+        return cls(tube_1v1(scenario, grid1, progress), unmatched=unmatched)
 
     def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
         return self.solver.solve(beats, None, active)

@@ -1,0 +1,20 @@
+"""A scenario's HJ tubes, loaded from the on-disk cache or solved once (with progress)."""
+
+from __future__ import annotations
+
+from reachavoid_env import Scenario
+from solvers.hj import ValueFunction, solve_1v1, solve_2v1
+
+
+def tube_1v1(scenario: Scenario, grid1: int = 45, progress: bool = True) -> ValueFunction:
+    """The 1 vs 1 value of the scenario's map, speeds and capture radius on ``grid1``^4."""
+    return solve_1v1(scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
+                     capture_radius=scenario.capture_radius, grid_points=grid1,
+                     progress=progress)
+
+
+def tube_2v1(scenario: Scenario, grid1: int = 45, grid2: int = 30,
+             progress: bool = True) -> tuple[ValueFunction, ValueFunction]:
+    """The 1 vs 1 value on ``grid1``^4 and the 2 vs 1 value built on it, on ``grid2``^6."""
+    vf11 = tube_1v1(scenario, grid1, progress)
+    return vf11, solve_2v1(scenario.map, vf11, grid_points=grid2, progress=progress)
