@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import replace
 from functools import partial
 from types import SimpleNamespace
 
 import pytest
+from checks import checked
 from pettingzoo.test import (
     api_test,
     max_cycles_test,
@@ -39,15 +39,6 @@ SCENARIOS.update({
 @pytest.fixture(params=sorted(SCENARIOS))
 def scenario(request):
     return SCENARIOS[request.param]
-
-
-def checked(check, *args, **kwargs) -> None:
-    """Run a PettingZoo check; its warnings (missing keys, revived agents) fail the test."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        check(*args, **kwargs)
-    messages = [str(w.message) for w in caught if w.category is not DeprecationWarning]
-    assert messages == []
 
 
 def test_parallel_api(scenario):

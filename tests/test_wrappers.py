@@ -4,12 +4,12 @@ vector envs."""
 from __future__ import annotations
 
 import pickle
-import warnings
 from dataclasses import replace
 
 import gymnasium
 import numpy as np
 import pytest
+from checks import checked
 from gymnasium.utils.env_checker import check_env
 from pettingzoo.test import api_test, parallel_api_test
 from pettingzoo.utils import parallel_to_aec
@@ -24,15 +24,6 @@ from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv, buil
 CROWDED = replace(builtin_scenario("paper_2v1").with_players(4, 3), capture_radius=0.3,
                   dt=0.05)
 CROWDED_PARAM = pytest.param(CROWDED, id="crowded_4v3")
-
-
-def checked(check, *args, **kwargs) -> None:
-    """Run a checker; any warning it raises (bar deprecations) fails the test."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        check(*args, **kwargs)
-    messages = [str(w.message) for w in caught if w.category is not DeprecationWarning]
-    assert messages == []
 
 
 @pytest.fixture
