@@ -23,7 +23,7 @@ import numpy as np
 import reachavoid_env
 from policies import HJAttacker, HJDefenderPolicy, RandomAttacker, ShortestPathAttacker
 from policies.defenders import pair_states, triple_states
-from reachavoid_env.rollout import run_episode
+from reachavoid.rollout import run_episode
 
 
 def assigned_margin(policy: HJDefenderPolicy, env) -> float:

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import reachavoid_env
 from policies import GreedyDefender, IdleDefender, RandomAttacker, StraightAttacker
+from reachavoid.rollout import merged_overlay, run_episode
 from reachavoid_env.render import Renderer
-from reachavoid_env.rollout import merged_overlay, run_episode
 from reachavoid_env.video import VideoWriter
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import reachavoid_env
 from policies import GreedyDefender, StraightAttacker
-from reachavoid_env.rollout import run_episode
+from reachavoid.rollout import run_episode
 from reachavoid_env.video import RecordEpisode
 
 

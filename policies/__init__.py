@@ -5,7 +5,6 @@ Importing the package registers the attacker-training envs with Gymnasium and Pe
 """
 
 from policies.attackers import HJAttacker, RandomAttacker, ShortestPathAttacker, StraightAttacker
-from policies.base import Policy, overlay_of
 from policies.defenders import (
     GreedyDefender,
     HJDefenderPolicy,
@@ -20,11 +19,9 @@ __all__ = [
     "HJDefenderPolicy",
     "IdleDefender",
     "MatchingDefenderPolicy",
-    "Policy",
     "RandomAttacker",
     "ShortestPathAttacker",
     "StraightAttacker",
     "make_attacker_env",
     "make_attackers_parallel_env",
-    "overlay_of",
 ]

@@ -1,6 +1,6 @@
 """Scripted attacker policies.
 
-Each follows ``policies.base.Policy``: ``reset(scenario)`` then ``act(state)``, which
+Each follows ``reachavoid_env.Policy``: ``reset(scenario)`` then ``act(state)``, which
 returns a float32 ``(2,)`` action in ``[-1, 1]`` (a velocity as a fraction of the
 attacker's speed) for every attacker still in the game.
 """
@@ -12,6 +12,7 @@ import numpy as np
 from policies.geodesic import DEFAULT_CELLS, DistanceField, distance_field
 from policies.tubes import tube_1v1
 from reachavoid_env import GameMap, GameState, Scenario
+from reachavoid_env.rules import unit_vectors
 from solvers.hj import ValueFunction
 
 
@@ -29,13 +30,6 @@ def target_centres(game_map: GameMap, samples: int = 41) -> np.ndarray:
                                     indexing="ij"), axis=-1).reshape(-1, 2)
         centres.append(grid[np.argmin(shape.signed_distance(grid))])
     return np.asarray(centres)
-
-
-def _unit(vectors: np.ndarray) -> np.ndarray:
-    """Rows scaled to length 1 (zero rows stay zero), as float32 actions."""
-    norms = np.linalg.norm(vectors, axis=-1, keepdims=True)
-    return np.divide(vectors, norms, out=np.zeros_like(vectors), where=norms > 0).astype(
-        np.float32)
 
 
 class StraightAttacker:
@@ -57,7 +51,7 @@ class StraightAttacker:
         positions = state.attacker_positions[active]
         gaps = self._centres[None, :, :] - positions[:, None, :]
         nearest = np.argmin(np.linalg.norm(gaps, axis=-1), axis=1)
-        actions = _unit(gaps[np.arange(len(active)), nearest])
+        actions = unit_vectors(gaps[np.arange(len(active)), nearest]).astype(np.float32)
         return {f"attacker_{i}": actions[k] for k, i in enumerate(active)}
 
 

@@ -1,6 +1,6 @@
 """Scripted and solver-backed defender policies.
 
-Each follows ``policies.base.Policy``: ``reset(scenario)`` then ``act(state)``, which
+Each follows ``reachavoid_env.Policy``: ``reset(scenario)`` then ``act(state)``, which
 returns a float32 ``(2,)`` action in ``[-1, 1]`` (a velocity as a fraction of the
 defender's speed) for every defender.
 """
@@ -13,6 +13,7 @@ import numpy as np
 
 from policies.tubes import tube_1v1, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario
+from reachavoid_env.rules import unit_vectors
 from solvers.assignment import Assignment, AssignmentSolver
 from solvers.hj import ValueFunction
 
@@ -81,8 +82,7 @@ def _heading(control: np.ndarray, fallback: np.ndarray) -> np.ndarray:
     """``control`` where it is non-zero, else the unit vector along ``fallback``."""
     if np.linalg.norm(control) > 0:
         return control.astype(np.float32)
-    length = np.linalg.norm(fallback)
-    return (fallback / length if length > 0 else np.zeros(2)).astype(np.float32)
+    return unit_vectors(fallback).astype(np.float32)
 
 
 class _AssignmentDefender(ABC):

@@ -24,6 +24,7 @@ import numpy as np
 import skfmm
 
 from reachavoid_env import GameMap
+from reachavoid_env.rules import unit_vectors
 
 DEFAULT_CELLS = 256
 """Grid cells along the longer side of the domain (the paper map: spacing 2/256)."""
@@ -91,9 +92,7 @@ class DistanceField:
         """
         p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
         step = min(self.spacing)
-        heading = -self.gradient(p)
-        length = np.linalg.norm(heading, axis=-1, keepdims=True)
-        heading = np.divide(heading, length, out=np.zeros_like(heading), where=length > 0)
+        heading = unit_vectors(-self.gradient(p))
         gap, normal = _clearance_and_normal(self.game_map, p, step)
         near = gap < self.clearance + 2 * step
         inward = np.minimum(np.einsum("kd,kd->k", heading, normal), 0.0) * near
@@ -114,8 +113,7 @@ def _clearance_and_normal(game_map: GameMap, points: np.ndarray,
     offsets = np.array([[0.0, 0.0], [eps, 0.0], [-eps, 0.0], [0.0, eps], [0.0, -eps]])
     sd = game_map.obstacle_signed_distance(points[:, None, :] + offsets[None])
     normal = np.stack([sd[:, 1] - sd[:, 2], sd[:, 3] - sd[:, 4]], axis=-1)
-    length = np.linalg.norm(normal, axis=-1, keepdims=True)
-    return sd[:, 0], np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    return sd[:, 0], unit_vectors(normal)
 
 
 def _fill_unknown(values: np.ndarray, known: np.ndarray) -> np.ndarray:

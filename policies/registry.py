@@ -12,14 +12,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from policies.attackers import HJAttacker, RandomAttacker, ShortestPathAttacker, StraightAttacker
-from policies.base import Policy
 from policies.defenders import (
     GreedyDefender,
     HJDefenderPolicy,
     IdleDefender,
     MatchingDefenderPolicy,
 )
-from reachavoid_env.scenario import Scenario
+from reachavoid_env import Policy, Scenario
 
 
 @dataclass(frozen=True)

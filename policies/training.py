@@ -33,8 +33,8 @@ from typing import Any
 import gymnasium
 import pettingzoo
 
-from policies.base import Policy
 from policies.registry import make_policy, named_policy
+from reachavoid_env import Policy
 from reachavoid_env.scenario import Scenario, builtin_names
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 

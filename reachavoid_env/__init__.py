@@ -4,13 +4,13 @@ Importing the package registers the env with PettingZoo as ``reachavoid/ReachAvo
 (both ``pettingzoo.make("parallel", ...)`` and ``pettingzoo.make("aec", ...)``).
 Note that ``reachavoid_env.env`` is the AEC constructor, which shadows the ``env``
 submodule as a package attribute; import from the submodule with
-``from reachavoid_env.env import ...``.
+``from reachavoid_env.environment import ...``.
 """
 
 import pettingzoo
 
-from reachavoid_env.env import ReachAvoidEnv
-from reachavoid_env.game_state import AttackerStatus, GameState, Overlay
+from reachavoid_env.environment import ReachAvoidEnv
+from reachavoid_env.game_state import AttackerStatus, GameState, Overlay, Policy, merged_overlay
 from reachavoid_env.reach_avoid_v0 import env, parallel_env, raw_env
 from reachavoid_env.scenario import (
     GameMap,
@@ -31,6 +31,7 @@ __all__ = [
     "GameMap",
     "GameState",
     "Overlay",
+    "Policy",
     "Polygon",
     "ReachAvoidEnv",
     "Scenario",
@@ -41,6 +42,7 @@ __all__ = [
     "builtin_scenario",
     "env",
     "load_scenario",
+    "merged_overlay",
     "parallel_env",
     "raw_env",
     "save_scenario",

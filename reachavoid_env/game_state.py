@@ -1,11 +1,15 @@
-"""The game's state as scripted policies and the renderer read it."""
+"""The game's state as policies and the renderer read it, and the one Policy protocol."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from reachavoid_env.scenario import Scenario
 
 
 class AttackerStatus(str, Enum):
@@ -75,3 +79,33 @@ class Overlay:
 
     edges: tuple[tuple[str, str], ...] = ()
     lines: tuple[str, ...] = ()
+
+
+@runtime_checkable
+class Policy(Protocol):
+    """Controls one side (all attackers or all defenders) of a game.
+
+    ``reset(scenario)`` is called once per episode with the scenario in play (starts
+    included). ``act(state)`` returns an action for every live agent the policy controls,
+    keyed by agent name: a float32 array ``(2,)`` in ``[-1, 1]``, the desired velocity as a
+    fraction of that player's speed (the env's action space). A policy that has something
+    to show (assignment edges, text) also defines ``overlay() -> Overlay | None``; it is
+    optional, and read only through ``merged_overlay``.
+    """
+
+    def reset(self, scenario: Scenario) -> None: ...
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]: ...
+
+
+def merged_overlay(*policies: Policy) -> Overlay | None:
+    """The union of the policies' overlays (edges and text lines); ``None`` if none draws."""
+    overlays = []
+    for policy in policies:
+        overlay = getattr(policy, "overlay", None)
+        if callable(overlay) and (drawn := overlay()) is not None:
+            overlays.append(drawn)
+    if not overlays:
+        return None
+    return Overlay(edges=tuple(e for o in overlays for e in o.edges),
+                   lines=tuple(line for o in overlays for line in o.lines))

@@ -4,6 +4,6 @@
 conversion; ``env`` the AEC env with the standard wrappers.
 """
 
-from reachavoid_env.env import ReachAvoidEnv, env, parallel_env, raw_env
+from reachavoid_env.environment import ReachAvoidEnv, env, parallel_env, raw_env
 
 __all__ = ["ReachAvoidEnv", "env", "parallel_env", "raw_env"]

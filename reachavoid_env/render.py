@@ -22,7 +22,7 @@ import pygame  # noqa: E402
 
 from reachavoid_env.game_state import AttackerStatus, GameState, Overlay  # noqa: E402
 from reachavoid_env.scenario import GameMap  # noqa: E402
-from reachavoid_env.shapes import Box, Circle, Polygon  # noqa: E402
+from reachavoid_env.shapes import Shape  # noqa: E402
 
 Color = tuple[int, int, int]
 
@@ -134,21 +134,11 @@ class Renderer:
 
     # -- static layers -------------------------------------------------------------------
 
-    def _draw_shape(self, surface: pygame.Surface, shape: Box | Circle | Polygon,
-                    fill: Color, edge: Color) -> None:
-        if isinstance(shape, Circle):
-            center = self._pixel(shape.center)
-            radius = shape.radius * self._scale
-            pygame.draw.aacircle(surface, fill, center, radius)
-            pygame.draw.aacircle(surface, edge, center, radius, width=2)
-            return
-        if isinstance(shape, Box):
-            (x0, y0), (x1, y1) = shape.min, shape.max
-            vertices = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
-        else:
-            vertices = list(shape.vertices)
-        points = [tuple(p) for p in self.to_pixels(np.asarray(vertices)).tolist()]
+    def _draw_shape(self, surface: pygame.Surface, shape: Shape, fill: Color,
+                    edge: Color) -> None:
+        points = [tuple(p) for p in self.to_pixels(shape.outline()).tolist()]
         pygame.draw.polygon(surface, fill, points)
+        pygame.draw.aalines(surface, edge, True, points)
         pygame.draw.polygon(surface, edge, points, width=2)
 
     def _draw_background(self) -> pygame.Surface:

@@ -6,7 +6,6 @@ second. Point arrays have shape ``(..., 2)``. The TOML format is design.md secti
 
 from __future__ import annotations
 
-import math
 import os
 import sys
 from dataclasses import dataclass, field, replace
@@ -17,16 +16,31 @@ from typing import Any
 import numpy as np
 import tomli_w
 
+from reachavoid_env import checks, rules
 from reachavoid_env.files import atomic_write
-from reachavoid_env.shapes import Box, Circle, Polygon, ShapeError, shape_from_dict
+from reachavoid_env.shapes import Box, Shape, ShapeError, shape_from_dict
+from reachavoid_env.world import substeps_for
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:
     import tomli as tomllib
 
-ShapeT = Box | Circle | Polygon
 Point = tuple[float, float]
+
+MAX_COORDINATE = 1e4
+"""Largest absolute map coordinate (map units) a domain may have."""
+MIN_EXTENT = 1e-3
+"""Smallest width and height of a domain (map units)."""
+MAX_SPEED = 1e3
+"""Largest player speed (map units per second)."""
+MAX_DT = 1.0
+"""Longest step (seconds)."""
+MAX_STEPS = 10_000_000
+"""Most steps in an episode."""
+MAX_SUBSTEPS = 10_000
+"""Most physics sub-steps per step (``world.substeps_for``): a smaller ``player_radius`` or a
+longer ``dt`` would make every step crawl."""
 
 
 class ScenarioError(ValueError):
@@ -42,13 +56,17 @@ class GameMap:
     """
 
     domain: tuple[float, float, float, float]
-    target: tuple[ShapeT, ...]
-    obstacles: tuple[ShapeT, ...] = ()
+    target: tuple[Shape, ...]
+    obstacles: tuple[Shape, ...] = ()
 
     def __post_init__(self) -> None:
+        for i, value in enumerate(self.domain):
+            checks.real(value, f"map.domain[{i}]", -MAX_COORDINATE, MAX_COORDINATE,
+                        error=ScenarioError)
         xmin, xmax, ymin, ymax = self.domain
-        if not (xmax > xmin and ymax > ymin):
-            raise ScenarioError(f"map.domain: need xmin < xmax and ymin < ymax, got {self.domain}")
+        if not (xmax - xmin >= MIN_EXTENT and ymax - ymin >= MIN_EXTENT):
+            raise ScenarioError(f"map.domain: need xmin < xmax and ymin < ymax, each extent at "
+                                f"least {MIN_EXTENT:g}, got {self.domain}")
         if not self.target:
             raise ScenarioError("map.target: at least one target shape is required")
         for i, shape in enumerate(self.target):
@@ -119,7 +137,9 @@ class GameMap:
             raise ScenarioError(
                 f"{field_name}.domain: expected [xmin, xmax, ymin, ymax], got {domain!r}"
             )
-        domain_t = tuple(_number(v, f"{field_name}.domain[{i}]") for i, v in enumerate(domain))
+        domain_t = tuple(checks.real(v, f"{field_name}.domain[{i}]", -MAX_COORDINATE,
+                                     MAX_COORDINATE, error=ScenarioError)
+                         for i, v in enumerate(domain))
         if "target" not in data:
             raise ScenarioError(f"{field_name}.target: missing")
         target = data["target"]
@@ -141,11 +161,11 @@ class GameMap:
         return cls(domain_t, target_shapes, obstacle_shapes)  # type: ignore[arg-type]
 
 
-def _shapes_to_toml(shapes: tuple[ShapeT, ...]) -> Any:
+def _shapes_to_toml(shapes: tuple[Shape, ...]) -> Any:
     return shapes[0].to_dict() if len(shapes) == 1 else [s.to_dict() for s in shapes]
 
 
-def _shapes_overlap(a: ShapeT, b: ShapeT, samples: int = 64) -> bool:
+def _shapes_overlap(a: Shape, b: Shape, samples: int = 64) -> bool:
     """Whether two shapes share interior points (checked on boundary and grid samples)."""
     ax0, ax1, ay0, ay1 = a.bounds()
     bx0, bx1, by0, by1 = b.bounds()
@@ -155,21 +175,6 @@ def _shapes_overlap(a: ShapeT, b: ShapeT, samples: int = 64) -> bool:
     xs, ys = np.linspace(x0, x1, samples), np.linspace(y0, y1, samples)
     grid = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1)
     return bool(np.any((a.signed_distance(grid) < 0) & (b.signed_distance(grid) < 0)))
-
-
-def _number(value: Any, field_name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ScenarioError(f"{field_name}: expected a number, got {value!r}")
-    if not math.isfinite(value):
-        raise ScenarioError(f"{field_name}: must be finite, got {value!r}")
-    return float(value)
-
-
-def _positive(value: Any, field_name: str) -> float:
-    number = _number(value, field_name)
-    if number <= 0:
-        raise ScenarioError(f"{field_name}: must be positive, got {value!r}")
-    return number
 
 
 def _points_field(value: Any, field_name: str) -> tuple[Point, ...] | int:
@@ -186,8 +191,8 @@ def _points_field(value: Any, field_name: str) -> tuple[Point, ...] | int:
         if not isinstance(p, list) or len(p) != 2:
             raise ScenarioError(f"{field_name}[{i}]: expected a vector [x, y] of length 2, "
                                 f"got {p!r}")
-        points.append((_number(p[0], f"{field_name}[{i}][0]"),
-                       _number(p[1], f"{field_name}[{i}][1]")))
+        points.append((checks.real(p[0], f"{field_name}[{i}][0]", error=ScenarioError),
+                       checks.real(p[1], f"{field_name}[{i}][1]", error=ScenarioError)))
     return tuple(points)
 
 
@@ -214,17 +219,29 @@ class Scenario:
     player_radius: float = 0.005
     start_clearance: float = 0.05
     name: str = "custom"
-    extra: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    paper_captures: tuple[tuple[str, int], ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
-        for name in ("attacker_speed", "defender_speed", "capture_radius", "dt", "player_radius"):
-            _positive(getattr(self, name), f"{_SECTION[name]}.{name}")
-        if self.start_clearance < 0:
-            raise ScenarioError(f"sim.start_clearance: must be >= 0, got {self.start_clearance}")
-        if isinstance(self.max_steps, bool) or not isinstance(self.max_steps, int) \
-                or self.max_steps < 1:
-            raise ScenarioError(f"sim.max_steps: must be a positive integer, got "
-                                f"{self.max_steps!r}")
+        size = min(self.map.size)
+        for name, high in (("attacker_speed", MAX_SPEED), ("defender_speed", MAX_SPEED),
+                           ("capture_radius", size), ("dt", MAX_DT),
+                           ("player_radius", 0.1 * size)):
+            object.__setattr__(self, name, checks.positive(
+                getattr(self, name), f"{_SECTION[name]}.{name}", high, error=ScenarioError))
+        object.__setattr__(self, "start_clearance", checks.real(
+            self.start_clearance, "sim.start_clearance", 0.0, 0.5 * size, error=ScenarioError))
+        checks.integer(self.max_steps, "sim.max_steps", 1, MAX_STEPS, error=ScenarioError)
+        substeps = substeps_for(max(self.attacker_speed, self.defender_speed), self.dt,
+                                self.player_radius)
+        if substeps > MAX_SUBSTEPS:
+            raise ScenarioError(f"sim.dt: {self.dt:g} s at speed "
+                                f"{max(self.attacker_speed, self.defender_speed):g} needs "
+                                f"{substeps} physics sub-steps per step with player_radius "
+                                f"{self.player_radius:g} (at most {MAX_SUBSTEPS}); shorten "
+                                f"sim.dt or grow sim.player_radius")
+        for method, count in self.paper_captures:
+            checks.integer(count, f"paper.captured.{method}", 0, self.num_attackers,
+                           error=ScenarioError)
         for role, count in (("attackers", self.num_attackers), ("defenders", self.num_defenders)):
             if count < 1:
                 raise ScenarioError(f"players.{role}: need at least one, got {count}")
@@ -260,8 +277,10 @@ class Scenario:
             where = f"players.attackers[{i}]: ({p[0]:g}, {p[1]:g})"
             if self.map.in_target(p):
                 raise ScenarioError(f"{where} starts inside the target")
-            gaps = np.linalg.norm(np.asarray(defenders) - p, axis=-1)
-            if np.any(gaps <= self.capture_radius):
+            caught = rules.within_capture(p[None], np.asarray(defenders, dtype=np.float64),
+                                          self.capture_radius)[0]
+            if caught.any():
+                gaps = np.linalg.norm(np.asarray(defenders) - p, axis=-1)
                 j = int(np.argmin(gaps))
                 raise ScenarioError(f"{where} starts captured by defenders[{j}] "
                                     f"(distance {gaps[j]:.3g} <= capture_radius "
@@ -302,7 +321,7 @@ class Scenario:
     def with_players(self, num_attackers: int, num_defenders: int) -> Scenario:
         """The same map and settings with random starts for the given numbers of players."""
         return replace(self, num_attackers=num_attackers, num_defenders=num_defenders,
-                       attackers=None, defenders=None,
+                       attackers=None, defenders=None, paper_captures=(),
                        name=f"{self.name.split('_')[0]}_random_{num_attackers}v{num_defenders}")
 
     def with_starts(self, attackers: np.ndarray, defenders: np.ndarray) -> Scenario:
@@ -324,14 +343,16 @@ class Scenario:
         }
         sim = {"dt": self.dt, "max_steps": self.max_steps, "player_radius": self.player_radius,
                "start_clearance": self.start_clearance}
-        return {"name": self.name, "map": self.map.to_dict(), "players": players, "sim": sim}
+        paper = {"paper": {"captured": dict(self.paper_captures)}} if self.paper_captures else {}
+        return {"name": self.name, "map": self.map.to_dict(), "players": players, "sim": sim,
+                **paper}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], name: str = "custom") -> Scenario:
-        unknown = set(data) - {"name", "map", "players", "sim"}
+        unknown = set(data) - {"name", "map", "players", "sim", "paper"}
         if unknown:
             raise ScenarioError(f"unknown top-level tables {sorted(unknown)} "
-                                "(expected map, players, sim)")
+                                "(expected map, players, sim, paper)")
         if "map" not in data:
             raise ScenarioError("map: missing [map] table")
         game_map = GameMap.from_dict(data["map"])
@@ -354,20 +375,15 @@ class Scenario:
                 raise ScenarioError(f"players.{role}: missing")
         attackers = _points_field(players["attackers"], "players.attackers")
         defenders = _points_field(players["defenders"], "players.defenders")
-        kwargs: dict[str, Any] = {}
-        for key in ("attacker_speed", "defender_speed", "capture_radius"):
-            if key in players:
-                kwargs[key] = _positive(players[key], f"players.{key}")
-        for key in ("dt", "player_radius"):
-            if key in sim:
-                kwargs[key] = _positive(sim[key], f"sim.{key}")
-        if "start_clearance" in sim:
-            kwargs["start_clearance"] = _number(sim["start_clearance"], "sim.start_clearance")
-        if "max_steps" in sim:
-            steps = sim["max_steps"]
-            if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
-                raise ScenarioError(f"sim.max_steps: must be a positive integer, got {steps!r}")
-            kwargs["max_steps"] = steps
+        kwargs: dict[str, Any] = {key: players[key] for key in
+                                  ("attacker_speed", "defender_speed", "capture_radius")
+                                  if key in players}
+        kwargs.update((key, sim[key]) for key in allowed_sim if key in sim)
+        paper = data.get("paper", {})
+        if not isinstance(paper, dict) or set(paper) - {"captured"} \
+                or not isinstance(paper.get("captured", {}), dict):
+            raise ScenarioError("paper: expected a table with captured = {method = count, ...}")
+        kwargs["paper_captures"] = tuple(paper.get("captured", {}).items())
         return cls(
             map=game_map,
             num_attackers=attackers if isinstance(attackers, int) else len(attackers),
@@ -394,8 +410,8 @@ def builtin_scenario(name: str) -> Scenario:
     if name not in builtin_names():
         raise ScenarioError(f"scenario: unknown built-in {name!r} "
                             f"(built-ins: {', '.join(builtin_names())})")
-    text = (resources.files("reachavoid_env") / "scenarios" / f"{name}.toml").read_text()
-    return _parse(text, name, source=f"built-in {name}")
+    data = (resources.files("reachavoid_env") / "scenarios" / f"{name}.toml").read_bytes()
+    return _parse(data, name, source=f"built-in {name}")
 
 
 def builtin_map(name: str = "paper") -> GameMap:
@@ -406,12 +422,15 @@ def builtin_map(name: str = "paper") -> GameMap:
     return builtin_scenario(matches[0]).map
 
 
-def _parse(text: str, name: str, source: str) -> Scenario:
+def _parse(data: bytes, name: str, source: str) -> Scenario:
     try:
-        data = tomllib.loads(text)
+        parsed = tomllib.loads(data.decode("utf-8"))
+    except UnicodeDecodeError as err:
+        raise ScenarioError(f"{source}: not UTF-8 text (byte {err.start}); TOML files are "
+                            f"UTF-8") from None
     except tomllib.TOMLDecodeError as err:
         raise ScenarioError(f"{source}: malformed TOML: {err}") from None
-    return Scenario.from_dict(data, name=name)
+    return Scenario.from_dict(parsed, name=name)
 
 
 def load_scenario(source: str | os.PathLike[str]) -> Scenario:
@@ -422,7 +441,7 @@ def load_scenario(source: str | os.PathLike[str]) -> Scenario:
     if not path.is_file():
         raise ScenarioError(f"scenario: no such file or built-in {str(source)!r} "
                             f"(built-ins: {', '.join(builtin_names())})")
-    return _parse(path.read_text(), path.stem, source=str(path))
+    return _parse(path.read_bytes(), path.stem, source=str(path))
 
 
 def save_scenario(scenario: Scenario, path: str | os.PathLike[str]) -> None:

@@ -9,15 +9,20 @@ Every shape answers, for points given as an array of shape ``(..., 2)`` in map u
 - ``segment_entry_time(starts, ends)``: for straight segments ``start + t (end - start)``,
   ``t`` in ``[0, 1]``, the first ``t`` at which the segment is in the shape (boundary
   included), ``inf`` where it never is (exact for every shape kind);
-- ``to_dict()``: the TOML table of the shape (see ``shape_from_dict``);
+- ``to_dict()`` / ``from_dict(table, field)``: the shape's TOML table, whose ``type`` is
+  the class's ``type``;
+- ``outline()``: the boundary as a closed ring of vertices ``(K, 2)`` for drawing;
 - ``pymunk_shapes(body)``: static pymunk collision shapes for the world.
+
+``SHAPES`` is the registry (TOML ``type`` -> class) that the loader uses and that
+``register`` fills, so a new shape kind is one class in one file.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 import pymunk
@@ -29,12 +34,27 @@ class ShapeError(ValueError):
 
 
 class Shape(Protocol):
+    type: ClassVar[str]
+
     def signed_distance(self, points: np.ndarray) -> np.ndarray: ...
     def contains(self, points: np.ndarray) -> np.ndarray: ...
     def segment_entry_time(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray: ...
     def bounds(self) -> tuple[float, float, float, float]: ...
+    def outline(self) -> np.ndarray: ...
     def to_dict(self) -> dict[str, Any]: ...
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], field: str) -> Shape: ...
     def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]: ...
+
+
+SHAPES: dict[str, type[Shape]] = {}
+"""TOML ``type`` -> shape class."""
+
+
+def register(cls: type[Shape]) -> type[Shape]:
+    """Class decorator: make ``cls`` loadable from TOML tables of ``type = cls.type``."""
+    SHAPES[cls.type] = cls
+    return cls
 
 
 def _points(points: np.ndarray) -> np.ndarray:
@@ -54,12 +74,22 @@ def _settle(t: np.ndarray, start_in: np.ndarray, end_in: np.ndarray) -> np.ndarr
     return np.where(start_in, 0.0, t)
 
 
+@register
 @dataclass(frozen=True)
 class Box:
-    """Axis-aligned box ``[min[0], max[0]] x [min[1], max[1]]``."""
+    """Axis-aligned box ``[min[0], max[0]] x [min[1], max[1]]``.
 
+    TOML: ``{type = "box", min = [x, y], max = [x, y]}``.
+    """
+
+    type: ClassVar[str] = "box"
     min: tuple[float, float]
     max: tuple[float, float]
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], field: str) -> Box:
+        _keys(data, field, {"min", "max"})
+        return cls(_vector(data["min"], f"{field}.min"), _vector(data["max"], f"{field}.max"))
 
     def __post_init__(self) -> None:
         if not (self.max[0] > self.min[0] and self.max[1] > self.min[1]):
@@ -100,20 +130,37 @@ class Box:
     def bounds(self) -> tuple[float, float, float, float]:
         return (self.min[0], self.max[0], self.min[1], self.max[1])
 
+    def outline(self) -> np.ndarray:
+        (x0, y0), (x1, y1) = self.min, self.max
+        return np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+
     def to_dict(self) -> dict[str, Any]:
-        return {"type": "box", "min": list(self.min), "max": list(self.max)}
+        return {"type": self.type, "min": list(self.min), "max": list(self.max)}
 
     def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]:
-        (x0, y0), (x1, y1) = self.min, self.max
-        return [pymunk.Poly(body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])]
+        return [pymunk.Poly(body, [tuple(p) for p in self.outline().tolist()])]
 
 
+@register
 @dataclass(frozen=True)
 class Circle:
-    """Disc of ``radius`` around ``center``."""
+    """Disc of ``radius`` around ``center``.
 
+    TOML: ``{type = "circle", center = [x, y], radius = r}``.
+    """
+
+    type: ClassVar[str] = "circle"
     center: tuple[float, float]
     radius: float
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], field: str) -> Circle:
+        _keys(data, field, {"center", "radius"})
+        radius = data["radius"]
+        if isinstance(radius, bool) or not isinstance(radius, (int, float)) \
+                or not math.isfinite(radius):
+            raise ShapeError(f"{field}.radius: expected a finite number, got {radius!r}")
+        return cls(_vector(data["center"], f"{field}.center"), float(radius))
 
     def __post_init__(self) -> None:
         if not self.radius > 0:
@@ -139,43 +186,88 @@ class Circle:
         (cx, cy), r = self.center, self.radius
         return (cx - r, cx + r, cy - r, cy + r)
 
+    def outline(self, vertices: int = 96) -> np.ndarray:
+        angles = np.linspace(0.0, 2.0 * np.pi, vertices, endpoint=False)
+        return np.asarray(self.center) + self.radius * np.stack([np.cos(angles),
+                                                                 np.sin(angles)], axis=-1)
+
     def to_dict(self) -> dict[str, Any]:
-        return {"type": "circle", "center": list(self.center), "radius": self.radius}
+        return {"type": self.type, "center": list(self.center), "radius": self.radius}
 
     def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]:
         return [pymunk.Circle(body, self.radius, offset=self.center)]
 
 
-def _segments_intersect(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> bool:
+def _edges_meet(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray,
+                adjacent: bool) -> bool:
+    """Whether edges ``ab`` and ``cd`` share a point they should not: any point for edges
+    that are not neighbours, more than the shared vertex for neighbours (a fold back)."""
     def cross(o: np.ndarray, p: np.ndarray, q: np.ndarray) -> float:
         return float((p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]))
 
+    def on_segment(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> bool:
+        return bool(min(p[0], q[0]) <= r[0] <= max(p[0], q[0])
+                    and min(p[1], q[1]) <= r[1] <= max(p[1], q[1]))
+
     d1, d2 = cross(c, d, a), cross(c, d, b)
     d3, d4 = cross(a, b, c), cross(a, b, d)
-    return (d1 * d2 < 0) and (d3 * d4 < 0)
+    if adjacent:
+        # Neighbours share one vertex; they overlap only when collinear and folding back.
+        shared_first = np.array_equal(b, c)
+        p, q, r = (a, b, d) if shared_first else (c, d, b)
+        return cross(p, q, r) == 0.0 and float(np.dot(p - q, r - q)) > 0.0
+    if (d1 * d2 < 0) and (d3 * d4 < 0):
+        return True
+    return any(value == 0.0 and on_segment(p, q, r) for value, p, q, r in
+               ((d1, c, d, a), (d2, c, d, b), (d3, a, b, c), (d4, a, b, d)))
 
 
+@register
 @dataclass(frozen=True)
 class Polygon:
-    """Simple polygon (convex or concave, not self-intersecting) given by its vertices."""
+    """Simple polygon (convex or concave, not self-intersecting) given by its vertices.
 
+    TOML: ``{type = "polygon", vertices = [[x, y], ...]}``, in either orientation. Repeated
+    vertices are dropped (a closed ring whose last vertex repeats the first, or two equal
+    consecutive vertices); what remains needs at least 3 vertices, a non-zero area and no
+    two edges that cross or touch other than at their shared vertex.
+    """
+
+    type: ClassVar[str] = "polygon"
     vertices: tuple[tuple[float, float], ...]
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], field: str) -> Polygon:
+        _keys(data, field, {"vertices"})
+        vertices = data["vertices"]
+        if not isinstance(vertices, list):
+            raise ShapeError(f"{field}.vertices: expected a list of [x, y] pairs")
+        try:
+            return cls(tuple(_vector(v, f"{field}.vertices[{i}]")
+                             for i, v in enumerate(vertices)))
+        except ShapeError as err:
+            message = str(err)
+            raise ShapeError(message if message.startswith(field)
+                             else f"{field}: {message}") from None
 
     def __post_init__(self) -> None:
         v = np.asarray(self.vertices, dtype=np.float64)
         if v.ndim != 2 or v.shape[1] != 2:
             raise ShapeError("polygon vertices must be a list of [x, y] pairs")
+        distinct = v[np.any(v != np.roll(v, 1, axis=0), axis=1)] if len(v) > 1 else v
+        object.__setattr__(self, "vertices", tuple((float(x), float(y)) for x, y in distinct))
+        v = distinct
         if len(v) < 3:
-            raise ShapeError(f"polygon needs at least 3 vertices, got {len(v)}")
+            raise ShapeError(f"polygon needs at least 3 distinct vertices, got {len(v)}")
         if abs(self.area) < 1e-12:
             raise ShapeError("polygon has zero area")
         n = len(v)
         for i in range(n):
-            for j in range(i + 2, n):
-                if i == 0 and j == n - 1:
-                    continue
-                if _segments_intersect(v[i], v[(i + 1) % n], v[j], v[(j + 1) % n]):
-                    raise ShapeError(f"polygon edges {i} and {j} cross (self-intersecting)")
+            for j in range(i + 1, n):
+                adjacent = j == i + 1 or (i == 0 and j == n - 1)
+                if _edges_meet(v[i], v[(i + 1) % n], v[j], v[(j + 1) % n], adjacent):
+                    raise ShapeError(f"polygon edges {i} and {j} cross or overlap "
+                                     f"(self-intersecting)")
 
     @property
     def area(self) -> float:
@@ -246,8 +338,11 @@ class Polygon:
         return (float(v[:, 0].min()), float(v[:, 0].max()), float(v[:, 1].min()),
                 float(v[:, 1].max()))
 
+    def outline(self) -> np.ndarray:
+        return np.asarray(self.vertices, dtype=np.float64)
+
     def to_dict(self) -> dict[str, Any]:
-        return {"type": "polygon", "vertices": [list(v) for v in self.vertices]}
+        return {"type": self.type, "vertices": [list(v) for v in self.vertices]}
 
     def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]:
         ring = [tuple(v) for v in self.vertices]
@@ -294,41 +389,26 @@ def _vector(value: Any, field: str) -> tuple[float, float]:
     return (x, y)
 
 
-def shape_from_dict(data: Any, field: str) -> Box | Circle | Polygon:
-    """Build a shape from its TOML table; errors name ``field`` and the reason.
+def _keys(data: dict[str, Any], field: str, required: set[str]) -> None:
+    """Refuse a table of the wrong keys (``type`` aside), naming ``field``."""
+    keys = set(data) - {"type"}
+    missing, extra = required - keys, keys - required
+    if missing:
+        raise ShapeError(f"{field}: {data['type']} needs {sorted(missing)}")
+    if extra:
+        raise ShapeError(f"{field}: unknown keys {sorted(extra)} for a {data['type']}")
 
-    Tables: ``{type = "box", min = [x, y], max = [x, y]}``,
-    ``{type = "circle", center = [x, y], radius = r}``,
-    ``{type = "polygon", vertices = [[x, y], ...]}``.
-    """
+
+def shape_from_dict(data: Any, field: str) -> Shape:
+    """Build a shape from its TOML table (``SHAPES``); errors name ``field`` and the reason."""
     if not isinstance(data, dict):
         raise ShapeError(f"{field}: expected a table with a 'type', got {data!r}")
     kind = data.get("type")
-    allowed = {"box": {"min", "max"}, "circle": {"center", "radius"}, "polygon": {"vertices"}}
-    if kind not in allowed:
-        raise ShapeError(
-            f"{field}.type: unknown shape type {kind!r} (expected one of box, circle, polygon)"
-        )
-    keys = set(data) - {"type"}
-    missing, extra = allowed[kind] - keys, keys - allowed[kind]
-    if missing:
-        raise ShapeError(f"{field}: {kind} needs {sorted(missing)}")
-    if extra:
-        raise ShapeError(f"{field}: unknown keys {sorted(extra)} for a {kind}")
+    if kind not in SHAPES:
+        raise ShapeError(f"{field}.type: unknown shape type {kind!r} (expected one of "
+                         f"{', '.join(SHAPES)})")
     try:
-        if kind == "box":
-            return Box(_vector(data["min"], f"{field}.min"), _vector(data["max"], f"{field}.max"))
-        if kind == "circle":
-            radius = data["radius"]
-            if isinstance(radius, bool) or not isinstance(radius, (int, float)):
-                raise ShapeError(f"{field}.radius: expected a number, got {radius!r}")
-            return Circle(_vector(data["center"], f"{field}.center"), float(radius))
-        vertices = data["vertices"]
-        if not isinstance(vertices, list):
-            raise ShapeError(f"{field}.vertices: expected a list of [x, y] pairs")
-        return Polygon(
-            tuple(_vector(v, f"{field}.vertices[{i}]") for i, v in enumerate(vertices))
-        )
+        return SHAPES[kind].from_dict(data, field)
     except ShapeError as err:
         message = str(err)
         raise ShapeError(message if message.startswith(field) else f"{field}: {message}") from None

@@ -167,6 +167,7 @@ class RecordEpisode(BaseParallelWrapper):
         self.fps = float(fps if fps is not None else env.metadata.get("render_fps", 30))
         self.every = int(every)
         self.episode = -1
+        self.frames = 0
         self._steps = 0
         self._writer: VideoWriter | None = None
 
@@ -180,7 +181,7 @@ class RecordEpisode(BaseParallelWrapper):
         self.episode += 1
         self._steps = 0
         if self.per_episode:
-            self._finish()
+            self.finish()
         if self._writer is None:
             path = self.path_template.format(episode=self.episode)
             self._writer = VideoWriter(path, self.fps)
@@ -197,7 +198,7 @@ class RecordEpisode(BaseParallelWrapper):
         if self._writer is not None and (ended or self._steps % self.every == 0):
             self._record()
         if ended and self.per_episode:
-            self._finish()
+            self.finish()
         return result
 
     def _record(self) -> None:
@@ -205,19 +206,26 @@ class RecordEpisode(BaseParallelWrapper):
         try:
             self._writer.append(frame)
         except BaseException:
-            self._writer.abort()
-            self._writer = None
+            self.abort()
             raise
+        self.frames += 1
 
-    def _finish(self) -> None:
+    def finish(self) -> None:
+        """Finish the video being written (the env stays open)."""
         if self._writer is not None:
             writer, self._writer = self._writer, None
             writer.close()
 
+    def abort(self) -> None:
+        """Discard the video being written; its destination is left untouched."""
+        if self._writer is not None:
+            writer, self._writer = self._writer, None
+            writer.abort()
+
     def close(self) -> None:
         """Finish the current video, then close the env."""
         try:
-            self._finish()
+            self.finish()
         finally:
             self.env.close()
 
@@ -226,7 +234,6 @@ class RecordEpisode(BaseParallelWrapper):
 
     def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
                  trace: TracebackType | None) -> None:
-        if kind is not None and self._writer is not None:
-            self._writer.abort()
-            self._writer = None
+        if kind is not None:
+            self.abort()
         self.close()

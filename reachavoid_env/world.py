@@ -18,12 +18,14 @@ slides along it instead of sinking in and being pushed back.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pymunk
 import pymunk.batch
 
-from reachavoid_env.scenario import GameMap
+if TYPE_CHECKING:
+    from reachavoid_env.scenario import GameMap
 
 _PLAYER_GROUP = 1
 _SET_FIELDS = pymunk.batch.BodyFields.VELOCITY | pymunk.batch.BodyFields.FORCE
@@ -100,11 +102,6 @@ class World:
         ids = list(memoryview(buffer.int_buf()).cast("P"))
         index = {body_id: row for row, body_id in enumerate(ids)}
         return np.array([index[b.id] for b in self.bodies], dtype=np.intp), len(ids)
-
-    @property
-    def positions(self) -> np.ndarray:
-        """Current positions ``(K, 2)`` in map units (a copy)."""
-        return self._positions.copy()
 
     def step(self, velocities: np.ndarray) -> np.ndarray:
         """Advance ``dt`` seconds with desired ``velocities`` ``(K, 2)`` (map units/s).

@@ -5,7 +5,7 @@
 - ``SingleAttackerEnv``: a Gymnasium ``Env`` for one learning attacker; a defender policy
   moves the defenders and, with more than one attacker, a teammate policy moves the others.
 
-Both take policy objects (``reset(scenario)``, ``act(state)``, as ``policies.base.Policy``)
+Both take policy objects (``reachavoid_env.Policy``: ``reset(scenario)``, ``act(state)``)
 or factories ``scenario -> policy``; this module imports no policy. Give a factory when the
 env is pickled or sent to a subprocess (``AsyncVectorEnv``) and the policy is heavy to copy:
 each copy of the env builds its own policy from it. Both inherit ``EzPickle``, so a pickled
@@ -20,62 +20,38 @@ training throughput with expensive policies; ``benchmarks/training_throughput.py
 
 from __future__ import annotations
 
-import numbers
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any
 
 import gymnasium
 import numpy as np
 from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 
-from reachavoid_env.env import ReachAvoidEnv
-from reachavoid_env.game_state import AttackerStatus, GameState
-from reachavoid_env.rollout import merged_overlay
+from reachavoid_env import checks
+from reachavoid_env.environment import ReachAvoidEnv
+from reachavoid_env.game_state import AttackerStatus, GameState, Policy, merged_overlay
 from reachavoid_env.scenario import Scenario
 
-
-class ScriptedPolicy(Protocol):
-    """What the wrappers drive (``policies.base.Policy``)."""
-
-    def reset(self, scenario: Scenario) -> None: ...
-
-    def act(self, state: GameState) -> dict[str, np.ndarray]: ...
+PolicySource = Policy | Callable[[Scenario], Policy]
 
 
-PolicySource = ScriptedPolicy | Callable[[Scenario], ScriptedPolicy]
-
-
-def build_policy(source: Any, scenario: Scenario, field: str) -> ScriptedPolicy:
+def build_policy(source: Any, scenario: Scenario, field: str) -> Policy:
     """A policy from ``source``: a policy object as it is, or a factory called with
     ``scenario``. ``TypeError`` naming ``field`` otherwise."""
     if isinstance(source, type):
         raise TypeError(f"{field}: got the class {source.__name__}; pass an instance or a "
                         f"factory taking the scenario")
-    if callable(getattr(source, "act", None)) and callable(getattr(source, "reset", None)):
+    if isinstance(source, Policy):
         return source
     if callable(source):
         policy = source(scenario)
-        if not (callable(getattr(policy, "act", None))
-                and callable(getattr(policy, "reset", None))):
+        if not isinstance(policy, Policy):
             raise TypeError(f"{field}: the factory returned {type(policy).__name__}, which has "
                             f"no reset(scenario) and act(state)")
         return policy
     raise TypeError(f"{field}: expected a policy (reset(scenario), act(state)) or a factory "
                     f"scenario -> policy, got {type(source).__name__}")
-
-
-def _check_finite(value: Any, field: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) \
-            or not np.isfinite(value):
-        raise ValueError(f"{field}: must be a finite number, got {value!r}")
-    return float(value)
-
-
-def _check_positive(value: Any, field: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise ValueError(f"{field}: must be a positive integer, got {value!r}")
-    return value
 
 
 class _Scripted:
@@ -87,7 +63,7 @@ class _Scripted:
     """
 
     def __init__(self, game: ReachAvoidEnv,
-                 scripted: list[tuple[ScriptedPolicy, frozenset[str]]], every: int) -> None:
+                 scripted: list[tuple[Policy, frozenset[str]]], every: int) -> None:
         self.game = game
         self.scripted = scripted
         self.every = every
@@ -166,9 +142,9 @@ class AttackerParallelEnv(ParallelEnv, EzPickle):
                           render_mode=render_mode, shaping=shaping,
                           timeout_reward=timeout_reward, action_repeat=action_repeat,
                           scripted_every=scripted_every, render_width=render_width)
-        self.timeout_reward = _check_finite(timeout_reward, "timeout_reward")
-        self.action_repeat = _check_positive(action_repeat, "action_repeat")
-        self.scripted_every = _check_positive(scripted_every, "scripted_every")
+        self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
+        self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
+        self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
         game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
                              shaping=shaping, render_width=render_width)
         self.game = game
@@ -297,9 +273,9 @@ class SingleAttackerEnv(gymnasium.Env, EzPickle):
                           shaping=shaping, timeout_reward=timeout_reward,
                           action_repeat=action_repeat, scripted_every=scripted_every,
                           render_width=render_width)
-        self.timeout_reward = _check_finite(timeout_reward, "timeout_reward")
-        self.action_repeat = _check_positive(action_repeat, "action_repeat")
-        self.scripted_every = _check_positive(scripted_every, "scripted_every")
+        self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
+        self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
+        self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
         game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
                              shaping=shaping, render_width=render_width)
         base = game.base_scenario
@@ -313,7 +289,7 @@ class SingleAttackerEnv(gymnasium.Env, EzPickle):
         self.learner = f"attacker_{attacker}"
         self.defenders = build_policy(defenders, base, "defenders")
         scripted = [(self.defenders, frozenset(base.defender_names))]
-        self.teammates: ScriptedPolicy | None = None
+        self.teammates: Policy | None = None
         if m > 1:
             if teammates is None:
                 raise ValueError(f"teammates: scenario {base.name!r} has {m} attackers; give "

@@ -10,8 +10,8 @@ import imageio.v3 as iio
 import pytest
 
 from policies.registry import ATTACKERS, DEFENDERS
+from reachavoid.cli import main
 from reachavoid_env import builtin_scenario, save_scenario
-from reachavoid_env.cli import main
 
 JSON_KEYS = ["scenario", "defenders", "attackers", "seed", "steps", "captured", "arrived",
              "captured_count", "arrived_count", "seconds", "game_time", "video"]
@@ -93,7 +93,7 @@ def write(tmp_path, text: str) -> str:
     (["play", "--video", "no/such/folder/out.mp4"], "does not exist"),
     (["play", "--attackers", "teleport"], "invalid choice: 'teleport'"),
     (["play", "--seed", "x"], "invalid int value: 'x'"),
-    (["play", "--video", "a.mp4", "--every", "0"], "--every: must be a positive integer"),
+    (["play", "--video", "a.mp4", "--every", "0"], "--every: must be an integer in [1, 1000000]"),
     ([], "required: COMMAND"),
     (["fly"], "invalid choice: 'fly'"),
 ])
@@ -133,11 +133,11 @@ def test_help_exits_zero(capsys):
 
 
 def test_console_process_reports_errors_without_traceback(tmp_path):
-    bad = subprocess.run([sys.executable, "-m", "reachavoid_env.cli", "play", "--scenario",
+    bad = subprocess.run([sys.executable, "-m", "reachavoid.cli", "play", "--scenario",
                           write(tmp_path, "[map")], capture_output=True, text=True)
     assert bad.returncode == 2
     assert "malformed TOML" in bad.stderr and "Traceback" not in bad.stderr
-    good = subprocess.run([sys.executable, "-m", "reachavoid_env.cli", "play", "--json",
+    good = subprocess.run([sys.executable, "-m", "reachavoid.cli", "play", "--json",
                            *SIMPLE], capture_output=True, text=True)
     assert good.returncode == 0 and json.loads(good.stdout)["scenario"] == "paper_6v2"
 
@@ -165,8 +165,8 @@ def test_bench_compares_methods_on_the_same_starts(tmp_path, capsys):
 @pytest.mark.parametrize(("args", "message"), [
     (["bench", "--config", "six"], "--config: expected MvN"),
     (["bench", "--defenders", "hj,nobody"], "--defenders: unknown method(s) ['nobody']"),
-    (["bench", "--episodes", "0"], "--episodes: must be a positive integer"),
-    (["play", "--grid2", "2"], "--grid2: need at least 5 nodes"),
+    (["bench", "--episodes", "0"], "--episodes: must be an integer in [1, 10000000]"),
+    (["play", "--grid2", "2"], "--grid2: must be an integer in [5, 101]"),
 ])
 def test_bench_and_grid_errors(capsys, args, message):
     assert main(args) == 2

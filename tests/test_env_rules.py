@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from reachavoid_env import AttackerStatus, Box, GameMap, ReachAvoidEnv, Scenario
-from reachavoid_env.env import capture_times, resolve_events
+from reachavoid_env.rules import capture_times, resolve_events
 
 # Powers of two throughout, so positions after a step are exact in binary.
 OPEN_MAP = GameMap((-1.0, 1.0, -1.0, 1.0), (Box((0.5, 0.0), (0.75, 0.25)),))
@@ -75,20 +75,18 @@ def test_earliest_event_wins():
     # A defender closing in from the east reaches attacker 0 at t = 1, after it entered
     # the target at t = 0.5; attacker 1 enters at t = 1 and nobody catches it.
     d_old, d_new = np.array([[1.125, 0.125]]), np.array([[0.875, 0.125]])
-    captured, arrived, times, captor = resolve_events(OPEN_MAP, 0.125, active, a_old, a_new,
-                                                      d_old, d_new)
-    assert arrived.tolist() == [True, True] and captured.tolist() == [False, False]
-    assert times.tolist() == [0.5, 1.0] and captor.tolist() == [-1, -1]
+    events = resolve_events(OPEN_MAP, 0.125, active, a_old, a_new, d_old, d_new)
+    assert events.arrived.tolist() == [True, True] and events.captured.tolist() == [False, False]
+    assert events.times.tolist() == [0.5, 1.0] and events.captor.tolist() == [-1, -1]
     # A still defender whose disc touches attacker 1's path at t = 0.5: captured first.
     d_old = d_new = np.array([[0.375, 0.3125]])
-    captured, arrived, times, captor = resolve_events(OPEN_MAP, 0.125, active, a_old, a_new,
-                                                      d_old, d_new)
-    assert captured.tolist() == [False, True] and arrived.tolist() == [True, False]
-    assert times.tolist() == [0.5, 0.5] and captor.tolist() == [-1, 0]
+    events = resolve_events(OPEN_MAP, 0.125, active, a_old, a_new, d_old, d_new)
+    assert events.captured.tolist() == [False, True] and events.arrived.tolist() == [True, False]
+    assert events.times.tolist() == [0.5, 0.5] and events.captor.tolist() == [-1, 0]
     # Attackers no longer active are ignored.
-    captured, arrived, _, _ = resolve_events(OPEN_MAP, 0.125, np.array([False, False]),
-                                             a_old, a_new, d_old, d_new)
-    assert not captured.any() and not arrived.any()
+    events = resolve_events(OPEN_MAP, 0.125, np.array([False, False]), a_old, a_new, d_old,
+                            d_new)
+    assert not events.left.any()
 
 
 def test_capture_times_match_dense_sampling():

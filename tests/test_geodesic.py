@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import reachavoid_env
-from policies import IdleDefender, Policy, ShortestPathAttacker
+from policies import IdleDefender, ShortestPathAttacker
 from policies.geodesic import distance_field
-from reachavoid_env import AttackerStatus, Box, GameMap, GameState, builtin_map
+from reachavoid_env import AttackerStatus, Box, GameMap, GameState, Policy, builtin_map
 
 RADIUS = 0.005
 PAPER = builtin_map("paper")

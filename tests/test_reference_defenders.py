@@ -16,7 +16,7 @@ from policies import (
     RandomAttacker,
     ShortestPathAttacker,
 )
-from reachavoid_env.rollout import run_episode
+from reachavoid.rollout import run_episode
 
 
 def first_decision(policy, scenario_name: str):

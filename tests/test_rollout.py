@@ -8,8 +8,8 @@ import pytest
 
 import reachavoid_env
 from policies import GreedyDefender, IdleDefender, RandomAttacker, StraightAttacker
-from reachavoid_env import Overlay
-from reachavoid_env.rollout import EpisodeResult, merged_overlay, run_episode
+from reachavoid.rollout import EpisodeResult, run_episode
+from reachavoid_env import Overlay, merged_overlay
 
 
 def make_env(scenario="paper_2v1", **kwargs):

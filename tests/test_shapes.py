@@ -152,7 +152,7 @@ def test_pymunk_shapes_cover_concave_polygon():
     ({"type": "polygon", "vertices": [[0, 0], [2, 0], [0, 1], [1, 1]]},
      "obstacles[0]: polygon edges 1 and 3 cross"),
     ({"type": "polygon", "vertices": [[0, 0], [1, 1]]},
-     "obstacles[0]: polygon needs at least 3 vertices"),
+     "obstacles[0]: polygon needs at least 3 distinct vertices"),
 ])
 def test_shape_errors_name_the_field(table, message):
     with pytest.raises(ShapeError) as info:

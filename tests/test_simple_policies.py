@@ -5,9 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from policies import GreedyDefender, IdleDefender, Policy, RandomAttacker, StraightAttacker
+from policies import GreedyDefender, IdleDefender, RandomAttacker, StraightAttacker
 from policies.attackers import target_centres
-from reachavoid_env import AttackerStatus, Box, GameMap, GameState, Polygon, builtin_scenario
+from reachavoid_env import (
+    AttackerStatus,
+    Box,
+    GameMap,
+    GameState,
+    Policy,
+    Polygon,
+    builtin_scenario,
+)
 
 ACTIVE, CAPTURED, ARRIVED = AttackerStatus.ACTIVE, AttackerStatus.CAPTURED, AttackerStatus.ARRIVED
 

@@ -16,7 +16,7 @@ from pettingzoo.utils import parallel_to_aec
 
 from policies import GreedyDefender, HJDefenderPolicy, IdleDefender, StraightAttacker
 from reachavoid_env import AttackerStatus, builtin_scenario
-from reachavoid_env.env import ReachAvoidEnv
+from reachavoid_env.environment import ReachAvoidEnv
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv, build_policy
 
 # Large capture discs and long steps: random play captures and arrives within the checks'

@@ -1,7 +1,7 @@
 """Many episodes and their statistics: capture rates with 95% confidence intervals.
 
-Used by ``reachavoid bench``, the benchmarks and the tests. Policies are duck-typed as in
-``rollout``; this module does not import ``policies``.
+``compare_defenders`` is ``reachavoid bench``: every defender method plays the same seeded
+random starts. The benchmarks and the tests use the same functions.
 """
 
 from __future__ import annotations
@@ -17,13 +17,16 @@ import numpy as np
 from pettingzoo.utils.env import ParallelEnv
 from tqdm import tqdm
 
+import reachavoid_env
+from policies.registry import accepted_options, make_policy
+from reachavoid.rollout import EpisodeResult, run_episode
+from reachavoid_env import Policy, Scenario
 from reachavoid_env.files import atomic_write
-from reachavoid_env.rollout import EpisodeResult, PolicyLike, run_episode
 
 Z95 = 1.959963984540054
 
 
-def run_episodes(env: ParallelEnv, attackers: PolicyLike, defenders: PolicyLike, episodes: int,
+def run_episodes(env: ParallelEnv, attackers: Policy, defenders: Policy, episodes: int,
                  seed: int = 0, progress: bool = False,
                  description: str = "") -> list[EpisodeResult]:
     """Play ``episodes`` episodes; episode ``k`` resets the env with seed ``seed + k``.
@@ -122,3 +125,37 @@ def write_csv(path: str | os.PathLike[str], rows: Sequence[dict[str, Any]]) -> N
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """``compare_defenders``' answer: one summary per method and one row per episode."""
+
+    scenario: Scenario
+    summaries: tuple[CaptureSummary, ...]
+    rows: tuple[dict[str, Any], ...]
+
+
+def compare_defenders(scenario: Scenario, methods: Sequence[str], attackers: str,
+                      episodes: int, seed: int = 0, progress: bool = False,
+                      **options: Any) -> Comparison:
+    """Play ``episodes`` seeded starts of ``scenario`` with each defender method (names of
+    ``policies.registry``) against the ``attackers`` policy; every method gets the same
+    starts (seeds ``seed .. seed + episodes - 1``). ``options`` (``grid1``, ``grid2``,
+    ``seed``...) go to whichever policy accepts them."""
+    env = reachavoid_env.parallel_env(scenario=scenario)
+    summaries, rows = [], []
+    try:
+        for method in methods:
+            attacker_policy = make_policy("attackers", attackers, scenario, **accepted_options(
+                "attackers", attackers, seed=seed, progress=progress, **options))
+            defender_policy = make_policy("defenders", method, scenario, **accepted_options(
+                "defenders", method, seed=seed, progress=progress, **options))
+            results = run_episodes(env, attacker_policy, defender_policy, episodes, seed=seed,
+                                   progress=progress, description=method)
+            summaries.append(summarize(method, results, scenario.num_attackers))
+            rows.extend({"defenders": method, "attackers": attackers, **r.to_dict()}
+                        for r in results)
+    finally:
+        env.close()
+    return Comparison(scenario, tuple(summaries), tuple(rows))

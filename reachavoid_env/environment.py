@@ -1,13 +1,11 @@
 """The multi-agent reach-avoid game as a PettingZoo ``ParallelEnv`` (design.md section 1).
 
 ``ReachAvoidEnv`` is the parallel env; ``env()`` / ``raw_env()`` give the AEC version.
-The rules are the pure functions ``capture_times`` and ``resolve_events``, vectorised
-over all attacker-defender pairs.
+The rules themselves live in ``rules``; ``step`` applies them in named phases.
 """
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import replace
 from typing import Any
@@ -18,83 +16,15 @@ from gymnasium.utils import EzPickle, seeding
 from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils import ClipOutOfBoundsWrapper, OrderEnforcingWrapper, parallel_to_aec
 
+from reachavoid_env import checks, rules
 from reachavoid_env.game_state import AttackerStatus, GameState, Overlay
-from reachavoid_env.scenario import GameMap, Scenario, ScenarioError, load_scenario
-from reachavoid_env.shapes import quadratic_entry_time
+from reachavoid_env.scenario import MAX_STEPS, Scenario, ScenarioError, load_scenario
 from reachavoid_env.world import World
 
 _STATUSES = (AttackerStatus.ACTIVE, AttackerStatus.CAPTURED, AttackerStatus.ARRIVED)
 _CAPTURED, _ARRIVED = 1, 2          # indices into _STATUSES; 0 is active
 _PLAYER_FIELD = re.compile(r"players\.(attacker|defender)s\[(\d+)\]")
-
-
-def capture_times(attackers_old: np.ndarray, attackers_new: np.ndarray,
-                  defenders_old: np.ndarray, defenders_new: np.ndarray,
-                  capture_radius: float) -> np.ndarray:
-    """Earliest capture time of every attacker-defender pair within one step.
-
-    Positions are ``(M, 2)`` and ``(N, 2)`` map units at the start and end of the step;
-    each player moves along the straight segment between them, so a pair's offset moves
-    linearly and the capture time is the first root of a quadratic. Returns ``(M, N)``
-    fractions of the step in ``[0, 1]``, ``inf`` where the pair never comes within
-    ``capture_radius``.
-    """
-    offsets = attackers_old[:, None, :] - defenders_old[None, :, :]
-    motions = (attackers_new - attackers_old)[:, None, :] - (defenders_new - defenders_old)[None]
-    return quadratic_entry_time(offsets, motions, capture_radius)
-
-
-def resolve_events(game_map: GameMap, capture_radius: float, active: np.ndarray,
-                   attackers_old: np.ndarray, attackers_new: np.ndarray,
-                   defenders_old: np.ndarray, defenders_new: np.ndarray,
-                   target_bounds: tuple[float, float, float, float] | None = None,
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Which active attackers are captured or arrive during one step, and when.
-
-    ``active`` is the ``(M,)`` mask of attackers in the game at the start of the step.
-    Each attacker's earliest event wins: capture at the first time any defender is within
-    ``capture_radius`` (along the straight segments of the step), arrival at the first
-    time its segment touches the target; a tie goes to capture.
-
-    Returns ``captured (M,)``, ``arrived (M,)`` (bool), ``times (M,)`` (fraction of the
-    step at which the attacker left the game, ``inf`` for those that stay) and
-    ``captor (M,)`` (index of the capturing defender, ``-1`` where none).
-    ``target_bounds`` (``xmin, xmax, ymin, ymax`` of the target union) only saves work.
-    """
-    m = len(active)
-    never = np.full(m, np.inf)
-    t_capture, t_arrival, captor = never, never, np.full(m, -1)
-    # Nobody moves farther than sqrt(2) times its largest coordinate change, so a pair
-    # farther apart than capture_radius plus two such moves cannot meet this step.
-    a_move = np.abs(attackers_new - attackers_old)
-    longest = math.sqrt(2.0) * max(a_move.max(), np.abs(defenders_new - defenders_old).max())
-    reach = capture_radius + 2.0 * longest
-    gaps = attackers_old[:, None, :] - defenders_old[None, :, :]
-    closest = np.einsum("ijk,ijk->ij", gaps, gaps).min(axis=1)
-    if (closest[active] <= reach * reach).any():
-        pair_times = capture_times(attackers_old, attackers_new, defenders_old, defenders_new,
-                                   capture_radius)
-        captor = pair_times.argmin(axis=1)
-        t_capture = pair_times[np.arange(m), captor]
-    # Only attackers whose move spans the target's bounding box on both axes can enter it.
-    xmin, xmax, ymin, ymax = target_bounds or target_bounds_of(game_map)
-    centre = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
-    half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
-    near = (np.abs(attackers_old - centre) <= half + a_move).all(axis=1) & active
-    if near.any():
-        t_arrival = never.copy()
-        t_arrival[near] = game_map.target_entry_time(attackers_old[near], attackers_new[near])
-    captured = active & (t_capture <= 1.0) & (t_capture <= t_arrival)
-    arrived = active & ~captured & (t_arrival <= 1.0)
-    times = np.where(captured, t_capture, np.where(arrived, t_arrival, np.inf))
-    return captured, arrived, times, np.where(captured, captor, -1)
-
-
-def target_bounds_of(game_map: GameMap) -> tuple[float, float, float, float]:
-    """Bounding box ``(xmin, xmax, ymin, ymax)`` of the target union (map units)."""
-    bounds = np.array([shape.bounds() for shape in game_map.target])
-    return (float(bounds[:, 0].min()), float(bounds[:, 1].max()), float(bounds[:, 2].min()),
-            float(bounds[:, 3].max()))
+_RESET_OPTIONS = ("scenario", "attackers", "defenders")
 
 
 class ReachAvoidEnv(ParallelEnv, EzPickle):
@@ -173,18 +103,15 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         else:
             raise TypeError(f"scenario: expected a built-in name, a TOML path or a Scenario, "
                             f"got {type(scenario).__name__}")
-        if max_cycles is not None and (isinstance(max_cycles, bool)
-                                       or not isinstance(max_cycles, int) or max_cycles < 1):
-            raise ValueError(f"max_cycles: must be a positive integer or None, got {max_cycles!r}")
+        if max_cycles is not None:
+            checks.integer(max_cycles, "max_cycles", 1, MAX_STEPS)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: {render_mode!r} is not one of "
                              f"{self.metadata['render_modes']} or None")
-        if not math.isfinite(shaping) or shaping < 0:
-            raise ValueError(f"shaping: must be a finite number >= 0, got {shaping!r}")
         self.max_cycles = max_cycles if max_cycles is not None else self.base_scenario.max_steps
         self.render_mode = render_mode
-        self.shaping = float(shaping)
-        self.render_width = render_width
+        self.shaping = checks.real(shaping, "shaping", 0.0)
+        self.render_width = checks.integer(render_width, "render_width", 16, 4096)
         self.scenario = self.base_scenario
 
         m, n = self.base_scenario.num_attackers, self.base_scenario.num_defenders
@@ -221,7 +148,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         if seed is not None or self.np_random is None:
             self.np_random, self.np_random_seed = seeding.np_random(seed)
         try:
-            scenario = self._episode_scenario(options or {})
+            scenario = self._episode_scenario(_checked_options(options))
             attackers, defenders = scenario.starts(self.np_random)
             self.scenario = scenario.with_starts(attackers, defenders)
         except ScenarioError as err:
@@ -239,7 +166,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         xmin, xmax, ymin, ymax = sc.map.domain
         self._center = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
         self._half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
-        self._target_bounds = target_bounds_of(sc.map)
+        self._target_bounds = rules.target_bounds(sc.map)
         self._steps = 0
         self._captured_count = 0
         self._arrived_count = 0
@@ -277,77 +204,89 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     def step(self, actions: dict[str, Any]) -> tuple[dict[str, np.ndarray], dict[str, float],
                                                      dict[str, bool], dict[str, bool],
                                                      dict[str, dict[str, Any]]]:
-        live = self.agents
-        index = self._index
+        """One step of ``dt`` seconds: controls, move, events, rewards, outputs."""
+        if self._world is None:
+            raise RuntimeError("step: call reset() first (a new or unpickled env is not reset)")
         for name in actions:
-            if name not in index:
+            if name not in self._index:
                 raise KeyError(f"step: {name!r} is not an agent of this env "
                                f"(agents: {', '.join(self.possible_agents)})")
+        live = self.agents
         if not live:
             return {}, {}, {}, {}, {}
-        players = len(self.possible_agents)
-        everyone = len(live) == players
-        rows = slice(None) if everyone else [index[name] for name in live]
-        stacked = self._stack_actions(live, actions)
-        if everyone:
-            controls = stacked
-        else:
-            controls = np.zeros((players, 2))
-            controls[rows] = stacked
-        norms = np.sqrt(np.einsum("ij,ij->i", controls, controls))
-        velocities = controls * (self._speeds / np.maximum(norms, 1.0)[:, None])
+        rows = slice(None) if len(live) == len(self.possible_agents) else [
+            self._index[name] for name in live]
+        velocities = self._controls(live, rows, actions)
+        old, new = self._move(velocities)
+        events = self._resolve_events(old, new)
+        rewards = self._rewards(events, old, new)
+        self._steps += 1
+        return self._outputs(live, rows, events, rewards)
 
+    def _controls(self, live: list[str], rows: slice | list[int],
+                  actions: dict[str, Any]) -> np.ndarray:
+        """Phase 1: every player's velocity ``(M + N, 2)``, map units per second (players
+        out of the game stand still)."""
+        controls = np.zeros((len(self.possible_agents), 2))
+        controls[rows] = self._stack_actions(live, actions)
+        return rules.bounded_controls(controls) * self._speeds
+
+    def _move(self, velocities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Phase 2: positions before and after the world's step (walls stop and slide)."""
         old = self._positions
         new = self._world.step(velocities)
-        if not everyone:
-            frozen = ~self._active
-            new[frozen] = old[frozen]
+        new[~self._active] = old[~self._active]
+        return old, new
+
+    def _resolve_events(self, old: np.ndarray, new: np.ndarray) -> rules.StepEvents:
+        """Phase 3: captures and arrivals along the step's segments (``rules``); attackers
+        that left stop where their event happened, and the defenders leave with the last."""
         m = self._m
-        active_attackers = self._active[:m].copy()
-        captured, arrived, times, captor = resolve_events(
-            self.scenario.map, self.scenario.capture_radius, active_attackers,
-            old[:m], new[:m], old[m:], new[m:], self._target_bounds)
-        left = captured | arrived
-        any_left = bool(left.any())
-        if any_left:
-            t = times[left][:, None]
+        events = rules.resolve_events(self.scenario.map, self.scenario.capture_radius,
+                                      self._active[:m].copy(), old[:m], new[:m], old[m:],
+                                      new[m:], self._target_bounds)
+        left = events.left
+        if left.any():
+            t = events.times[left][:, None]
             new[:m][left] = old[:m][left] + t * (new[:m][left] - old[:m][left])
-            self._status[captured] = _CAPTURED
-            self._status[arrived] = _ARRIVED
-            self._captured_count += int(captured.sum())
-            self._arrived_count += int(arrived.sum())
+            self._status[events.captured] = _CAPTURED
+            self._status[events.arrived] = _ARRIVED
+            self._captured_count += int(events.captured.sum())
+            self._arrived_count += int(events.arrived.sum())
             self._active[:m] &= ~left
             if not self._active[:m].any():
                 self._active[m:] = False
-        rewards = None
-        if any_left or self.shaping:
-            rewards = arrived.astype(np.float64) - captured
-            if self.shaping:
-                game_map = self.scenario.map
-                progress = (game_map.target_signed_distance(old[:m])
-                            - game_map.target_signed_distance(new[:m]))
-                rewards += self.shaping * np.where(active_attackers, progress, 0.0)
-            rewards = np.concatenate([rewards, np.full(self._n, -rewards.sum())])
         self._positions = new
-        self._steps += 1
-        truncate = self._steps >= self.max_cycles
+        return events
 
+    def _rewards(self, events: rules.StepEvents, old: np.ndarray,
+                 new: np.ndarray) -> np.ndarray:
+        """Phase 4: ``(M + N,)`` rewards: +1 arrival, -1 capture, the shaping term for the
+        attackers active at the start of the step; each defender gets minus their sum."""
+        m = self._m
+        rewards = events.arrived.astype(np.float64) - events.captured
+        if self.shaping:
+            game_map = self.scenario.map
+            progress = (game_map.target_signed_distance(old[:m])
+                        - game_map.target_signed_distance(new[:m]))
+            started = (self._status == 0) | events.left
+            rewards += self.shaping * np.where(started, progress, 0.0)
+        return np.concatenate([rewards, np.full(self._n, -rewards.sum())])
+
+    def _outputs(self, live: list[str], rows: slice | list[int], events: rules.StepEvents,
+                 rewards: np.ndarray) -> tuple[dict, dict, dict, dict, dict]:
+        """Phase 5: observations, rewards, terminations, truncations and infos of the agents
+        live at the start of the step; the agents that ended leave ``agents``."""
+        truncate = self._steps >= self.max_cycles
+        ended = (~self._active[rows]).tolist()
         observations = self._observations(live, rows)
-        infos = self._infos(live, captor)
-        if rewards is None:
-            reward_dict = dict.fromkeys(live, 0.0)
-        else:
-            reward_dict = dict(zip(live, rewards[rows].tolist(), strict=True))
-        if any_left or truncate:
-            ended = (~self._active[rows]).tolist()
-            terminations = dict(zip(live, ended, strict=True))
-            truncations = {name: truncate and not done
-                           for name, done in zip(live, ended, strict=True)}
-            self.agents = [] if truncate else [
-                name for name, done in zip(live, ended, strict=True) if not done]
-        else:
-            terminations = dict.fromkeys(live, False)
-            truncations = dict.fromkeys(live, False)
+        reward_dict = dict(zip(live, rewards[rows].tolist(), strict=True))
+        terminations = dict(zip(live, ended, strict=True))
+        truncations = {name: truncate and not done for name, done in zip(live, ended,
+                                                                         strict=True)}
+        infos = self._infos(live, events.captor)
+        self.agents = [] if truncate else [name for name, done in zip(live, ended, strict=True)
+                                           if not done]
         if self.render_mode == "human":
             self.render()
         return observations, reward_dict, terminations, truncations, infos
@@ -463,6 +402,23 @@ def _checked_action(agent: str, action: Any) -> np.ndarray:
     if not np.isfinite(array).all():
         raise ValueError(f"action for {agent}: must be finite, got {array.tolist()}")
     return array
+
+
+def _checked_options(options: Any) -> dict[str, Any]:
+    """``options`` as a dict; an unknown key is a ``ValueError`` naming it (a typo must not
+    silently give random starts). PettingZoo's API tests probe ``reset`` with
+    ``{"options": 1}``; that one key is accepted and ignored so that ``pettingzoo.test``
+    runs on this env."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise TypeError(f"reset: options must be a dict with keys from {_RESET_OPTIONS}, "
+                        f"got {type(options).__name__}")
+    unknown = sorted(str(key) for key in options if key not in _RESET_OPTIONS + ("options",))
+    if unknown:
+        raise ValueError(f"reset: options[{unknown[0]!r}] is not an option (accepted: "
+                         f"{', '.join(_RESET_OPTIONS)})")
+    return options
 
 
 def _start_points(value: Any, count: int, role: str) -> tuple[tuple[float, float], ...]:

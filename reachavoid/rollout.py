@@ -1,7 +1,9 @@
-"""The episode loop shared by the command line, the examples, the benchmarks and the tests.
+"""The one episode loop: the command line, the examples, the benchmarks and the tests all
+play through ``run_episode``.
 
-Policies are duck-typed (``reset(scenario)``, ``act(state)``, optional ``overlay()``, as
-``policies.base.Policy``); this module does not import ``policies``.
+Policies follow ``reachavoid_env.Policy``. Defenders that certify captures (the paper's
+Algorithm 1) also report ``guaranteed_captures`` (``CertifiesCaptures``); the loop records
+it after every decision.
 """
 
 from __future__ import annotations
@@ -9,21 +11,23 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from pettingzoo.utils.env import ParallelEnv
 from tqdm import tqdm
 
-from reachavoid_env.game_state import GameState, Overlay
-from reachavoid_env.scenario import Scenario
-from reachavoid_env.video import VideoWriter, check_video_path
+from reachavoid_env import Policy, Scenario, checks, merged_overlay
+from reachavoid_env.video import RecordEpisode
 
 
-class PolicyLike(Protocol):
-    def reset(self, scenario: Scenario) -> None: ...
+@runtime_checkable
+class CertifiesCaptures(Protocol):
+    """Defenders that say, after each ``act``, how many of the attackers still in play they
+    are guaranteed to stop (``None`` before the first decision)."""
 
-    def act(self, state: GameState) -> dict[str, np.ndarray]: ...
+    @property
+    def guaranteed_captures(self) -> int | None: ...
 
 
 @dataclass(frozen=True)
@@ -96,20 +100,7 @@ class EpisodeResult:
               "guarantee_violations": self.guarantee_violations} if self.guarantees else {})
 
 
-def merged_overlay(*policies: object) -> Overlay | None:
-    """The union of the policies' overlays (edges and text lines), ``None`` if none draws."""
-    overlays = []
-    for policy in policies:
-        overlay = getattr(policy, "overlay", None)
-        if callable(overlay) and (drawn := overlay()) is not None:
-            overlays.append(drawn)
-    if not overlays:
-        return None
-    return Overlay(edges=tuple(e for o in overlays for e in o.edges),
-                   lines=tuple(line for o in overlays for line in o.lines))
-
-
-def run_episode(env: ParallelEnv, attackers: PolicyLike, defenders: PolicyLike, *,
+def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
                 seed: int | None = None, video: str | os.PathLike[str] | None = None,
                 fps: float | None = None, every: int = 1,
                 progress: bool = False) -> EpisodeResult:
@@ -118,53 +109,39 @@ def run_episode(env: ParallelEnv, attackers: PolicyLike, defenders: PolicyLike, 
     The env is reset with ``seed``, both policies with the scenario in play; each step
     every live agent gets its side's action and the policies' overlay is handed to the
     renderer. With ``video`` (``.mp4`` or ``.gif``; the env's ``render_mode`` must be
-    ``"rgb_array"``) the frame after reset, every ``every``-th step and the last one are
-    written at ``fps`` (default ``env.metadata["render_fps"]``); Ctrl-C leaves no file. A
-    ``"human"`` env draws its window itself on every reset and step. ``progress`` shows a
-    tqdm bar over steps.
+    ``"rgb_array"``) the episode is recorded through ``RecordEpisode``: the frame after
+    reset, every ``every``-th step and the last one, at ``fps`` (default
+    ``env.metadata["render_fps"]``); an exception (Ctrl-C included) leaves no file. A
+    ``"human"`` env draws its window itself. ``progress`` shows a tqdm bar over steps.
     """
-    if every < 1:
-        raise ValueError(f"every: must be a positive integer, got {every}")
-    if video is not None:
-        check_video_path(video)
-        if env.render_mode != "rgb_array":
-            raise ValueError(f"video: needs an env with render_mode='rgb_array', got "
-                             f"{env.render_mode!r}")
+    checks.integer(every, "every", 1)
     game = env.unwrapped
+    recorder = RecordEpisode(env, video, fps, every=every) if video is not None else None
+    played = recorder if recorder is not None else env
     started = time.perf_counter()
-    env.reset(seed=seed)
-    scenario: Scenario = game.scenario
-    attackers.reset(scenario)
-    defenders.reset(scenario)
-    rate = fps if fps is not None else env.metadata.get("render_fps", 30)
-    writer = VideoWriter(video, rate) if video is not None else None
-
-    def show() -> None:
-        if writer is not None:
-            writer.append(env.render())
-
-    bar = tqdm(total=scenario.max_steps, unit="step", disable=not progress, leave=False)
+    certifies = isinstance(defenders, CertifiesCaptures)
     guarantees: list[int] = []
+    bar = tqdm(total=game.max_cycles, unit="step", disable=not progress, leave=False)
     try:
+        played.reset(seed=seed)
+        scenario: Scenario = game.scenario
+        attackers.reset(scenario)
+        defenders.reset(scenario)
         state = game.game_state()
-        while env.agents:
-            live = set(env.agents)
+        while played.agents:
+            live = set(played.agents)
             actions = {**attackers.act(state), **defenders.act(state)}
-            guaranteed = getattr(defenders, "guaranteed_captures", None)
-            if guaranteed is not None:
-                guarantees.append(len(state.captured) + guaranteed)
+            if certifies and defenders.guaranteed_captures is not None:
+                guarantees.append(len(state.captured) + defenders.guaranteed_captures)
             game.set_overlay(merged_overlay(attackers, defenders))
-            if state.step % every == 0:
-                show()
-            env.step({agent: a for agent, a in actions.items() if agent in live})
+            played.step({agent: a for agent, a in actions.items() if agent in live})
             bar.update(1)
             state = game.game_state()
-        show()
-        if writer is not None:
-            writer.close()
+        if recorder is not None:
+            recorder.finish()
     except BaseException:
-        if writer is not None:
-            writer.abort()
+        if recorder is not None:
+            recorder.abort()
         raise
     finally:
         bar.close()
@@ -177,6 +154,6 @@ def run_episode(env: ParallelEnv, attackers: PolicyLike, defenders: PolicyLike, 
         captured=tuple(state.captured),
         arrived=tuple(state.arrived),
         seconds=time.perf_counter() - started,
-        frames=writer.frames if writer is not None else 0,
+        frames=recorder.frames if recorder is not None else 0,
         guarantees=tuple(guarantees),
     )

@@ -1,39 +1,47 @@
-"""The ``reachavoid`` command (design.md section 6).
+"""The ``reachavoid`` command (design.md, "Command line"): argument parsing and printing.
 
-``reachavoid play`` runs one episode of a scenario with a choice of policies, prints a
-summary (or one JSON object with ``--json``) and optionally writes a video;
-``reachavoid solve`` solves a 1 vs 1 or 2 vs 1 game; ``reachavoid bench`` plays many seeded
-random starts and prints capture rates with confidence intervals; ``reachavoid paper``
-reproduces the paper's table, videos and tube figure. This is the one module of
-``reachavoid_env`` that imports ``policies`` (and, through them, solvers).
-Bad arguments or scenario files end with a one-line message and exit status 2.
+``play`` runs one episode (``rollout``), ``solve`` one game (``solve``), ``bench`` many
+seeded starts (``evaluation``), ``paper`` the paper's table (``paper``). Every argument and
+output path is checked before any work starts. Bad arguments or input files end with a
+one-line message and exit status 2; a failed write with one line naming the path and
+status 1; Ctrl-C (130) and SIGTERM (143) stop the work and leave no partial file.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
+import signal
 import sys
 from collections.abc import Sequence
-from typing import NoReturn
+from pathlib import Path
+from typing import Any, NoReturn
 
-from policies import HJDefenderPolicy, MatchingDefenderPolicy, Policy, ShortestPathAttacker
+import reachavoid_env
 from policies.registry import ATTACKERS, DEFENDERS, NamedPolicy, accepted_options, make_policy
-from reachavoid_env.evaluation import run_episodes, summarize, write_csv
-from reachavoid_env.files import atomic_write
-from reachavoid_env.rollout import EpisodeResult, run_episode
-from reachavoid_env.scenario import Scenario, ScenarioError, load_scenario
+from reachavoid import paper as paper_table
+from reachavoid.evaluation import compare_defenders, write_csv
+from reachavoid.rollout import EpisodeResult, run_episode
+from reachavoid.solve import DEFAULT_GRID, GAMES, solve_scenario
+from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
 from reachavoid_env.video import check_video_path
+from solvers.hj.cache import cache_dir
 
-EXIT_USAGE = 2
+EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 1, 130, 143
+MAX_SEED = 2**63 - 1
+GRID_RANGE = {"grid1": (5, 201), "grid2": (5, 101)}
+"""Nodes per axis accepted for the 1 vs 1 and 2 vs 1 tubes (the memory guard still
+refuses what this machine cannot hold)."""
 
 
-PAPER_TABLE = {"paper_2v1": (2, 1), "paper_6v2": (6, 4), "paper_8v4": (8, 6)}
-
-
-class UsageError(Exception):
+class UsageError(ValueError):
     """A bad argument or input file: reported in one line, exit status 2."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the program is so that it unwinds as on Ctrl-C."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -45,25 +53,36 @@ def _choices_help(table: dict[str, NamedPolicy]) -> str:
     return "; ".join(f"{name}: {choice.help}" for name, choice in table.items())
 
 
+def _scenario_option(parser: argparse.ArgumentParser, default: str, what: str) -> None:
+    parser.add_argument("--scenario", default=default, metavar="NAME|FILE.toml",
+                        help=f"{what} (default: %(default)s)")
+
+
+def _grid_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--grid1", type=int, default=DEFAULT_GRID["1v1"], metavar="N",
+                        help="1 vs 1 tube nodes per axis (default: %(default)s, the paper's)")
+    parser.add_argument("--grid2", type=int, default=DEFAULT_GRID["2v1"], metavar="N",
+                        help="2 vs 1 tube nodes per axis (default: %(default)s, the paper's)")
+
+
+def _seed_option(parser: argparse.ArgumentParser, help_text: str) -> None:
+    parser.add_argument("--seed", type=int, default=0, help=f"{help_text} (default: %(default)s)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="reachavoid",
                      description="Multi-agent reach-avoid games: play, record, solve.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
     play = commands.add_parser("play", help="play one episode and print the outcome",
                                description="Play one episode of a scenario.")
-    play.add_argument("--scenario", default="paper_6v2", metavar="NAME|FILE.toml",
-                      help="a built-in scenario name or a TOML scenario file "
-                           "(default: %(default)s)")
+    _scenario_option(play, "paper_6v2", "a built-in scenario name or a TOML scenario file")
     play.add_argument("--attackers", choices=ATTACKERS, default="shortest-path",
-                      help=f"attacker policy (default: %(default)s). "
-                           f"{_choices_help(ATTACKERS)}")
+                      help=f"attacker policy (default: %(default)s). {_choices_help(ATTACKERS)}")
     play.add_argument("--defenders", choices=DEFENDERS, default="hj",
-                      help=f"defender policy (default: %(default)s). "
-                           f"{_choices_help(DEFENDERS)}")
-    _add_grid_options(play)
-    play.add_argument("--seed", type=int, default=0,
-                      help="seed of the env (random starts) and random policies "
-                           "(default: %(default)s)")
+                      help=f"defender policy (default: %(default)s). {_choices_help(DEFENDERS)}")
+    _grid_options(play)
+    _seed_option(play, "seed of the env (random starts) and random policies")
     play.add_argument("--video", metavar="OUT.mp4|OUT.gif",
                       help="write the episode to an MP4 (H.264) or GIF video")
     play.add_argument("--fps", type=float, default=None,
@@ -76,13 +95,12 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--json", action="store_true",
                       help="print one JSON object instead of a summary")
     play.set_defaults(run=_play)
+
     solve = commands.add_parser("solve", help="solve a 1 vs 1 or 2 vs 1 HJ reach-avoid game",
                                 description="Solve a scenario's 1 vs 1 or 2 vs 1 game to "
                                             "convergence (cached in $REACHAVOID_CACHE_DIR).")
-    solve.add_argument("--scenario", default="paper_2v1", metavar="NAME|FILE.toml",
-                       help="a built-in scenario name or a TOML scenario file "
-                            "(default: %(default)s)")
-    solve.add_argument("--game", choices=["1v1", "2v1"], default="1v1",
+    _scenario_option(solve, "paper_2v1", "a built-in scenario name or a TOML scenario file")
+    solve.add_argument("--game", choices=GAMES, default="1v1",
                        help="which game (default: %(default)s)")
     solve.add_argument("--grid", type=int, default=None, metavar="N",
                        help="grid nodes per axis (default: 45 for 1v1, 30 for 2v1)")
@@ -95,8 +113,7 @@ def build_parser() -> argparse.ArgumentParser:
         "bench", help="play many seeded random starts and compare capture rates",
         description="Play seeded random starts on a scenario's map with each defender method "
                     "and print capture rates with 95%% confidence intervals.")
-    bench.add_argument("--scenario", default="paper_2v1", metavar="NAME|FILE.toml",
-                       help="the map, speeds and settings to use (default: %(default)s)")
+    _scenario_option(bench, "paper_2v1", "the map, speeds and settings to use")
     bench.add_argument("--config", default="6v2", metavar="MvN",
                        help="attackers v defenders, drawn at random each episode "
                             "(default: %(default)s)")
@@ -107,48 +124,72 @@ def build_parser() -> argparse.ArgumentParser:
                        help="attacker policy (default: %(default)s)")
     bench.add_argument("--episodes", type=int, default=200,
                        help="episodes per method (default: %(default)s)")
-    bench.add_argument("--seed", type=int, default=0,
-                       help="episode k uses seed SEED + k (default: %(default)s)")
+    _seed_option(bench, "episode k uses seed SEED + k")
     bench.add_argument("--csv", metavar="FILE.csv", help="write one row per episode")
     bench.add_argument("--json", action="store_true",
                        help="print one JSON object instead of a table")
-    _add_grid_options(bench)
+    _grid_options(bench)
     bench.set_defaults(run=_bench)
 
     paper = commands.add_parser(
         "paper", help="reproduce the paper's table, videos and tube figure",
-        description="Play paper_2v1, paper_6v2 and paper_8v4 with the HJ + MIP defenders "
-                    "and the matching baseline against shortest-path attackers (unassigned "
-                    "defenders stand still, as in the paper), print the table next to the "
-                    "paper's, and write six videos and the tube-slice figure.")
+        description="Play the paper's games (the built-ins with a [paper] table) with the HJ + "
+                    "MIP defenders and the matching baseline against shortest-path attackers "
+                    "(unassigned defenders stand still, as in the paper), print the table "
+                    "next to the paper's, and write the videos and the tube-slice figure.")
     paper.add_argument("--out", default="paper_results", metavar="DIR",
                        help="where the videos, figure and table go (default: %(default)s)")
-    paper.add_argument("--no-video", action="store_true", help="skip the six videos")
-    _add_grid_options(paper)
-    paper.set_defaults(run=_paper, seed=0)
+    paper.add_argument("--no-video", action="store_true", help="skip the videos")
+    _grid_options(paper)
+    paper.set_defaults(run=_paper)
     return parser
 
 
-def _add_grid_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--grid1", type=int, default=45, metavar="N",
-                        help="1 vs 1 tube nodes per axis (default: %(default)s, the paper's)")
-    parser.add_argument("--grid2", type=int, default=30, metavar="N",
-                        help="2 vs 1 tube nodes per axis (default: %(default)s, the paper's)")
+# -- checks made before any work -----------------------------------------------------------
+
+def _check(check: Any, value: Any, field: str, *bounds: Any) -> Any:
+    try:
+        return check(value, field, *bounds)
+    except ValueError as err:
+        raise UsageError(str(err)) from None
 
 
-def _check_grids(args: argparse.Namespace) -> None:
+def _check_common(args: argparse.Namespace) -> None:
     for name in ("grid1", "grid2"):
-        if getattr(args, name) < 5:
-            raise UsageError(f"--{name}: need at least 5 nodes per axis, got "
-                             f"{getattr(args, name)}")
+        if hasattr(args, name):
+            _check(checks.integer, getattr(args, name), f"--{name}", *GRID_RANGE[name])
+    if hasattr(args, "seed"):
+        _check(checks.integer, args.seed, "--seed", 0, MAX_SEED)
+    location = cache_dir()
+    if location.exists() and not location.is_dir():
+        raise UsageError(f"cache: {str(location)!r} ($REACHAVOID_CACHE_DIR) is not a folder")
     args.progress = sys.stderr.isatty()
 
 
-def _policy(side: str, name: str, scenario: Scenario, args: argparse.Namespace) -> Policy:
-    """The named policy, given whichever of --seed, --grid1, --grid2 it takes."""
-    options = accepted_options(side, name, seed=args.seed, grid1=args.grid1, grid2=args.grid2,
-                               progress=args.progress)
-    return make_policy(side, name, scenario, **options)
+def writable_file(path: str, field: str) -> Path:
+    """``path`` if a file can be created or replaced there, else ``UsageError`` naming
+    ``field``."""
+    target = Path(path)
+    if target.is_dir():
+        raise UsageError(f"{field}: {path!r} is a folder")
+    folder = target.parent
+    if not folder.is_dir():
+        raise UsageError(f"{field}: folder {str(folder)!r} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise UsageError(f"{field}: folder {str(folder)!r} is not writable")
+    return target
+
+
+def writable_folder(path: str, field: str) -> Path:
+    """``path`` if it is a writable folder or can be created as one, else ``UsageError``."""
+    target = Path(path)
+    if target.exists() and not target.is_dir():
+        raise UsageError(f"{field}: {path!r} exists and is not a folder")
+    existing = target if target.exists() else next(p for p in target.absolute().parents
+                                                   if p.exists())
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise UsageError(f"{field}: {str(existing)!r} is not a writable folder")
+    return target
 
 
 def _load(source: str) -> Scenario:
@@ -158,21 +199,26 @@ def _load(source: str) -> Scenario:
         raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}") from None
 
 
-def _play(args: argparse.Namespace) -> int:
-    import reachavoid_env
+def _policy(side: str, name: str, scenario: Scenario, args: argparse.Namespace) -> Any:
+    """The named policy, given whichever of --seed, --grid1, --grid2 it takes."""
+    options = accepted_options(side, name, seed=args.seed, grid1=args.grid1, grid2=args.grid2,
+                               progress=args.progress)
+    return make_policy(side, name, scenario, **options)
 
+
+# -- commands -------------------------------------------------------------------------------
+
+def _play(args: argparse.Namespace) -> int:
     if args.video is not None:
         try:
             check_video_path(args.video)
         except ValueError as err:
             raise UsageError(str(err)) from None
-        if args.fps is not None and not args.fps > 0:
-            raise UsageError(f"--fps: must be positive, got {args.fps:g}")
-        if args.every < 1:
-            raise UsageError(f"--every: must be a positive integer, got {args.every}")
-        if args.width < 16:
-            raise UsageError(f"--width: need at least 16 pixels, got {args.width}")
-    _check_grids(args)
+        writable_file(args.video, "--video")
+        if args.fps is not None:
+            _check(checks.positive, args.fps, "--fps", 240.0)
+        _check(checks.integer, args.every, "--every", 1, 1_000_000)
+        _check(checks.integer, args.width, "--width", 16, 4096)
     scenario = _load(args.scenario)
     attackers = _policy("attackers", args.attackers, scenario, args)
     defenders = _policy("defenders", args.defenders, scenario, args)
@@ -183,25 +229,13 @@ def _play(args: argparse.Namespace) -> int:
         result = run_episode(env, attackers, defenders, seed=args.seed, video=args.video,
                              fps=args.fps, every=args.every,
                              progress=args.video is not None and not args.json
-                             and sys.stderr.isatty())
+                             and args.progress)
     finally:
         env.close()
     if args.json:
         print(json.dumps(_json_report(result, args)))
     else:
         print(_summary(result, args))
-    return 0
-
-
-def _solve(args: argparse.Namespace) -> int:
-    from solvers.hj import solve_game
-
-    try:
-        report = solve_game(args.scenario, args.game, args.grid, out=args.out,
-                            plot=args.plot, progress=sys.stderr.isatty())
-    except (ValueError, MemoryError) as err:
-        raise UsageError(str(err)) from None
-    print(report.summary())
     return 0
 
 
@@ -230,47 +264,58 @@ def _summary(result: EpisodeResult, args: argparse.Namespace) -> str:
     return "\n".join(lines)
 
 
-def _bench(args: argparse.Namespace) -> int:
-    import reachavoid_env
+def _solve(args: argparse.Namespace) -> int:
+    if args.grid is not None:
+        _check(checks.integer, args.grid, "--grid",
+               *GRID_RANGE["grid1" if args.game == "1v1" else "grid2"])
+    if args.out is not None:
+        out = writable_folder(args.out, "--out")
+        if out.is_dir() and any(out.iterdir()) and not (out / "meta.json").is_file():
+            raise UsageError(f"--out: {args.out!r} is a folder that holds other files and no "
+                             "value function; give a new or empty folder")
+    if args.plot is not None:
+        writable_file(args.plot, "--plot")
+    try:
+        report = solve_scenario(args.scenario, args.game, args.grid, out=args.out,
+                                plot=args.plot, progress=args.progress)
+    except (ValueError, MemoryError) as err:
+        raise UsageError(str(err)) from None
+    print(report.summary())
+    return 0
 
-    _check_grids(args)
+
+def _bench(args: argparse.Namespace) -> int:
     match = re.fullmatch(r"(\d+)v(\d+)", args.config)
     if match is None:
         raise UsageError(f"--config: expected MvN such as 6v2, got {args.config!r}")
-    if args.episodes < 1:
-        raise UsageError(f"--episodes: must be a positive integer, got {args.episodes}")
+    _check(checks.integer, int(match[1]), "--config attackers", 1, 64)
+    _check(checks.integer, int(match[2]), "--config defenders", 1, 64)
+    _check(checks.integer, args.episodes, "--episodes", 1, 10_000_000)
     methods = [m.strip() for m in args.defenders.split(",") if m.strip()]
     unknown = [m for m in methods if m not in DEFENDERS]
     if unknown or not methods:
         raise UsageError(f"--defenders: unknown method(s) {unknown or args.defenders!r} "
                          f"(choose from {', '.join(DEFENDERS)})")
-    num_attackers, num_defenders = int(match[1]), int(match[2])
-    scenario = _load(args.scenario).with_players(num_attackers, num_defenders)
-    env = reachavoid_env.parallel_env(scenario=scenario)
-    summaries, rows = [], []
-    for method in methods:
-        attackers = _policy("attackers", args.attackers, scenario, args)
-        defenders = _policy("defenders", method, scenario, args)
-        results = run_episodes(env, attackers, defenders, args.episodes, seed=args.seed,
-                               progress=args.progress, description=method)
-        summaries.append(summarize(method, results, num_attackers))
-        rows.extend({"defenders": method, "attackers": args.attackers, **r.to_dict()}
-                    for r in results)
-    env.close()
+    if args.csv:
+        writable_file(args.csv, "--csv")
+    scenario = _load(args.scenario).with_players(int(match[1]), int(match[2]))
+    comparison = compare_defenders(scenario, methods, args.attackers, args.episodes,
+                                   seed=args.seed, progress=args.progress, grid1=args.grid1,
+                                   grid2=args.grid2)
     if args.csv:
         write_csv(args.csv, [{k: (";".join(v) if isinstance(v, list) else v)
-                              for k, v in row.items()} for row in rows])
+                              for k, v in row.items()} for row in comparison.rows])
     if args.json:
         print(json.dumps({"scenario": scenario.name, "config": args.config,
                           "attackers": args.attackers, "seed": args.seed,
                           "episodes": args.episodes,
-                          "methods": [s.to_dict() for s in summaries]}))
+                          "methods": [s.to_dict() for s in comparison.summaries]}))
         return 0
     print(f"{scenario.name}: {args.episodes} seeded random starts (seeds {args.seed}.."
           f"{args.seed + args.episodes - 1}), {args.attackers} attackers")
     print(f"  {'defenders':<10} {'capture rate [95% CI]':<26} {'all captured [95% CI]':<26}"
           f" {'guaranteed':>10} {'violations':>10}")
-    for s in summaries:
+    for s in comparison.summaries:
         guaranteed = "-" if s.guaranteed_initial is None else f"{s.guaranteed_initial:.2f}"
         print(f"  {s.label:<10} {s.capture_rate:6.1%} [{s.capture_rate_ci[0]:.1%}, "
               f"{s.capture_rate_ci[1]:.1%}]{'':<4} {s.all_captured_rate:6.1%} "
@@ -282,46 +327,24 @@ def _bench(args: argparse.Namespace) -> int:
 
 
 def _paper(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    import reachavoid_env
-    from solvers.hj.plot import tube_figure
-
-    _check_grids(args)
-    out = Path(args.out)
+    out = writable_folder(args.out, "--out")
     out.mkdir(parents=True, exist_ok=True)
-    reference = HJDefenderPolicy.for_scenario(
-        reachavoid_env.builtin_scenario("paper_2v1"), grid1=args.grid1, grid2=args.grid2,
-        idle="stand", progress=args.progress)
-    methods = {"hj": reference, "matching": MatchingDefenderPolicy(reference.vf11)}
-    table = {}
-    for name, paper_counts in PAPER_TABLE.items():
-        scenario = reachavoid_env.builtin_scenario(name)
-        row = {}
-        for method, defenders in methods.items():
-            env = reachavoid_env.parallel_env(
-                scenario=scenario, render_mode=None if args.no_video else "rgb_array")
-            video = None if args.no_video else out / f"{name}_{method}.mp4"
-            result = run_episode(env, ShortestPathAttacker(), defenders, seed=0,
-                                 video=video, progress=args.progress)
-            env.close()
-            row[method] = result.to_dict() | {"video": None if video is None else str(video)}
-        table[name] = {"paper": {"hj": paper_counts[0], "matching": paper_counts[1]}, **row}
-    defender, first, second = (0.3, -0.3), (-0.5, 0.0), (0.0, 0.8)
-    figure = out / "tubes.png"
-    tube_figure([(reference.vf11, "A", {"D": defender}),
-                 (reference.vf21, "A2", {"A1": first, "D": defender}),
-                 (reference.vf21, "D", {"A1": first, "A2": second})], figure)
-    with atomic_write(out / "table.json") as handle:
-        json.dump(table, handle, indent=2)
+    rows = paper_table.reproduce(out, args.grid1, args.grid2, videos=not args.no_video,
+                                 progress=args.progress)
     print(f"Attackers captured (grids {args.grid1}^4 and {args.grid2}^6; "
-          f"shortest-path attackers)")
+          f"{paper_table.ATTACKERS} attackers)")
     print(f"  {'game':<10} {'ours':>6} {'paper':>6} {'baseline':>9} {'paper':>6}")
-    for name, row in table.items():
-        print(f"  {name[6:]:<10} {row['hj']['captured_count']:>6} {row['paper']['hj']:>6} "
-              f"{row['matching']['captured_count']:>9} {row['paper']['matching']:>6}")
-    print(f"  videos, table.json and {figure.name} in {out}/")
+    for row in rows:
+        ours, baseline = row.measured["hj"], row.measured["matching"]
+        print(f"  {row.scenario.split('_')[-1]:<10} {ours['captured_count']:>6} "
+              f"{row.reported['hj']:>6} {baseline['captured_count']:>9} "
+              f"{row.reported['matching']:>6}")
+    print(f"  videos, table.json and tubes.png in {out}/")
     return 0
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -331,14 +354,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exit_:
         return int(exit_.code or 0)
+    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
+        _check_common(args)
         return args.run(args)
     except (UsageError, ScenarioError) as err:
         print(f"reachavoid {args.command}: error: {err}", file=sys.stderr)
         return EXIT_USAGE
+    except OSError as err:
+        where = f"{err.filename}: " if err.filename else ""
+        print(f"reachavoid {args.command}: error: {where}{err.strerror or err}",
+              file=sys.stderr)
+        return EXIT_WRITE
+    except Terminated:
+        print(f"reachavoid {args.command}: terminated", file=sys.stderr)
+        return EXIT_TERMINATED
     except KeyboardInterrupt:
         print(f"reachavoid {args.command}: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,79 @@
+"""The paper's Table I, its videos and its tube figure (Fig. 2), from the built-in scenarios.
+
+The games are the built-ins that carry a ``[paper]`` table (what the paper reports for
+them: ``captured = {method = count}``, methods named as in ``policies.registry``). Every
+method plays its game once against the paper's shortest-path attackers, with unassigned or
+unmatched defenders standing still as in the paper's simulations. The figure slices the
+tubes at the starts of the smallest such game (``paper_2v1``: one defender, two attackers).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import reachavoid_env
+from policies.registry import accepted_options, make_policy
+from policies.tubes import tube_2v1
+from reachavoid.rollout import run_episode
+from reachavoid_env import Scenario
+from reachavoid_env.files import atomic_write
+from solvers.hj.plot import scenario_panels, tube_figure
+
+ATTACKERS = "shortest-path"
+"""The paper's attackers: the time-optimal path to the target, ignoring defenders."""
+
+
+def paper_scenarios() -> list[Scenario]:
+    """The built-in scenarios the paper reports on, smallest first."""
+    scenarios = [reachavoid_env.builtin_scenario(name) for name in reachavoid_env.builtin_names()]
+    reported = [sc for sc in scenarios if sc.paper_captures]
+    return sorted(reported, key=lambda sc: (sc.num_attackers, sc.num_defenders))
+
+
+@dataclass(frozen=True)
+class PaperRow:
+    """One game: per method, what the paper reports and what we measured (``run_episode``'s
+    JSON fields plus ``video``)."""
+
+    scenario: str
+    reported: dict[str, int]
+    measured: dict[str, dict[str, Any]]
+
+
+def reproduce(out: Path, grid1: int, grid2: int, videos: bool = True,
+              progress: bool = False) -> list[PaperRow]:
+    """Play every paper game with every method it reports, write the videos (``out/NAME_
+    METHOD.mp4``), ``out/tubes.png`` and ``out/table.json``; return the rows."""
+    scenarios = paper_scenarios()
+    options = {"grid1": grid1, "grid2": grid2, "idle": "stand", "unmatched": "stand",
+               "progress": progress}
+    rows = []
+    for scenario in scenarios:
+        measured = {}
+        for method in dict(scenario.paper_captures):
+            defenders = make_policy("defenders", method, scenario,
+                                    **accepted_options("defenders", method, **options))
+            attackers = make_policy("attackers", ATTACKERS, scenario)
+            env = reachavoid_env.parallel_env(scenario=scenario,
+                                              render_mode="rgb_array" if videos else None)
+            video = out / f"{scenario.name}_{method}.mp4" if videos else None
+            try:
+                result = run_episode(env, attackers, defenders, seed=0, video=video,
+                                     progress=progress)
+            finally:
+                env.close()
+            measured[method] = result.to_dict() | {"video": None if video is None
+                                                   else str(video)}
+        rows.append(PaperRow(scenario.name, dict(scenario.paper_captures), measured))
+    figure_game = scenarios[0]
+    vf11, vf21 = tube_2v1(figure_game, grid1, grid2, progress)
+    defender = figure_game.defenders[0]
+    tube_figure(scenario_panels(vf11, figure_game.attackers, defender)[:1]
+                + scenario_panels(vf21, figure_game.attackers, defender), out / "tubes.png")
+    with atomic_write(out / "table.json") as handle:
+        json.dump({row.scenario: {"paper": row.reported, **row.measured} for row in rows},
+                  handle, indent=2)
+    return rows

@@ -1,0 +1,138 @@
+"""The rulebook: controls, capture, arrival and which event comes first within a step.
+
+Every other place that needs a rule (the env, scenario validation, the policies, the HJ
+games' target and avoid sets) calls or cites these functions; the numba kernels of the
+solvers keep their own fast form and are tested against this module.
+
+- **Controls**: a player's velocity is ``speed * u`` with ``|u| <= 1``; a longer ``u`` is
+  scaled to length 1 (``bounded_controls``).
+- **Capture**: an attacker is captured when some defender is within ``capture_radius``
+  (``distance <= capture_radius``, map units; ``within_capture``).
+- **Arrival**: an attacker arrives when its position is in the target (inclusive bounds,
+  ``GameMap.in_target``).
+- **Within one step** every player moves along the straight segment from its old to its
+  new position. An active attacker's earliest event wins: capture at the first instant a
+  defender is within ``capture_radius``, arrival at the first instant its segment touches
+  the target; a tie goes to capture (``resolve_events``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from reachavoid_env.shapes import quadratic_entry_time
+
+if TYPE_CHECKING:
+    from reachavoid_env.scenario import GameMap
+
+
+def bounded_controls(controls: np.ndarray) -> np.ndarray:
+    """``controls`` ``(..., 2)`` with every vector longer than 1 scaled to length 1.
+
+    Lengths use ``hypot``, so huge finite vectors (``[1e200, 1e200]``) are scaled, not lost
+    to overflow.
+    """
+    lengths = np.hypot(controls[..., 0], controls[..., 1])
+    return controls / np.maximum(lengths, 1.0)[..., None]
+
+
+def unit_vectors(vectors: np.ndarray) -> np.ndarray:
+    """``vectors`` ``(..., 2)`` scaled to length 1; zero vectors stay zero."""
+    lengths = np.hypot(vectors[..., 0], vectors[..., 1])[..., None]
+    return np.divide(vectors, lengths, out=np.zeros_like(vectors, dtype=np.float64),
+                     where=lengths > 0)
+
+
+def within_capture(attackers: np.ndarray, defenders: np.ndarray,
+                   capture_radius: float) -> np.ndarray:
+    """``(M, N)`` bool: defender ``j`` is within ``capture_radius`` of attacker ``i``.
+
+    Positions are ``(M, 2)`` and ``(N, 2)`` map units.
+    """
+    gaps = attackers[:, None, :] - defenders[None, :, :]
+    return np.einsum("ijk,ijk->ij", gaps, gaps) <= capture_radius * capture_radius
+
+
+def capture_times(attackers_old: np.ndarray, attackers_new: np.ndarray,
+                  defenders_old: np.ndarray, defenders_new: np.ndarray,
+                  capture_radius: float) -> np.ndarray:
+    """Earliest capture time of every attacker-defender pair within one step.
+
+    Positions are ``(M, 2)`` and ``(N, 2)`` map units at the start and end of the step;
+    each pair's offset moves linearly, so the capture time is the first root of a
+    quadratic. Returns ``(M, N)`` fractions of the step in ``[0, 1]``, ``inf`` where the
+    pair never comes within ``capture_radius``.
+    """
+    offsets = attackers_old[:, None, :] - defenders_old[None, :, :]
+    motions = (attackers_new - attackers_old)[:, None, :] - (defenders_new - defenders_old)[None]
+    return quadratic_entry_time(offsets, motions, capture_radius)
+
+
+@dataclass(frozen=True, eq=False)
+class StepEvents:
+    """What happened to the attackers during one step (arrays ``(M,)``).
+
+    ``captured`` / ``arrived``: bool; ``times``: the fraction of the step at which the
+    attacker left the game (``inf`` for those that stay); ``captor``: the index of the
+    capturing defender, ``-1`` where none.
+    """
+
+    captured: np.ndarray
+    arrived: np.ndarray
+    times: np.ndarray
+    captor: np.ndarray
+
+    @property
+    def left(self) -> np.ndarray:
+        """Attackers that left the game this step."""
+        return self.captured | self.arrived
+
+
+def target_bounds(game_map: GameMap) -> tuple[float, float, float, float]:
+    """Bounding box ``(xmin, xmax, ymin, ymax)`` of the target union (map units)."""
+    bounds = np.array([shape.bounds() for shape in game_map.target])
+    return (float(bounds[:, 0].min()), float(bounds[:, 1].max()), float(bounds[:, 2].min()),
+            float(bounds[:, 3].max()))
+
+
+def resolve_events(game_map: GameMap, capture_radius: float, active: np.ndarray,
+                   attackers_old: np.ndarray, attackers_new: np.ndarray,
+                   defenders_old: np.ndarray, defenders_new: np.ndarray,
+                   bounds: tuple[float, float, float, float] | None = None) -> StepEvents:
+    """Which of the ``active`` ``(M,)`` attackers are captured or arrive during one step.
+
+    Each attacker's earliest event wins; a tie goes to capture (module docstring).
+    ``bounds`` (``target_bounds(game_map)``) only saves work: two cheap filters skip the
+    exact tests for pairs too far apart to meet and attackers too far from the target.
+    """
+    m = len(active)
+    never = np.full(m, np.inf)
+    t_capture, t_arrival, captor = never, never, np.full(m, -1)
+    # Nobody moves farther than sqrt(2) times its largest coordinate change, so a pair
+    # farther apart than capture_radius plus two such moves cannot meet this step.
+    a_move = np.abs(attackers_new - attackers_old)
+    longest = math.sqrt(2.0) * max(a_move.max(), np.abs(defenders_new - defenders_old).max())
+    reach = capture_radius + 2.0 * longest
+    gaps = attackers_old[:, None, :] - defenders_old[None, :, :]
+    closest = np.einsum("ijk,ijk->ij", gaps, gaps).min(axis=1)
+    if (closest[active] <= reach * reach).any():
+        pair_times = capture_times(attackers_old, attackers_new, defenders_old, defenders_new,
+                                   capture_radius)
+        captor = pair_times.argmin(axis=1)
+        t_capture = pair_times[np.arange(m), captor]
+    # Only attackers whose move spans the target's bounding box on both axes can enter it.
+    xmin, xmax, ymin, ymax = bounds or target_bounds(game_map)
+    centre = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
+    half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
+    near = (np.abs(attackers_old - centre) <= half + a_move).all(axis=1) & active
+    if near.any():
+        t_arrival = never.copy()
+        t_arrival[near] = game_map.target_entry_time(attackers_old[near], attackers_new[near])
+    captured = active & (t_capture <= 1.0) & (t_capture <= t_arrival)
+    arrived = active & ~captured & (t_arrival <= 1.0)
+    times = np.where(captured, t_capture, np.where(arrived, t_arrival, np.inf))
+    return StepEvents(captured, arrived, times, np.where(captured, captor, -1))
