@@ -12,6 +12,9 @@ Measures, in one run:
 
 Each figure is the best and the median of ``--repeats`` timed runs (the machine is shared;
 the best is the least disturbed). ``--profile`` prints where an env step spends its time.
+``--against DIR`` compares the step-only rate of this tree with the checkout in ``DIR``
+(another revision, e.g. ``git worktree add /tmp/base HEAD~1``) side by side: fresh
+processes alternate between the two trees, ``--repeats`` rounds.
 
     SDL_VIDEODRIVER=dummy .venv/bin/python benchmarks/env_throughput.py [--steps 5000]
 """
@@ -24,6 +27,8 @@ import os
 import platform
 import pstats
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -133,6 +138,30 @@ def profile(steps: int) -> None:
     pstats.Stats(profiler).sort_stats("tottime").print_stats(20)
 
 
+def step_rate(steps: int) -> float:
+    """Step-only ``paper_8v4`` steps per second, best of three runs in this process."""
+    env = make_reachavoid()
+    actions = random_actions(env, steps, seed=0)
+    return max(steps / run_steps(env, actions, steps) for _ in range(3))
+
+
+def against(other: Path, steps: int, rounds: int) -> None:
+    """Step-only rates of this tree and of ``other``, in alternating fresh processes."""
+    trees = {"this tree": Path(__file__).resolve().parents[1], str(other): other.resolve()}
+    rates: dict[str, list[float]] = {name: [] for name in trees}
+    for _ in range(rounds):
+        for name, tree in trees.items():
+            env = dict(os.environ, PYTHONPATH=str(tree))
+            out = subprocess.run([sys.executable, __file__, "--only-steps", str(steps)],
+                                 env=env, check=True, capture_output=True, text=True).stdout
+            rates[name].append(float(out))
+    for name, values in rates.items():
+        print(f"{name:<40} step only: best {max(values):>9,.0f}/s   "
+              f"median {statistics.median(values):>9,.0f}/s")
+    base, ours = (statistics.median(v) for v in reversed(rates.values()))
+    print(f"this tree / {other}: {ours / base:.3f} (median of {rounds} rounds)")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=5000, help="steps per timed run")
@@ -140,11 +169,20 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=300, help="frames to render and encode")
     parser.add_argument("--repeats", type=int, default=5, help="timed runs per figure")
     parser.add_argument("--profile", action="store_true", help="cProfile an env run too")
+    parser.add_argument("--against", type=Path, metavar="DIR",
+                        help="compare the step rate with another checkout, side by side")
+    parser.add_argument("--only-steps", type=int, metavar="N", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.only_steps:
+        print(step_rate(args.only_steps))
+        return
 
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}; load average "
           f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    if args.against is not None:
+        against(args.against, args.steps, args.repeats)
+        return
     ours, mpe = make_reachavoid(), make_mpe()
     ours_actions = random_actions(ours, args.steps, seed=0)
     mpe_actions = random_actions(mpe, args.mpe_steps, seed=0)

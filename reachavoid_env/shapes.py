@@ -254,7 +254,7 @@ class Polygon:
         v = np.asarray(self.vertices, dtype=np.float64)
         if v.ndim != 2 or v.shape[1] != 2:
             raise ShapeError("polygon vertices must be a list of [x, y] pairs")
-        distinct = v[np.any(v != np.roll(v, 1, axis=0), axis=1)] if len(v) > 1 else v
+        distinct = v[np.any(v != np.roll(v, -1, axis=0), axis=1)] if len(v) > 1 else v
         object.__setattr__(self, "vertices", tuple((float(x), float(y)) for x, y in distinct))
         v = distinct
         if len(v) < 3:

@@ -10,6 +10,7 @@ records ``env.render()`` after every reset and step.
 
 from __future__ import annotations
 
+import errno
 import os
 import secrets
 from collections.abc import Generator
@@ -41,6 +42,36 @@ def check_video_path(path: str | os.PathLike[str]) -> Path:
     if not path.parent.is_dir():
         raise ValueError(f"video: folder {str(path.parent)!r} does not exist")
     return path
+
+
+def check_complete(written: Path, destination: Path) -> None:
+    """Raise ``OSError`` naming ``destination`` unless ``written`` is a whole video file.
+
+    imageio-ffmpeg does not report ffmpeg's exit status, so a failed write (a full disk)
+    would otherwise pass: an MP4 must consist of whole top-level boxes, ``moov`` (the
+    index ffmpeg writes last) among them; a GIF must end with its trailer byte.
+    """
+    size = written.stat().st_size if written.is_file() else 0
+    with open(written, "rb") if size else open(os.devnull, "rb") as handle:
+        if written.suffix.lower() == ".gif":
+            handle.seek(max(size - 1, 0))
+            complete = size > 6 and handle.read(1) == b"\x3b"
+        else:
+            boxes, offset = set(), 0
+            while offset + 8 <= size:
+                handle.seek(offset)
+                header = handle.read(16)
+                length, kind = int.from_bytes(header[:4], "big"), header[4:8]
+                if length == 1:
+                    length = int.from_bytes(header[8:16], "big")
+                if length < 8:
+                    break
+                boxes.add(kind)
+                offset += length
+            complete = offset == size and {b"ftyp", b"moov", b"mdat"} <= boxes
+    if not complete:
+        raise OSError(errno.EIO, "ffmpeg did not finish the video (disk full or write "
+                                 "error); nothing was written", str(destination))
 
 
 class VideoWriter:
@@ -112,8 +143,7 @@ class VideoWriter:
             raise ValueError(f"video {str(self.path)!r}: no frames were appended")
         try:
             self._encoder.close()
-            if not self._tmp.is_file() or self._tmp.stat().st_size == 0:
-                raise OSError(f"video {str(self.path)!r}: ffmpeg wrote nothing")
+            check_complete(self._tmp, self.path)
             os.replace(self._tmp, self.path)
         except BaseException:
             self._tmp.unlink(missing_ok=True)
