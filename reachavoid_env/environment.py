@@ -160,6 +160,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                             max(sc.attacker_speed, sc.defender_speed), sc.dt)
         self._positions = positions
         self._active = np.ones(len(positions), dtype=bool)
+        self._all_active = True
+        self._no_rewards = np.zeros(len(positions))
         self._status = np.zeros(m, dtype=np.int8)
         self._speeds = np.concatenate([np.full(m, sc.attacker_speed),
                                        np.full(self._n, sc.defender_speed)])[:, None]
@@ -227,15 +229,20 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                   actions: dict[str, Any]) -> np.ndarray:
         """Phase 1: every player's velocity ``(M + N, 2)``, map units per second (players
         out of the game stand still)."""
-        controls = np.zeros((len(self.possible_agents), 2))
-        controls[rows] = self._stack_actions(live, actions)
+        stacked = self._stack_actions(live, actions)
+        if isinstance(rows, slice):
+            controls = stacked
+        else:
+            controls = np.zeros((len(self.possible_agents), 2))
+            controls[rows] = stacked
         return rules.bounded_controls(controls) * self._speeds
 
     def _move(self, velocities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Phase 2: positions before and after the world's step (walls stop and slide)."""
         old = self._positions
         new = self._world.step(velocities)
-        new[~self._active] = old[~self._active]
+        if not self._all_active:
+            new[~self._active] = old[~self._active]
         return old, new
 
     def _resolve_events(self, old: np.ndarray, new: np.ndarray) -> rules.StepEvents:
@@ -256,6 +263,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             self._active[:m] &= ~left
             if not self._active[:m].any():
                 self._active[m:] = False
+            self._all_active = False
         self._positions = new
         return events
 
@@ -264,6 +272,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         """Phase 4: ``(M + N,)`` rewards: +1 arrival, -1 capture, the shaping term for the
         attackers active at the start of the step; each defender gets minus their sum."""
         m = self._m
+        if not self.shaping and not events.left.any():
+            return self._no_rewards
         rewards = events.arrived.astype(np.float64) - events.captured
         if self.shaping:
             game_map = self.scenario.map
@@ -278,15 +288,20 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         """Phase 5: observations, rewards, terminations, truncations and infos of the agents
         live at the start of the step; the agents that ended leave ``agents``."""
         truncate = self._steps >= self.max_cycles
-        ended = (~self._active[rows]).tolist()
         observations = self._observations(live, rows)
         reward_dict = dict(zip(live, rewards[rows].tolist(), strict=True))
-        terminations = dict(zip(live, ended, strict=True))
-        truncations = {name: truncate and not done for name, done in zip(live, ended,
-                                                                         strict=True)}
         infos = self._infos(live, events.captor)
-        self.agents = [] if truncate else [name for name, done in zip(live, ended, strict=True)
-                                           if not done]
+        if events.left.any() or truncate:
+            ended = (~self._active[rows]).tolist()
+            terminations = dict(zip(live, ended, strict=True))
+            truncations = {name: truncate and not done
+                           for name, done in zip(live, ended, strict=True)}
+            self.agents = [] if truncate else [name for name, done in zip(live, ended,
+                                                                          strict=True)
+                                               if not done]
+        else:
+            terminations = dict.fromkeys(live, False)
+            truncations = dict.fromkeys(live, False)
         if self.render_mode == "human":
             self.render()
         return observations, reward_dict, terminations, truncations, infos

@@ -72,7 +72,7 @@ def capture_times(attackers_old: np.ndarray, attackers_new: np.ndarray,
     return quadratic_entry_time(offsets, motions, capture_radius)
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(eq=False, slots=True)
 class StepEvents:
     """What happened to the attackers during one step (arrays ``(M,)``).
 
@@ -85,11 +85,8 @@ class StepEvents:
     arrived: np.ndarray
     times: np.ndarray
     captor: np.ndarray
-
-    @property
-    def left(self) -> np.ndarray:
-        """Attackers that left the game this step."""
-        return self.captured | self.arrived
+    left: np.ndarray
+    """Attackers that left the game this step (captured or arrived)."""
 
 
 def target_bounds(game_map: GameMap) -> tuple[float, float, float, float]:
@@ -135,4 +132,5 @@ def resolve_events(game_map: GameMap, capture_radius: float, active: np.ndarray,
     captured = active & (t_capture <= 1.0) & (t_capture <= t_arrival)
     arrived = active & ~captured & (t_arrival <= 1.0)
     times = np.where(captured, t_capture, np.where(arrived, t_arrival, np.inf))
-    return StepEvents(captured, arrived, times, np.where(captured, captor, -1))
+    return StepEvents(captured, arrived, times, np.where(captured, captor, -1),
+                      captured | arrived)
