@@ -12,7 +12,8 @@ For each scenario (default ``paper_1v1``, ``paper_2v1``, ``paper_8v4``) and defe
 
 ``hj`` rows are repeated with the wrappers' ``scripted_every`` set to each value of
 ``--every`` (the defenders decide every k env steps and hold their actions in between).
-Each figure is env steps per second (best and median of ``--repeats`` runs; the time the
+Each figure is env steps per CPU second (``--clock``; best and median of ``--repeats``
+runs; the time the
 attackers' own scripted policy takes is not counted), the share of the step time spent in
 the defender policy's ``act``, and the mean number of attackers in play per step. The target
 is at least 1,000 steps/s for ``attackers`` on ``paper_8v4`` with ``hj`` on one core:
@@ -34,11 +35,16 @@ from typing import Any
 
 import numpy as np
 
-from policies.training import DEFENDERS, attacker_factory, defender_factory
+from policies.registry import DEFENDERS
+from policies.training import attacker_factory, defender_factory
 from reachavoid_env import ReachAvoidEnv, Scenario, load_scenario
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 
 EPISODE_STEPS = 1000
+CLOCK = time.process_time
+"""CPU time of this process (``--clock wall`` for wall time): on a shared machine the CPU
+time of a one-core run is the steadier figure, and every row is timed alike."""
+RATES: dict[str, float] = {}
 
 
 class Timed:
@@ -52,9 +58,9 @@ class Timed:
         self.policy.reset(scenario)
 
     def act(self, state: Any) -> dict[str, np.ndarray]:
-        start = time.perf_counter()
+        start = CLOCK()
         actions = self.policy.act(state)
-        self.seconds += time.perf_counter() - start
+        self.seconds += CLOCK() - start
         return actions
 
 
@@ -68,13 +74,13 @@ def run_game(env: ReachAvoidEnv, actions: np.ndarray, learners: Timed | None,
     index = {name: k for k, name in enumerate(env.possible_agents)}
     env.reset(seed=0)
     in_play = 0
-    start = time.perf_counter()
+    start = CLOCK()
     for drawn in actions:
         if not env.agents:
             env.reset()
         env.step({name: drawn[index[name]] for name in env.agents})
         in_play += sum(name.startswith("attacker") for name in env.agents)
-    return time.perf_counter() - start, in_play / len(actions)
+    return CLOCK() - start, in_play / len(actions)
 
 
 def run_attackers(env: AttackerParallelEnv, actions: np.ndarray, learners: Timed | None,
@@ -84,7 +90,7 @@ def run_attackers(env: AttackerParallelEnv, actions: np.ndarray, learners: Timed
     if learners is not None:
         learners.reset(env.game.scenario)
     in_play = 0
-    start = time.perf_counter()
+    start = CLOCK()
     for drawn in actions:
         if not env.agents:
             env.reset()
@@ -95,20 +101,20 @@ def run_attackers(env: AttackerParallelEnv, actions: np.ndarray, learners: Timed
         else:
             env.step(learners.act(env.game_state()))
         in_play += len(env.agents)
-    return time.perf_counter() - start, in_play / len(actions)
+    return CLOCK() - start, in_play / len(actions)
 
 
 def run_single(env: SingleAttackerEnv, actions: np.ndarray, learners: Timed | None,
                ) -> tuple[float, float]:
     env.reset(seed=0)
     in_play = 0
-    start = time.perf_counter()
+    start = CLOCK()
     for drawn in actions:
         _, _, terminated, truncated, _ = env.step(drawn[0])
         if terminated or truncated:
             env.reset()
         in_play += int(env.game_state().active_attackers.sum())
-    return time.perf_counter() - start, in_play / len(actions)
+    return CLOCK() - start, in_play / len(actions)
 
 
 def measure(label: str, run: Callable[..., tuple[float, float]], env: Any,
@@ -125,6 +131,7 @@ def measure(label: str, run: Callable[..., tuple[float, float]], env: Any,
         rates.append(len(actions) / seconds)
         shares.append(defenders.seconds / seconds if defenders is not None else 0.0)
         in_play.append(attackers)
+    RATES[label] = statistics.median(rates)
     share = f"defenders {statistics.median(shares):>4.0%}" if defenders is not None else ""
     print(f"{label:<42} best {max(rates):>7,.0f}/s  median {statistics.median(rates):>7,.0f}/s"
           f"  {share:<15} attackers in play {statistics.mean(in_play):.1f}", flush=True)
@@ -142,7 +149,11 @@ def main() -> None:
     parser.add_argument("--grid2", type=int, default=15, help="hj 2v1 tube nodes per axis")
     parser.add_argument("--steps", type=int, default=3000, help="env steps per timed run")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs per figure")
+    parser.add_argument("--clock", choices=["cpu", "wall"], default="cpu",
+                        help="time CPU seconds of this process or wall seconds")
     args = parser.parse_args()
+    global CLOCK
+    CLOCK = time.process_time if args.clock == "cpu" else time.perf_counter
 
     cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else "?"
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores "
@@ -173,6 +184,10 @@ def main() -> None:
                                            **kwargs)
                 measure(f"single, {label}", run_single, single, actions, policy,
                         args.repeats)
+        if {"greedy", "hj"} <= set(args.defenders):
+            for kind in ("attackers random", "attackers shortest-path", "single"):
+                print(f"  {kind}: hj / greedy = "
+                      f"{RATES[f'{kind}, hj'] / RATES[f'{kind}, greedy']:.0%} (medians)")
 
 
 if __name__ == "__main__":

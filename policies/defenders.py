@@ -78,11 +78,12 @@ def triple_states(attackers: np.ndarray, pairs: np.ndarray, defenders: np.ndarra
     return np.concatenate([first, second, np.broadcast_to(defenders[None], (p, n, 2))], axis=-1)
 
 
-def _heading(control: np.ndarray, fallback: np.ndarray) -> np.ndarray:
-    """``control`` where it is non-zero, else the unit vector along ``fallback``."""
-    if np.linalg.norm(control) > 0:
-        return control.astype(np.float32)
-    return unit_vectors(fallback).astype(np.float32)
+def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
+    """``controls (K, 2)`` where non-zero, else the unit vectors along ``fallbacks``."""
+    still = ~controls.any(axis=1)
+    controls = controls.copy()
+    controls[still] = unit_vectors(fallbacks[still])
+    return controls.astype(np.float32)
 
 
 class _AssignmentDefender(ABC):
@@ -131,43 +132,50 @@ class _AssignmentDefender(ABC):
         return Overlay(edges=tuple(self.assignment),
                        lines=(f"{method}: {self._assignment.captures} guaranteed",))
 
-    def _beats_1v1(self, state: GameState) -> np.ndarray:
-        states = pair_states(state.attacker_positions, state.defender_positions)
-        return self.vf11.value(states) <= 0.0
-
     def act(self, state: GameState) -> dict[str, np.ndarray]:
+        """One decision: the 1 vs 1 table, the assignment, then every assigned or shadowing
+        defender's optimal control, looked up in one batch per tube."""
         active = state.active_attackers
         names = state.defender_names
+        actions = np.zeros((len(names), 2), dtype=np.float32)
         if not active.any():
             self._assignment = None
-            return {name: np.zeros(2, dtype=np.float32) for name in names}
-        beats = self._beats_1v1(state)
-        self._assignment = self._assign(state, beats, active)
+            return dict(zip(names, actions, strict=True))
         attackers, defenders = state.attacker_positions, state.defender_positions
-        actions = {}
-        for j, name in enumerate(names):
+        values11 = self.vf11.value(pair_states(attackers, defenders))
+        self._assignment = self._assign(state, values11 <= 0.0, active)
+        singles, doubles = [], []
+        for j in range(len(names)):
             mine = self._assignment.by_defender[j]
             if len(mine) == 2:
-                x = np.concatenate([attackers[mine[0]], attackers[mine[1]], defenders[j]])
-                assert self.vf21 is not None, "only the MIP assigns two attackers"
-                control = self.vf21.defender_control(x[None])[0]
-                nearer = min(mine, key=lambda i: np.linalg.norm(attackers[i] - defenders[j]))
-                actions[name] = _heading(control, attackers[nearer] - defenders[j])
+                doubles.append((j, *mine))
             elif len(mine) == 1:
-                x = np.concatenate([attackers[mine[0]], defenders[j]])
-                control = self.vf11.defender_control(x[None])[0]
-                actions[name] = _heading(control, attackers[mine[0]] - defenders[j])
-            else:
-                actions[name] = self._idle_action(state, j, beats)
-        return actions
+                singles.append((j, mine[0]))
+            elif (target := self._idle_target(state, j, values11)) is not None:
+                singles.append((j, target))
+        if singles:
+            j, i = np.array(singles).T
+            controls = self.vf11.defender_control(np.concatenate([attackers[i], defenders[j]],
+                                                                 axis=1))
+            actions[j] = _headings(controls, attackers[i] - defenders[j])
+        if doubles:
+            j, first, second = np.array(doubles).T
+            controls = self.vf21.defender_control(np.concatenate(
+                [attackers[first], attackers[second], defenders[j]], axis=1))
+            gaps = np.stack([attackers[first] - defenders[j], attackers[second] - defenders[j]])
+            nearer = gaps[np.argmin(np.hypot(gaps[..., 0], gaps[..., 1]), axis=0),
+                          np.arange(len(j))]
+            actions[j] = _headings(controls, nearer)
+        return dict(zip(names, actions, strict=True))
 
     @abstractmethod
     def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
         """The assignment for this step from the 1 vs 1 table ``beats (M, N)``."""
 
     @abstractmethod
-    def _idle_action(self, state: GameState, j: int, beats: np.ndarray) -> np.ndarray:
-        """The action of defender ``j`` when nobody is assigned to it."""
+    def _idle_target(self, state: GameState, j: int, values11: np.ndarray) -> int | None:
+        """The attacker whose 1 vs 1 optimal control unassigned defender ``j`` plays, or
+        ``None`` to stand still; ``values11 (M, N)`` is this step's 1 vs 1 table."""
 
 
 def _check_tube(vf: ValueFunction, scenario: Scenario, name: str) -> None:
@@ -233,10 +241,9 @@ class HJDefenderPolicy(_AssignmentDefender):
             beats_2v1[pairs[:, 1], pairs[:, 0]] = wins
         return self.solver.solve(beats, beats_2v1, active)
 
-    def _idle_action(self, state: GameState, j: int, beats: np.ndarray) -> np.ndarray:
+    def _idle_target(self, state: GameState, j: int, values11: np.ndarray) -> int | None:
         if self.idle == "stand":
-            return np.zeros(2, dtype=np.float32)
-        assert self._assignment is not None
+            return None
         active = state.active_attackers
         taken = np.zeros(len(active), dtype=bool)
         for i, _ in self._assignment.pairs:
@@ -244,12 +251,7 @@ class HJDefenderPolicy(_AssignmentDefender):
         pool = np.flatnonzero(active & ~taken)
         if len(pool) == 0:
             pool = np.flatnonzero(active)
-        attackers, defender = state.attacker_positions, state.defender_positions[j]
-        states = np.concatenate([attackers[pool], np.broadcast_to(defender, (len(pool), 2))],
-                                axis=1)
-        best = int(np.argmax(self.vf11.value(states)))
-        control = self.vf11.defender_control(states[best:best + 1])[0]
-        return _heading(control, attackers[pool[best]] - defender)
+        return int(pool[np.argmax(values11[pool, j])])
 
 
 class MatchingDefenderPolicy(_AssignmentDefender):
@@ -258,7 +260,8 @@ class MatchingDefenderPolicy(_AssignmentDefender):
     Each step a defender is matched to at most one attacker it beats 1 vs 1 (maximum
     cardinality matching) and plays the 1 vs 1 optimal control against it. Unmatched
     defenders stand still (``unmatched="stand"``, the paper) or pursue the nearest active
-    attacker (``unmatched="pursue"``).
+    attacker with the 1 vs 1 optimal control (``unmatched="pursue"``; straight at it where
+    that control vanishes).
     """
 
     def __init__(self, vf11: ValueFunction, unmatched: str = "stand") -> None:
@@ -278,9 +281,9 @@ class MatchingDefenderPolicy(_AssignmentDefender):
     def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
         return self.solver.solve(beats, None, active)
 
-    def _idle_action(self, state: GameState, j: int, beats: np.ndarray) -> np.ndarray:
+    def _idle_target(self, state: GameState, j: int, values11: np.ndarray) -> int | None:
         if self.unmatched == "stand":
-            return np.zeros(2, dtype=np.float32)
+            return None
         active = np.flatnonzero(state.active_attackers)
         gaps = state.attacker_positions[active] - state.defender_positions[j]
-        return _heading(np.zeros(2), gaps[int(np.argmin(np.linalg.norm(gaps, axis=1)))])
+        return int(active[np.argmin(np.hypot(gaps[:, 0], gaps[:, 1]))])
