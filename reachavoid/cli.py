@@ -25,6 +25,7 @@ from reachavoid import paper as paper_table
 from reachavoid.evaluation import compare_defenders, write_csv
 from reachavoid.rollout import EpisodeResult, run_episode
 from reachavoid.solve import DEFAULT_GRID, GAMES, solve_scenario
+from reachavoid.sweep import BACKENDS
 from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
 from reachavoid_env.video import check_video_path
 from solvers.hj.cache import cache_dir
@@ -125,6 +126,14 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--episodes", type=int, default=200,
                        help="episodes per method (default: %(default)s)")
     _seed_option(bench, "episode k uses seed SEED + k")
+    bench.add_argument("--backend", choices=BACKENDS, default="serial",
+                       help="where episodes run: here, on a process pool, or as Ray tasks "
+                            "(same results for the same seeds; default: %(default)s)")
+    bench.add_argument("--workers", type=int, default=None, metavar="N",
+                       help="processes of the pool, or CPUs of a local Ray instance "
+                            "(default: all cores)")
+    bench.add_argument("--address", default=None, metavar="ADDR",
+                       help="an existing Ray cluster (default: start a local one)")
     bench.add_argument("--csv", metavar="FILE.csv", help="write one row per episode")
     bench.add_argument("--json", action="store_true",
                        help="print one JSON object instead of a table")
@@ -296,12 +305,17 @@ def _bench(args: argparse.Namespace) -> int:
     if unknown or not methods:
         raise UsageError(f"--defenders: unknown method(s) {unknown or args.defenders!r} "
                          f"(choose from {', '.join(DEFENDERS)})")
+    if args.workers is not None:
+        _check(checks.integer, args.workers, "--workers", 1, 4096)
+    if args.address is not None and args.backend != "ray":
+        raise UsageError("--address: only with --backend ray")
     if args.csv:
         writable_file(args.csv, "--csv")
     scenario = _load(args.scenario).with_players(int(match[1]), int(match[2]))
     comparison = compare_defenders(scenario, methods, args.attackers, args.episodes,
-                                   seed=args.seed, progress=args.progress, grid1=args.grid1,
-                                   grid2=args.grid2)
+                                   seed=args.seed, backend=args.backend, workers=args.workers,
+                                   address=args.address, progress=args.progress,
+                                   grid1=args.grid1, grid2=args.grid2)
     if args.csv:
         write_csv(args.csv, [{k: (";".join(v) if isinstance(v, list) else v)
                               for k, v in row.items()} for row in comparison.rows])

@@ -1,7 +1,8 @@
 """Many episodes and their statistics: capture rates with 95% confidence intervals.
 
 ``compare_defenders`` is ``reachavoid bench``: every defender method plays the same seeded
-random starts. The benchmarks and the tests use the same functions.
+random starts (``sweep``: serially, on a process pool or on Ray). ``run_episodes`` plays
+policy objects of your own. The benchmarks and the tests use the same functions.
 """
 
 from __future__ import annotations
@@ -17,10 +18,9 @@ import numpy as np
 from pettingzoo.utils.env import ParallelEnv
 from tqdm import tqdm
 
-import reachavoid_env
-from policies.registry import accepted_options, make_policy
 from reachavoid.rollout import EpisodeResult, run_episode
-from reachavoid_env import Policy, Scenario
+from reachavoid.sweep import run_sweep, sweep_of
+from reachavoid_env import Policy, Scenario, checks
 from reachavoid_env.files import atomic_write
 
 Z95 = 1.959963984540054
@@ -137,25 +137,23 @@ class Comparison:
 
 
 def compare_defenders(scenario: Scenario, methods: Sequence[str], attackers: str,
-                      episodes: int, seed: int = 0, progress: bool = False,
-                      **options: Any) -> Comparison:
+                      episodes: int, seed: int = 0, backend: str = "serial",
+                      workers: int | None = None, address: str | None = None,
+                      progress: bool = False, **options: Any) -> Comparison:
     """Play ``episodes`` seeded starts of ``scenario`` with each defender method (names of
     ``policies.registry``) against the ``attackers`` policy; every method gets the same
-    starts (seeds ``seed .. seed + episodes - 1``). ``options`` (``grid1``, ``grid2``,
-    ``seed``...) go to whichever policy accepts them."""
-    env = reachavoid_env.parallel_env(scenario=scenario)
+    starts (seeds ``seed .. seed + episodes - 1``). ``options`` (``grid1``, ``grid2``...)
+    go to whichever policy accepts them; ``backend``, ``workers`` and ``address`` as
+    ``sweep.run_sweep`` (the results do not depend on them)."""
+    checks.integer(episodes, "episodes", 1)
+    seeds = range(seed, seed + episodes)
     summaries, rows = [], []
-    try:
-        for method in methods:
-            attacker_policy = make_policy("attackers", attackers, scenario, **accepted_options(
-                "attackers", attackers, seed=seed, progress=progress, **options))
-            defender_policy = make_policy("defenders", method, scenario, **accepted_options(
-                "defenders", method, seed=seed, progress=progress, **options))
-            results = run_episodes(env, attacker_policy, defender_policy, episodes, seed=seed,
-                                   progress=progress, description=method)
-            summaries.append(summarize(method, results, scenario.num_attackers))
-            rows.extend({"defenders": method, "attackers": attackers, **r.to_dict()}
-                        for r in results)
-    finally:
-        env.close()
+    for method in methods:
+        sweep = sweep_of(scenario, method, attackers, seeds, progress=progress, **options)
+        results = run_sweep(sweep, backend,
+                            workers=workers, address=address, progress=progress,
+                            description=method)
+        summaries.append(summarize(method, results, scenario.num_attackers))
+        rows.extend({"defenders": method, "attackers": attackers, **r.to_dict()}
+                    for r in results)
     return Comparison(scenario, tuple(summaries), tuple(rows))
