@@ -377,7 +377,9 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
 
     # -------------------------------------------------------------- rendering
     def set_overlay(self, overlay: Overlay | None) -> None:
-        """Draw ``overlay`` (a policy's assignment edges, text) on the following frames."""
+        """Draw ``overlay`` (a policy's assignment edges, text) on the following frames:
+        edges to attackers no longer in play are left out, and the whole overlay once no
+        attacker is in play."""
         self._overlay = overlay
 
     def render(self) -> np.ndarray | None:
@@ -392,7 +394,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             sc = self.scenario
             self._renderer = Renderer(sc.map, sc.capture_radius, width=self.render_width)
             self._renderer_key = (sc.map, sc.capture_radius)
-        self._renderer.draw(self.game_state(), self._overlay)
+        state = self.game_state()
+        self._renderer.draw(state, _live_part(self._overlay, state))
         if self.render_mode == "rgb_array":
             return self._renderer.rgb_array()
         self._renderer.show(self.metadata["render_fps"])
@@ -417,6 +420,15 @@ def _checked_action(agent: str, action: Any) -> np.ndarray:
     if not np.isfinite(array).all():
         raise ValueError(f"action for {agent}: must be finite, got {array.tolist()}")
     return array
+
+
+def _live_part(overlay: Overlay | None, state: GameState) -> Overlay | None:
+    """What of a policy's overlay still describes the game: its edges to attackers in play;
+    nothing once no attacker is in play (the last decision's text would be stale)."""
+    if overlay is None or not state.active_attackers.any():
+        return None
+    live = set(state.attacker_names[i] for i in np.flatnonzero(state.active_attackers))
+    return Overlay(edges=tuple(e for e in overlay.edges if e[1] in live), lines=overlay.lines)
 
 
 def _checked_options(options: Any) -> dict[str, Any]:

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pygame
 import pytest
 
+import reachavoid_env
 from reachavoid_env import (
     AttackerStatus,
     Box,
@@ -17,6 +20,7 @@ from reachavoid_env import (
     builtin_scenario,
 )
 from reachavoid_env import render as R
+from reachavoid_env.environment import _live_part
 from reachavoid_env.render import Renderer
 
 ACTIVE, CAPTURED, ARRIVED = AttackerStatus.ACTIVE, AttackerStatus.CAPTURED, AttackerStatus.ARRIVED
@@ -239,3 +243,16 @@ def test_long_overlay_lines_are_cut_short(renderer, scenario):
     assert renderer._font.size(fitted)[0] <= renderer.width - 20
     assert renderer._fit("short", renderer.width) == "short"
     renderer.draw(state_of(scenario.attackers, scenario.defenders), Overlay(lines=(line,)))
+
+
+def test_overlay_is_not_drawn_once_the_game_is_over():
+    env = reachavoid_env.parallel_env(scenario="paper_2v1")
+    env.reset(seed=0)
+    overlay = Overlay(edges=(("defender_0", "attacker_0"), ("defender_0", "attacker_1")),
+                      lines=("MIP: 2 guaranteed",))
+    state = env.unwrapped.game_state()
+    assert _live_part(overlay, state) == overlay
+    left = replace(state, attacker_status=(AttackerStatus.CAPTURED, AttackerStatus.ACTIVE))
+    assert _live_part(overlay, left).edges == (("defender_0", "attacker_1"),)
+    over = replace(state, attacker_status=(AttackerStatus.CAPTURED, AttackerStatus.ARRIVED))
+    assert _live_part(overlay, over) is None

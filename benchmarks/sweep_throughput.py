@@ -1,0 +1,85 @@
+"""Sweep throughput: episodes per second serially, on a process pool and on Ray.
+
+One ``reachavoid bench``-style sweep (random starts, HJ + MIP defenders, shortest-path
+attackers) is played on each backend with the same seeds; the script checks that every
+backend gives the serial results and prints episodes per second (wall clock, tubes already
+in the cache, worker start-up included). It also measures what a worker pays to get the
+tubes: opening the cached value files (memory-mapped, what every worker does) against a
+round trip of the 2 vs 1 array through Ray's object store (what a cluster without a shared
+filesystem would do instead).
+
+    .venv/bin/python benchmarks/sweep_throughput.py [--episodes 40] [--workers 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+from dataclasses import asdict
+
+import numpy as np
+
+from policies.tubes import tube_2v1
+from reachavoid.sweep import run_sweep, sweep_of
+from reachavoid_env import builtin_scenario
+from solvers.hj import load_value_function
+
+
+def outcome(results) -> list[dict]:
+    return [{k: v for k, v in asdict(r).items() if k != "seconds"} for r in results]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--config", default="6v2", help="MvN random starts (default 6v2)")
+    parser.add_argument("--episodes", type=int, default=40)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--grid1", type=int, default=45)
+    parser.add_argument("--grid2", type=int, default=30)
+    parser.add_argument("--backends", nargs="+", default=["serial", "process", "ray"])
+    args = parser.parse_args()
+    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
+          f"{platform.python_version()}; load average "
+          f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    m, n = (int(k) for k in args.config.split("v"))
+    scenario = builtin_scenario("paper_2v1").with_players(m, n)
+    sweep = sweep_of(scenario, "hj", "shortest-path", range(args.episodes), grid1=args.grid1,
+                     grid2=args.grid2)
+    vf11, vf21 = tube_2v1(scenario, args.grid1, args.grid2, progress=False)
+    reference = None
+    for backend in args.backends:
+        started = time.perf_counter()
+        results = run_sweep(sweep, backend, workers=args.workers)
+        seconds = time.perf_counter() - started
+        reference = reference or outcome(results)
+        same = "same as serial" if outcome(results) == reference else "DIFFERENT"
+        print(f"{backend:<8} {args.episodes} episodes of {args.config} in {seconds:7.1f} s: "
+              f"{args.episodes / seconds:6.2f} episodes/s ({same})", flush=True)
+
+    path = os.path.dirname(vf21.values.filename)
+    started = time.perf_counter()
+    opened = load_value_function(path)
+    float(np.asarray(opened.values[(0,) * opened.values.ndim]))
+    print(f"open the cached 2 vs 1 tube ({opened.values.nbytes / 2**20:,.0f} MiB, "
+          f"memory-mapped): {time.perf_counter() - started:.3f} s")
+    if "ray" in args.backends:
+        import ray
+
+        ray.init(num_cpus=1, include_dashboard=False, log_to_driver=False)
+        values = np.asarray(vf21.values)
+        started = time.perf_counter()
+        ref = ray.put(values)
+        put = time.perf_counter() - started
+        started = time.perf_counter()
+        fetched = ray.get(ref)
+        float(fetched.reshape(-1)[-1])
+        print(f"Ray object store, 2 vs 1 tube ({values.nbytes / 2**20:,.0f} MiB): put "
+              f"{put:.2f} s, get on the same node {time.perf_counter() - started:.3f} s "
+              f"(another node also copies it over the network)")
+        ray.shutdown()
+
+
+if __name__ == "__main__":
+    main()
