@@ -200,6 +200,11 @@ class AttackerParallelEnv(ParallelEnv, EzPickle):
     def max_cycles(self, value: int) -> None:
         self.game.max_cycles = value
 
+    @property
+    def info_format(self) -> str:
+        """``"numeric"`` or ``"readable"`` (``ReachAvoidEnv``)."""
+        return self.game.info_format
+
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None,
               ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
         observations, infos = self._core.reset(seed, options)

@@ -2,18 +2,17 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import pickle
 import subprocess
 import sys
 import warnings
-from pathlib import Path
 
 import gymnasium
 import numpy as np
 import pettingzoo
 import pytest
+from checks import ROOT, example
 from gymnasium.utils.env_checker import check_env
 
 from policies import (
@@ -37,19 +36,9 @@ from policies.training import (
 from reachavoid_env import builtin_names, builtin_scenario
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 
-ROOT = Path(__file__).resolve().parents[1]
 # Tubes coarse enough to solve in seconds (conftest.py points the cache at a throwaway
 # folder, so each grid is solved once per test session).
 COARSE = {"grid1": 11, "grid2": 7, "progress": False}
-
-
-def example(name: str):
-    """Import ``examples/<name>.py`` as a module."""
-    spec = importlib.util.spec_from_file_location(f"example_{name}",
-                                                  ROOT / "examples" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 # ------------------------------------------------------------------ named policies
