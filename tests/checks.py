@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import sys
 import warnings
 from pathlib import Path
 from types import ModuleType
@@ -21,9 +22,11 @@ def checked(check, *args, **kwargs) -> None:
 
 
 def example(name: str) -> ModuleType:
-    """Import ``examples/<name>.py`` as a module."""
+    """Import ``examples/<name>.py`` as the module ``example_<name>`` (in ``sys.modules``,
+    so that its classes pickle)."""
     spec = importlib.util.spec_from_file_location(f"example_{name}",
                                                   ROOT / "examples" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
     spec.loader.exec_module(module)
     return module

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import pickle
+import subprocess
+import sys
 from dataclasses import replace
 
 import numpy as np
@@ -271,3 +273,13 @@ def test_status_codes_round_trip():
     for bad in (-1, 3, 1.5, True):
         with pytest.raises(ValueError, match="status code"):
             AttackerStatus.from_code(bad)
+
+
+def test_core_packages_import_no_rl_library():
+    """The integrations import their RL library; the env and policies packages do not."""
+    code = ("import sys, reachavoid_env, reachavoid_env.integrations, policies; "
+            "print(sorted(set(sys.modules) & {'torch', 'torchrl', 'tensordict', 'supersuit', "
+            "'stable_baselines3', 'benchmarl', 'ray'}))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=120)
+    assert out.stdout.strip() == "[]"

@@ -192,11 +192,3 @@ def test_train_attacker_example_beats_random(tmp_path):
     assert model.observation_space.shape == (8,)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["model.zip", "report.json",
                                                           "trained.mp4"]
-
-
-def test_rllib_example_trains_one_iteration():
-    pytest.importorskip("ray.rllib")
-    rllib = example("rllib_config")
-    results = rllib.main(["--scenario", "paper_2v1", "--defenders", "greedy",
-                          "--iterations", "1", "--batch", "200"])
-    assert results[0]["env_runners"]["num_env_steps_sampled_lifetime"] >= 200
