@@ -27,7 +27,7 @@ import policies  # noqa: F401  (registers reachavoid/Attackers-v0)
 from policies.attackers import target_centres
 from policies.registry import DEFENDERS
 from policies.training import PETTINGZOO_ID
-from reachavoid_env import Scenario
+from reachavoid_env import AttackerStatus, Scenario
 
 Hook = Callable[[np.ndarray], np.ndarray]
 
@@ -72,8 +72,8 @@ def play(env: pettingzoo.ParallelEnv, hooks: Mapping[str, Hook], seed: int,
         for agent, reward in rewards.items():
             returns[agent] += reward
             if terminations[agent] or truncations[agent]:
-                outcome[agent] = ("timeout" if truncations[agent]
-                                  else infos[agent]["status"].value)
+                status = AttackerStatus.from_code(infos[agent]["status"])
+                outcome[agent] = "timeout" if truncations[agent] else status.value
     return {"steps": env.game_state().step, "returns": returns, "outcome": outcome}
 
 

@@ -1,8 +1,9 @@
 """The attacker-only env under RLlib: PPO with one policy shared by all attackers.
 
-RLlib is not a dependency of this project (``ray[rllib]`` pins its own Gymnasium; install
-it in an environment of its own). The env reaches RLlib through its PettingZoo wrapper,
-``ParallelPettingZooEnv``; the defenders are scripted inside the env:
+Needs the ``rllib`` extra in a virtual environment of its own (every ``ray[rllib]``
+release pins Gymnasium exactly): ``pip install -e '.[rllib]'``. The env reaches RLlib
+through its PettingZoo wrapper, ``ParallelPettingZooEnv``; the defenders are scripted
+inside the env:
 
     python examples/rllib_config.py --scenario paper_6v2 --defenders greedy --iterations 5
 

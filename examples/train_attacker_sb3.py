@@ -110,7 +110,7 @@ def evaluate(kwargs: dict[str, Any], act: Act, episodes: int) -> dict[str, float
         terminated = truncated = False
         while not (terminated or truncated):
             obs, _, terminated, truncated, info = env.step(act(obs, env))
-        status = info["status"]
+        status = AttackerStatus.from_code(info["status"])
         counts["timeout" if status is AttackerStatus.ACTIVE else status.value] += 1
     env.close()
     return {f"{key}_rate": value / episodes for key, value in counts.items()}

@@ -91,8 +91,8 @@ def make_attacker_env(scenario: str | Scenario = "paper_2v1", defenders: Any = "
     ``defender_options`` / ``teammate_options``), a policy object or a factory
     ``scenario -> policy``. Teammates play only where the scenario has more than one
     attacker. ``env_kwargs``: ``attacker``, ``max_cycles``, ``render_mode``, ``shaping``,
-    ``timeout_reward``, ``action_repeat``, ``scripted_every``, ``render_width``
-    (``SingleAttackerEnv``).
+    ``timeout_reward``, ``action_repeat``, ``scripted_every``, ``render_width``,
+    ``info_format`` (``SingleAttackerEnv``).
     """
     return SingleAttackerEnv(
         _source(defenders, defender_options, "defenders", "defender"), scenario=scenario,
@@ -105,7 +105,7 @@ def make_attackers_parallel_env(scenario: str | Scenario = "paper_2v1", defender
     """An ``AttackerParallelEnv``: every attacker learns, ``defenders`` (a name, a policy or
     a factory, as in ``make_attacker_env``) moves the defenders. ``env_kwargs``:
     ``max_cycles``, ``render_mode``, ``shaping``, ``timeout_reward``, ``action_repeat``,
-    ``scripted_every``, ``render_width`` (``AttackerParallelEnv``)."""
+    ``scripted_every``, ``render_width``, ``info_format`` (``AttackerParallelEnv``)."""
     return AttackerParallelEnv(_source(defenders, defender_options, "defenders", "defender"),
                                scenario=scenario, **env_kwargs)
 

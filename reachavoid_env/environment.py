@@ -21,8 +21,9 @@ from reachavoid_env.game_state import AttackerStatus, GameState, Overlay
 from reachavoid_env.scenario import MAX_STEPS, Scenario, ScenarioError, load_scenario
 from reachavoid_env.world import World
 
-_STATUSES = (AttackerStatus.ACTIVE, AttackerStatus.CAPTURED, AttackerStatus.ARRIVED)
-_CAPTURED, _ARRIVED = 1, 2          # indices into _STATUSES; 0 is active
+_STATUSES = tuple(AttackerStatus)   # index = AttackerStatus.code
+_CAPTURED, _ARRIVED = AttackerStatus.CAPTURED.code, AttackerStatus.ARRIVED.code
+INFO_FORMATS = ("numeric", "readable")
 _PLAYER_FIELD = re.compile(r"players\.(attacker|defender)s\[(\d+)\]")
 _RESET_OPTIONS = ("scenario", "attackers", "defenders")
 
@@ -66,8 +67,14 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     sum too. Off by default.
 
     **Infos**: every agent gets ``captured`` and ``arrived`` (the episode's counts so
-    far); attackers also get ``status`` (an ``AttackerStatus``), and a captured
-    attacker ``captured_by`` (the defender's name) on the step it is captured.
+    far); attackers also get ``status`` and ``captured_by``. With
+    ``info_format="numeric"`` (the default, which tensor-based libraries such as TorchRL
+    accept) every value is an ``int`` and every agent has the same keys from ``reset()``
+    on: ``status`` is ``AttackerStatus.code`` (0 active, 1 captured, 2 arrived;
+    ``AttackerStatus.from_code`` reads it back) and ``captured_by`` the index ``j`` of the
+    capturing ``defender_j`` on the step of the capture, ``-1`` otherwise. With
+    ``info_format="readable"`` ``status`` is an ``AttackerStatus`` and ``captured_by``
+    (the defender's name) appears only on the step of the capture.
 
     ``reset(seed=, options=)`` options (all optional, for this episode only):
     ``{"scenario": Scenario}`` with the same numbers of players, and/or
@@ -93,9 +100,11 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         render_mode: str | None = None,
         shaping: float = 0.0,
         render_width: int = 640,
+        info_format: str = "numeric",
     ) -> None:
         EzPickle.__init__(self, scenario=scenario, max_cycles=max_cycles,
-                          render_mode=render_mode, shaping=shaping, render_width=render_width)
+                          render_mode=render_mode, shaping=shaping, render_width=render_width,
+                          info_format=info_format)
         if isinstance(scenario, Scenario):
             self.base_scenario = scenario
         elif isinstance(scenario, str):
@@ -108,6 +117,9 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: {render_mode!r} is not one of "
                              f"{self.metadata['render_modes']} or None")
+        if info_format not in INFO_FORMATS:
+            raise ValueError(f"info_format: {info_format!r} is not one of {INFO_FORMATS}")
+        self.info_format = info_format
         self.max_cycles = max_cycles if max_cycles is not None else self.base_scenario.max_steps
         self.render_mode = render_mode
         self.shaping = checks.real(shaping, "shaping", 0.0)
@@ -347,11 +359,18 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             i = self._index[name]
             info = dict(counts)
             if i < m:
-                info["status"] = _STATUSES[self._status[i]]
-                if captor[i] >= 0:
-                    info["captured_by"] = self.possible_agents[m + captor[i]]
+                info.update(self._attacker_info(i, int(captor[i])))
             infos[name] = info
         return infos
+
+    def _attacker_info(self, i: int, captor: int) -> dict[str, Any]:
+        """``status`` and ``captured_by`` of attacker ``i`` in ``info_format``."""
+        code = int(self._status[i])
+        if self.info_format == "numeric":
+            return {"status": code, "captured_by": captor}
+        if captor < 0:
+            return {"status": _STATUSES[code]}
+        return {"status": _STATUSES[code], "captured_by": self.possible_agents[self._m + captor]}
 
     def state(self) -> np.ndarray:
         """Global state ``(3 (M + N),)`` float32 (layout in the class docstring)."""

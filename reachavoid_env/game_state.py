@@ -13,11 +13,28 @@ if TYPE_CHECKING:
 
 
 class AttackerStatus(str, Enum):
-    """Where an attacker stands in the game."""
+    """Where an attacker stands in the game.
 
-    ACTIVE = "active"
-    CAPTURED = "captured"
-    ARRIVED = "arrived"
+    ``code`` is the integer that the env's numeric infos carry (``info_format="numeric"``,
+    the default): ACTIVE 0, CAPTURED 1, ARRIVED 2; ``AttackerStatus.from_code`` reads it back.
+    """
+
+    ACTIVE = "active"       # code 0
+    CAPTURED = "captured"   # code 1
+    ARRIVED = "arrived"     # code 2
+
+    @property
+    def code(self) -> int:
+        """The integer code of this status (its position in the class: 0, 1, 2)."""
+        return list(AttackerStatus).index(self)
+
+    @classmethod
+    def from_code(cls, code: int) -> AttackerStatus:
+        """The status whose ``code`` is ``code``; ``ValueError`` for any other value."""
+        statuses = list(cls)
+        if isinstance(code, bool) or not 0 <= int(code) < len(statuses) or int(code) != code:
+            raise ValueError(f"status code: expected 0, 1 or 2, got {code!r}")
+        return statuses[int(code)]
 
 
 @dataclass(frozen=True, eq=False)

@@ -124,6 +124,7 @@ class AttackerParallelEnv(ParallelEnv, EzPickle):
     attackers' actions held (rewards summed; it ends early when no attacker is left).
     ``scripted_every``: see the module docstring.
 
+    ``info_format`` as ``ReachAvoidEnv`` (numeric by default, for TorchRL and BenchMARL).
     ``game`` is the underlying ``ReachAvoidEnv``; ``game_state()`` its state.
     """
 
@@ -137,16 +138,18 @@ class AttackerParallelEnv(ParallelEnv, EzPickle):
     def __init__(self, defenders: PolicySource, scenario: str | Scenario = "paper_2v1",
                  max_cycles: int | None = None, render_mode: str | None = None,
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
-                 scripted_every: int = 1, render_width: int = 640) -> None:
+                 scripted_every: int = 1, render_width: int = 640,
+                 info_format: str = "numeric") -> None:
         EzPickle.__init__(self, defenders, scenario=scenario, max_cycles=max_cycles,
                           render_mode=render_mode, shaping=shaping,
                           timeout_reward=timeout_reward, action_repeat=action_repeat,
-                          scripted_every=scripted_every, render_width=render_width)
+                          scripted_every=scripted_every, render_width=render_width,
+                          info_format=info_format)
         self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
         self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
         self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
         game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
-                             shaping=shaping, render_width=render_width)
+                             shaping=shaping, render_width=render_width, info_format=info_format)
         self.game = game
         self.render_mode = render_mode
         self.defenders = build_policy(defenders, game.base_scenario, "defenders")
@@ -172,6 +175,11 @@ class AttackerParallelEnv(ParallelEnv, EzPickle):
     @max_cycles.setter
     def max_cycles(self, value: int) -> None:
         self.game.max_cycles = value
+
+    @property
+    def info_format(self) -> str:
+        """``"numeric"`` or ``"readable"`` (``ReachAvoidEnv``)."""
+        return self.game.info_format
 
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None,
               ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
@@ -250,7 +258,8 @@ class SingleAttackerEnv(gymnasium.Env, EzPickle):
     **Termination**: the learner is captured or arrives (the episode ends there even if
     teammates play on). **Truncation**: ``max_cycles`` env steps (default: the scenario's
     ``max_steps``) pass first. The final step's info has ``is_success`` (the learner
-    arrived); every info has the game's ``status``, ``captured`` and ``arrived``.
+    arrived); every info has the game's ``status``, ``captured_by``, ``captured`` and
+    ``arrived`` (in ``info_format``, as ``ReachAvoidEnv``: integer codes by default).
 
     ``reset(seed=, options=)`` takes ``ReachAvoidEnv``'s options (a scenario with the same
     player counts, start positions). ``game`` is the underlying ``ReachAvoidEnv``.
@@ -267,17 +276,18 @@ class SingleAttackerEnv(gymnasium.Env, EzPickle):
                  attacker: int = 0, teammates: PolicySource | None = None,
                  max_cycles: int | None = None, render_mode: str | None = None,
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
-                 scripted_every: int = 1, render_width: int = 640) -> None:
+                 scripted_every: int = 1, render_width: int = 640,
+                 info_format: str = "numeric") -> None:
         EzPickle.__init__(self, defenders, scenario=scenario, attacker=attacker,
                           teammates=teammates, max_cycles=max_cycles, render_mode=render_mode,
                           shaping=shaping, timeout_reward=timeout_reward,
                           action_repeat=action_repeat, scripted_every=scripted_every,
-                          render_width=render_width)
+                          render_width=render_width, info_format=info_format)
         self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
         self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
         self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
         game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
-                             shaping=shaping, render_width=render_width)
+                             shaping=shaping, render_width=render_width, info_format=info_format)
         base = game.base_scenario
         m = base.num_attackers
         if isinstance(attacker, bool) or not isinstance(attacker, int) \
@@ -287,6 +297,7 @@ class SingleAttackerEnv(gymnasium.Env, EzPickle):
         self.game = game
         self.render_mode = render_mode
         self.learner = f"attacker_{attacker}"
+        self._learner_index = attacker
         self.defenders = build_policy(defenders, base, "defenders")
         scripted = [(self.defenders, frozenset(base.defender_names))]
         self.teammates: Policy | None = None
@@ -322,7 +333,8 @@ class SingleAttackerEnv(gymnasium.Env, EzPickle):
             total += self.timeout_reward
         info = infos[learner]
         if terminated or truncated:
-            info["is_success"] = info["status"] is AttackerStatus.ARRIVED
+            status = self.game.game_state().attacker_status[self._learner_index]
+            info["is_success"] = status is AttackerStatus.ARRIVED
         return obs[learner], total, terminated, truncated, info
 
     def game_state(self) -> GameState:

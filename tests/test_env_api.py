@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import pickle
+import subprocess
+import sys
 from dataclasses import replace
 
 import numpy as np
@@ -172,6 +174,8 @@ def test_constructor_errors():
         ReachAvoidEnv("paper_3v3")
     with pytest.raises(TypeError, match="scenario"):
         ReachAvoidEnv(scenario=3)
+    with pytest.raises(ValueError, match="info_format"):
+        ReachAvoidEnv(info_format="json")
 
 
 def test_random_starts_follow_the_seed():
@@ -235,3 +239,47 @@ def test_render_without_mode_warns():
     env.reset(seed=0)
     with pytest.warns(UserWarning, match="render mode"):
         assert env.render() is None
+
+
+def test_numeric_infos_have_fixed_integer_keys_and_match_the_readable_ones():
+    """What TorchRL needs: every agent's info keys fixed from reset() on, every value an int;
+    the readable format carries the same facts."""
+    sc = replace(builtin_scenario("paper_6v2"), capture_radius=0.25)
+    numeric = rollout(ReachAvoidEnv(sc), seed=4, steps=400)
+    readable = rollout(ReachAvoidEnv(sc, info_format="readable"), seed=4, steps=400)
+    keys = {name: set(info) for name, info in numeric[0][1].items()}
+    assert keys["attacker_0"] == {"captured", "arrived", "status", "captured_by"}
+    assert keys["defender_0"] == {"captured", "arrived"}
+    captures = 0
+    for step, (ours, theirs) in enumerate(zip(numeric, readable, strict=True)):
+        infos, readable_infos = ours[-1], theirs[-1]
+        for name, info in infos.items():
+            assert set(info) == keys[name] and all(type(v) is int for v in info.values())
+            if name.startswith("attacker"):
+                shown = readable_infos[name]
+                assert AttackerStatus.from_code(info["status"]) is shown["status"]
+                captor = f"defender_{info['captured_by']}" if info["captured_by"] >= 0 else None
+                assert shown.get("captured_by") == captor
+                captures += captor is not None and step > 0
+            else:
+                assert info == readable_infos[name]
+    assert captures > 0
+
+
+def test_status_codes_round_trip():
+    assert [status.code for status in AttackerStatus] == [0, 1, 2]
+    for status in AttackerStatus:
+        assert AttackerStatus.from_code(status.code) is status
+    for bad in (-1, 3, 1.5, True):
+        with pytest.raises(ValueError, match="status code"):
+            AttackerStatus.from_code(bad)
+
+
+def test_core_packages_import_no_rl_library():
+    """The integrations import their RL library; the env and policies packages do not."""
+    code = ("import sys, reachavoid_env, reachavoid_env.integrations, policies; "
+            "print(sorted(set(sys.modules) & {'torch', 'torchrl', 'tensordict', 'supersuit', "
+            "'stable_baselines3', 'benchmarl', 'ray'}))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=120)
+    assert out.stdout.strip() == "[]"

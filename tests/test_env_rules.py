@@ -36,12 +36,23 @@ def test_tie_goes_to_capture():
     obs, rewards, terminations, truncations, infos = env.step(
         {"attacker_0": EAST, "defender_0": STILL})
     assert env.game_state().attacker_positions.tolist() == [[0.5, 0.125]]
-    assert infos["attacker_0"]["status"] is AttackerStatus.CAPTURED
-    assert infos["attacker_0"]["captured_by"] == "defender_0"
+    assert infos["attacker_0"] == {"captured": 1, "arrived": 0,
+                                   "status": AttackerStatus.CAPTURED.code, "captured_by": 0}
     assert rewards == {"attacker_0": -1.0, "defender_0": 1.0}
     assert terminations == {"attacker_0": True, "defender_0": True}
     assert truncations == {"attacker_0": False, "defender_0": False}
     assert env.agents == []
+
+
+def test_readable_infos_name_the_status_and_the_captor():
+    env = ReachAvoidEnv(exact_scenario(), info_format="readable")
+    _, infos = env.reset(seed=0, options={"attackers": [[0.375, 0.125]],
+                                          "defenders": [[0.5, 0.25]]})
+    assert infos["attacker_0"] == {"captured": 0, "arrived": 0,
+                                   "status": AttackerStatus.ACTIVE}
+    _, _, _, _, infos = env.step({"attacker_0": EAST, "defender_0": STILL})
+    assert infos["attacker_0"]["status"] is AttackerStatus.CAPTURED
+    assert infos["attacker_0"]["captured_by"] == "defender_0"
 
 
 def test_arrival_on_the_boundary_counts():
@@ -49,7 +60,8 @@ def test_arrival_on_the_boundary_counts():
     # the target's edge (inclusive bounds) and arrives.
     env = start(exact_scenario(), [[0.375, 0.125]], [[0.5, 0.25 + 2.0**-10]])
     _, rewards, terminations, _, infos = env.step({"attacker_0": EAST, "defender_0": STILL})
-    assert infos["attacker_0"]["status"] is AttackerStatus.ARRIVED
+    assert infos["attacker_0"]["status"] == AttackerStatus.ARRIVED.code
+    assert infos["attacker_0"]["captured_by"] == -1
     assert rewards == {"attacker_0": 1.0, "defender_0": -1.0}
     assert terminations == {"attacker_0": True, "defender_0": True}
     assert infos["defender_0"] == {"captured": 0, "arrived": 1}
@@ -64,7 +76,7 @@ def test_fast_pass_by_is_captured():
     assert np.hypot(*defender_end) > scenario.capture_radius
     _, rewards, _, _, infos = env.step({"attacker_0": STILL, "defender_0": EAST})
     assert env.game_state().defender_positions.tolist() == [defender_end.tolist()]
-    assert infos["attacker_0"]["status"] is AttackerStatus.CAPTURED
+    assert infos["attacker_0"]["status"] == AttackerStatus.CAPTURED.code
     assert rewards["defender_0"] == 1.0
 
 
@@ -120,7 +132,7 @@ def test_captured_attacker_leaves_and_keeps_its_last_position():
     assert rewards == {"attacker_0": -1.0, "attacker_1": 0.0, "defender_0": 1.0}
     assert env.agents == ["attacker_1", "defender_0"]
     assert infos["attacker_1"] == {"captured": 1, "arrived": 0,
-                                   "status": AttackerStatus.ACTIVE}
+                                   "status": AttackerStatus.ACTIVE.code, "captured_by": -1}
     obs, _, _, _, _ = env.step({"attacker_0": EAST, "attacker_1": STILL,
                                 "defender_0": STILL})    # removed agents' actions ignored
     assert set(obs) == {"attacker_1", "defender_0"}

@@ -2,18 +2,17 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import pickle
 import subprocess
 import sys
 import warnings
-from pathlib import Path
 
 import gymnasium
 import numpy as np
 import pettingzoo
 import pytest
+from checks import ROOT, example
 from gymnasium.utils.env_checker import check_env
 
 from policies import (
@@ -37,19 +36,9 @@ from policies.training import (
 from reachavoid_env import builtin_names, builtin_scenario
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 
-ROOT = Path(__file__).resolve().parents[1]
 # Tubes coarse enough to solve in seconds (conftest.py points the cache at a throwaway
 # folder, so each grid is solved once per test session).
 COARSE = {"grid1": 11, "grid2": 7, "progress": False}
-
-
-def example(name: str):
-    """Import ``examples/<name>.py`` as a module."""
-    spec = importlib.util.spec_from_file_location(f"example_{name}",
-                                                  ROOT / "examples" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 # ------------------------------------------------------------------ named policies
@@ -203,11 +192,3 @@ def test_train_attacker_example_beats_random(tmp_path):
     assert model.observation_space.shape == (8,)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["model.zip", "report.json",
                                                           "trained.mp4"]
-
-
-def test_rllib_example_trains_one_iteration():
-    pytest.importorskip("ray.rllib")
-    rllib = example("rllib_config")
-    results = rllib.main(["--scenario", "paper_2v1", "--defenders", "greedy",
-                          "--iterations", "1", "--batch", "200"])
-    assert results[0]["env_runners"]["num_env_steps_sampled_lifetime"] >= 200

@@ -128,7 +128,7 @@ def test_repeat_stops_when_the_last_attacker_leaves():
         {"attacker_0": np.array([1.0, 0.0], dtype=np.float32)})
     assert rewards == {"attacker_0": 1.0}
     assert terminations == {"attacker_0": True} and truncations == {"attacker_0": False}
-    assert infos["attacker_0"]["status"] is AttackerStatus.ARRIVED
+    assert infos["attacker_0"]["status"] == AttackerStatus.ARRIVED.code
     assert env.agents == [] and env.game_state().step < 50
     assert env.step({}) == ({}, {}, {}, {}, {})
 
@@ -210,13 +210,14 @@ def test_gymnasium_check_env(scenario, repeat, coarse_tubes):
 def test_learner_is_captured_standing_still_against_hj_defenders(hj):
     env = SingleAttackerEnv(hj, scenario="paper_1v1")
     obs, info = env.reset(seed=0)
-    assert env.observation_space.contains(obs) and info["status"] is AttackerStatus.ACTIVE
+    assert env.observation_space.contains(obs) and info["status"] == AttackerStatus.ACTIVE.code
     steps, terminated, truncated = 0, False, False
     while not (terminated or truncated):
         obs, reward, terminated, truncated, info = env.step(np.zeros(2, dtype=np.float32))
         steps += 1
     assert terminated and not truncated and reward == -1.0
-    assert info["status"] is AttackerStatus.CAPTURED and info["is_success"] is False
+    assert info["status"] == AttackerStatus.CAPTURED.code and info["is_success"] is False
+    assert info["captured_by"] == 0
     assert steps < env.game.max_cycles
     with pytest.raises(RuntimeError, match="reset"):
         env.step(np.zeros(2, dtype=np.float32))

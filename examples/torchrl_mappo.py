@@ -1,0 +1,163 @@
+"""MAPPO for the attackers with TorchRL: one actor shared by every attacker, a centralised
+critic, and the agent mask for attackers that have left the game.
+
+Needs the ``rl`` extra (torch, torchrl). The attackers learn against scripted defenders
+(``AttackerParallelEnv``); ``reachavoid_env.integrations.torchrl.torchrl_env`` makes the
+TorchRL env (the ``"attacker"`` group, a ``mask`` per agent, the episode done when every
+attacker is):
+
+    python examples/torchrl_mappo.py --scenario paper_2v1 --defenders hj --iterations 20
+
+A captured or arrived attacker stays in the group with ``mask`` False, zero observation
+and reward, and ``done`` True; its steps are left out of the loss (``masked_mean``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import torch
+from tensordict import TensorDictBase
+from tensordict.nn import NormalParamExtractor, TensorDictModule
+from torch import nn
+from torchrl.collectors import Collector
+from torchrl.envs import EnvBase
+from torchrl.modules import MultiAgentMLP, ProbabilisticActor, TanhNormal
+from torchrl.objectives import ClipPPOLoss, ValueEstimators
+
+from policies.registry import DEFENDERS
+from policies.training import make_attackers_parallel_env
+from reachavoid_env import AttackerStatus
+from reachavoid_env.integrations.torchrl import torchrl_env
+
+GROUP = "attacker"
+LOSSES = ("loss_objective", "loss_critic", "loss_entropy")
+
+
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--scenario", default="paper_2v1")
+    parser.add_argument("--defenders", default="hj", choices=DEFENDERS)
+    parser.add_argument("--grid1", type=int, default=31, help="hj defenders' 1v1 grid")
+    parser.add_argument("--grid2", type=int, default=15, help="hj defenders' 2v1 grid")
+    parser.add_argument("--iterations", type=int, default=20)
+    parser.add_argument("--frames", type=int, default=2000, help="env steps per iteration")
+    parser.add_argument("--epochs", type=int, default=4)
+    parser.add_argument("--minibatch", type=int, default=500)
+    parser.add_argument("--lr", type=float, default=3e-4)
+    parser.add_argument("--action-repeat", type=int, default=10)
+    parser.add_argument("--shaping", type=float, default=1.0)
+    parser.add_argument("--seed", type=int, default=0)
+    return parser.parse_args(argv)
+
+
+def make_env(args: argparse.Namespace) -> EnvBase:
+    options = ({"grid1": args.grid1, "grid2": args.grid2, "progress": False}
+               if args.defenders == "hj" else None)
+    game = make_attackers_parallel_env(args.scenario, defenders=args.defenders,
+                                       defender_options=options,
+                                       action_repeat=args.action_repeat, shaping=args.shaping)
+    return torchrl_env(game, seed=args.seed)
+
+
+def build_modules(env: EnvBase) -> tuple[ProbabilisticActor, TensorDictModule]:
+    """The shared actor (own observation -> tanh-normal action) and the centralised critic
+    (every attacker's observation -> one value per attacker)."""
+    n_agents, obs_size = env.observation_spec[GROUP, "observation"].shape
+    action_spec = env.full_action_spec[GROUP, "action"]
+    actor_net = nn.Sequential(
+        MultiAgentMLP(obs_size, 2 * action_spec.shape[-1], n_agents, centralized=False,
+                      share_params=True, depth=2, num_cells=64),
+        NormalParamExtractor())
+    actor = ProbabilisticActor(
+        TensorDictModule(actor_net, in_keys=[(GROUP, "observation")],
+                         out_keys=[(GROUP, "loc"), (GROUP, "scale")]),
+        in_keys=[(GROUP, "loc"), (GROUP, "scale")], out_keys=[(GROUP, "action")],
+        spec=action_spec, distribution_class=TanhNormal,
+        distribution_kwargs={"low": action_spec.space.low, "high": action_spec.space.high},
+        return_log_prob=True, log_prob_key=(GROUP, "action_log_prob"))
+    critic = TensorDictModule(
+        MultiAgentMLP(obs_size, 1, n_agents, centralized=True, share_params=True, depth=2,
+                      num_cells=64),
+        in_keys=[(GROUP, "observation")], out_keys=[(GROUP, "state_value")])
+    return actor, critic
+
+
+def masked_mean(values: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Mean of the per-agent ``values`` (``(B, agents)``, maybe a trailing 1) over the
+    entries where ``mask`` (``(B, agents)``) is True."""
+    values = values.reshape(mask.shape)
+    return (values * mask).sum() / mask.sum().clamp(min=1)
+
+
+def outcomes(batch: TensorDictBase) -> dict[str, int]:
+    """Attackers that arrived or were captured during ``batch`` (from the numeric infos)."""
+    left = batch[GROUP, "mask"] & batch["next", GROUP, "done"].squeeze(-1)
+    status = batch["next", GROUP, "info", "status"][left]
+    return {"arrived": int((status == AttackerStatus.ARRIVED.code).sum()),
+            "captured": int((status == AttackerStatus.CAPTURED.code).sum())}
+
+
+def train(args: argparse.Namespace) -> list[dict[str, Any]]:
+    """``args.iterations`` MAPPO iterations; one record per iteration (mean losses over the
+    live agents' steps, the batch's live-agent reward sum, arrivals and captures)."""
+    torch.manual_seed(args.seed)
+    torch.set_num_threads(1)    # tiny networks: more threads only contend for the cores
+    env = make_env(args)
+    actor, critic = build_modules(env)
+    loss_module = ClipPPOLoss(actor, critic, clip_epsilon=0.2, entropy_coeff=1e-3,
+                              reduction="none")
+    loss_module.set_keys(reward=(GROUP, "reward"), action=(GROUP, "action"),
+                         value=(GROUP, "state_value"), done=(GROUP, "done"),
+                         terminated=(GROUP, "terminated"),
+                         sample_log_prob=(GROUP, "action_log_prob"))
+    loss_module.make_value_estimator(ValueEstimators.GAE, gamma=0.99, lmbda=0.95)
+    optimiser = torch.optim.Adam(loss_module.parameters(), lr=args.lr)
+    collector = Collector(env, actor, frames_per_batch=args.frames,
+                          total_frames=args.frames * args.iterations)
+    history = []
+    try:
+        for iteration, batch in enumerate(collector):
+            with torch.no_grad():
+                loss_module.value_estimator(batch, params=loss_module.critic_network_params,
+                                            target_params=loss_module.target_critic_network_params)
+            flat = batch.reshape(-1)
+            sums = dict.fromkeys(LOSSES, 0.0)
+            updates = 0
+            for _ in range(args.epochs):
+                for rows in torch.randperm(flat.shape[0]).split(args.minibatch):
+                    sample = flat[rows]
+                    live = sample[GROUP, "mask"]
+                    terms = {key: masked_mean(value, live)
+                             for key, value in loss_module(sample).items() if key in LOSSES}
+                    loss = sum(terms.values())
+                    optimiser.zero_grad()
+                    loss.backward()
+                    nn.utils.clip_grad_norm_(loss_module.parameters(), 1.0)
+                    optimiser.step()
+                    for key, value in terms.items():
+                        sums[key] += value.item()
+                    updates += 1
+            live_reward = batch["next", GROUP, "reward"][batch[GROUP, "mask"]]
+            record = {"iteration": iteration, "frames": batch.numel(),
+                      "reward_sum": float(live_reward.sum())}
+            record |= {key: value / updates for key, value in sums.items()} | outcomes(batch)
+            history.append(record)
+            print(", ".join(f"{key} {value:.4g}" if isinstance(value, float)
+                            else f"{key} {value}" for key, value in record.items()), flush=True)
+    finally:
+        collector.shutdown()
+        env.close()
+    assert all(math.isfinite(record[key]) for record in history for key in LOSSES)
+    return history
+
+
+def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
+    return train(parse_args(argv))
+
+
+if __name__ == "__main__":
+    main()
