@@ -25,8 +25,7 @@ import pettingzoo
 
 import policies  # noqa: F401  (registers reachavoid/Attackers-v0)
 from policies.attackers import target_centres
-from policies.registry import DEFENDERS
-from policies.training import PETTINGZOO_ID
+from policies.training import PETTINGZOO_ID, add_defender_arguments, defender_options
 from reachavoid_env import AttackerStatus, Scenario
 
 Hook = Callable[[np.ndarray], np.ndarray]
@@ -79,10 +78,7 @@ def play(env: pettingzoo.ParallelEnv, hooks: Mapping[str, Hook], seed: int,
 
 def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--scenario", default="paper_6v2", help="built-in name or TOML file")
-    parser.add_argument("--defenders", default="hj", choices=DEFENDERS)
-    parser.add_argument("--grid1", type=int, default=31, help="hj defenders' 1v1 grid")
-    parser.add_argument("--grid2", type=int, default=15, help="hj defenders' 2v1 grid")
+    add_defender_arguments(parser, scenario="paper_6v2")
     parser.add_argument("--policy", default="toward-target",
                         help="toward-target, random, or a Stable-Baselines3 PPO .zip")
     parser.add_argument("--action-repeat", type=int, default=1,
@@ -92,7 +88,7 @@ def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
 
-    options = {"grid1": args.grid1, "grid2": args.grid2} if args.defenders == "hj" else None
+    options = defender_options(args)
     env = pettingzoo.make("parallel", PETTINGZOO_ID, scenario=args.scenario,
                           defenders=args.defenders, defender_options=options,
                           action_repeat=args.action_repeat)

@@ -20,8 +20,7 @@ from ray.rllib.algorithms.ppo import PPOConfig
 from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv
 from ray.tune.registry import register_env
 
-from policies.registry import DEFENDERS
-from policies.training import make_attackers_parallel_env
+from policies.training import add_defender_arguments, defender_options, make_attackers_parallel_env
 
 ENV_NAME = "reachavoid_attackers"
 
@@ -55,15 +54,11 @@ def build_config(scenario: str = "paper_6v2", defenders: str = "hj",
 
 def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--scenario", default="paper_6v2")
-    parser.add_argument("--defenders", default="hj", choices=DEFENDERS)
-    parser.add_argument("--grid1", type=int, default=31, help="hj defenders' 1v1 grid")
-    parser.add_argument("--grid2", type=int, default=15, help="hj defenders' 2v1 grid")
+    add_defender_arguments(parser, scenario="paper_6v2")
     parser.add_argument("--iterations", type=int, default=5)
     parser.add_argument("--batch", type=int, default=2000, help="train batch (agent steps)")
     args = parser.parse_args(argv)
-    options = ({"grid1": args.grid1, "grid2": args.grid2, "progress": False}
-               if args.defenders == "hj" else None)
+    options = defender_options(args)
     algo = build_config(args.scenario, args.defenders, options,
                         train_batch_size=args.batch).build_algo()
     results = []

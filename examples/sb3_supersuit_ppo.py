@@ -22,8 +22,7 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.logger import KVWriter, Logger
 from stable_baselines3.common.vec_env import VecMonitor
 
-from policies.registry import DEFENDERS
-from policies.training import make_attackers_parallel_env
+from policies.training import add_defender_arguments, defender_options, make_attackers_parallel_env
 from reachavoid_env.integrations.supersuit import sb3_vec_env
 
 
@@ -40,10 +39,7 @@ class Records(KVWriter):
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--scenario", default="paper_6v2")
-    parser.add_argument("--defenders", default="hj", choices=DEFENDERS)
-    parser.add_argument("--grid1", type=int, default=31, help="hj defenders' 1v1 grid")
-    parser.add_argument("--grid2", type=int, default=15, help="hj defenders' 2v1 grid")
+    add_defender_arguments(parser, scenario="paper_6v2")
     parser.add_argument("--copies", type=int, default=2, help="game copies in the vector env")
     parser.add_argument("--timesteps", type=int, default=100_000, help="agent steps")
     parser.add_argument("--n-steps", type=int, default=256, help="PPO rollout per slot")
@@ -55,8 +51,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
 
 def make_vec_env(args: argparse.Namespace) -> VecMonitor:
     """The vector env, with SB3's episode statistics (one episode per slot and game)."""
-    options = ({"grid1": args.grid1, "grid2": args.grid2, "progress": False}
-               if args.defenders == "hj" else None)
+    options = defender_options(args)
     game = make_attackers_parallel_env(args.scenario, defenders=args.defenders,
                                        defender_options=options,
                                        action_repeat=args.action_repeat, shaping=args.shaping)

@@ -28,8 +28,7 @@ from torchrl.envs import EnvBase
 from torchrl.modules import MultiAgentMLP, ProbabilisticActor, TanhNormal
 from torchrl.objectives import ClipPPOLoss, ValueEstimators
 
-from policies.registry import DEFENDERS
-from policies.training import make_attackers_parallel_env
+from policies.training import add_defender_arguments, defender_options, make_attackers_parallel_env
 from reachavoid_env import AttackerStatus
 from reachavoid_env.integrations.torchrl import torchrl_env
 
@@ -39,10 +38,7 @@ LOSSES = ("loss_objective", "loss_critic", "loss_entropy")
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--scenario", default="paper_2v1")
-    parser.add_argument("--defenders", default="hj", choices=DEFENDERS)
-    parser.add_argument("--grid1", type=int, default=31, help="hj defenders' 1v1 grid")
-    parser.add_argument("--grid2", type=int, default=15, help="hj defenders' 2v1 grid")
+    add_defender_arguments(parser, scenario="paper_2v1")
     parser.add_argument("--iterations", type=int, default=20)
     parser.add_argument("--frames", type=int, default=2000, help="env steps per iteration")
     parser.add_argument("--epochs", type=int, default=4)
@@ -55,8 +51,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
 
 
 def make_env(args: argparse.Namespace) -> EnvBase:
-    options = ({"grid1": args.grid1, "grid2": args.grid2, "progress": False}
-               if args.defenders == "hj" else None)
+    options = defender_options(args)
     game = make_attackers_parallel_env(args.scenario, defenders=args.defenders,
                                        defender_options=options,
                                        action_repeat=args.action_repeat, shaping=args.shaping)

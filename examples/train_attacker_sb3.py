@@ -36,8 +36,13 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-from policies.registry import DEFENDERS
-from policies.training import attacker_factory, defender_factory, make_attacker_env
+from policies.training import (
+    add_defender_arguments,
+    attacker_factory,
+    defender_factory,
+    defender_options,
+    make_attacker_env,
+)
 from reachavoid_env import AttackerStatus, Scenario, load_scenario
 from reachavoid_env.video import VideoWriter
 from reachavoid_env.wrappers import SingleAttackerEnv
@@ -49,17 +54,10 @@ Act = Callable[[np.ndarray, SingleAttackerEnv], np.ndarray]
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--scenario", default="paper_1v1",
-                        help="built-in name or TOML file (default: %(default)s)")
+    add_defender_arguments(parser, scenario="paper_1v1")
     parser.add_argument("--fixed-starts", action="store_true",
                         help="keep the scenario's start positions (default: random starts "
                              "every episode)")
-    parser.add_argument("--defenders", default="hj", choices=DEFENDERS,
-                        help="defender policy (default: %(default)s)")
-    parser.add_argument("--grid1", type=int, default=31,
-                        help="1v1 tube nodes per axis for hj defenders (default: %(default)s)")
-    parser.add_argument("--grid2", type=int, default=15,
-                        help="2v1 tube nodes per axis for hj defenders (default: %(default)s)")
     parser.add_argument("--timesteps", type=int, default=30_000,
                         help="PPO training steps (default: %(default)s)")
     parser.add_argument("--envs", type=int, default=4,
@@ -94,9 +92,8 @@ def training_scenario(args: argparse.Namespace) -> Scenario:
 
 
 def env_kwargs(args: argparse.Namespace, scenario: Scenario) -> dict[str, Any]:
-    options = ({"grid1": args.grid1, "grid2": args.grid2, "progress": False}
-               if args.defenders == "hj" else None)
-    return {"scenario": scenario, "defenders": args.defenders, "defender_options": options,
+    return {"scenario": scenario, "defenders": args.defenders,
+            "defender_options": defender_options(args),
             "action_repeat": args.action_repeat, "shaping": args.shaping,
             "timeout_reward": args.timeout_reward}
 

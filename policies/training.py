@@ -26,6 +26,7 @@ caches them on disk (design.md section 4); later envs, subprocesses included, lo
 
 from __future__ import annotations
 
+import argparse
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -33,7 +34,7 @@ from typing import Any
 import gymnasium
 import pettingzoo
 
-from policies.registry import make_policy, named_policy
+from policies.registry import DEFENDERS, make_policy, named_policy
 from reachavoid_env import Policy
 from reachavoid_env.scenario import Scenario, builtin_names
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
@@ -68,6 +69,23 @@ def defender_factory(name: str = "hj", **options: Any) -> PolicyFactory:
 def attacker_factory(name: str = "shortest-path", **options: Any) -> PolicyFactory:
     """Factory of the attacker policy ``name`` (a key of ``ATTACKERS``) with ``options``."""
     return PolicyFactory("attackers", name, tuple(sorted(options.items())))
+
+
+def add_defender_arguments(parser: argparse.ArgumentParser, scenario: str = "paper_6v2",
+                           defenders: str = "hj") -> None:
+    """The training scripts' ``--scenario``, ``--defenders``, ``--grid1`` and ``--grid2``
+    (coarse tubes by default, so a run starts in seconds; ``defender_options`` reads them)."""
+    parser.add_argument("--scenario", default=scenario, help="built-in name or TOML file")
+    parser.add_argument("--defenders", default=defenders, choices=DEFENDERS)
+    parser.add_argument("--grid1", type=int, default=31, help="hj defenders' 1v1 grid")
+    parser.add_argument("--grid2", type=int, default=15, help="hj defenders' 2v1 grid")
+
+
+def defender_options(args: argparse.Namespace) -> dict[str, Any] | None:
+    """``defender_options`` of the training envs from ``add_defender_arguments``' values."""
+    if args.defenders != "hj":
+        return None
+    return {"grid1": args.grid1, "grid2": args.grid2, "progress": False}
 
 
 def _source(value: Any, options: Mapping[str, Any] | None, side: str, field: str) -> Any:

@@ -7,6 +7,7 @@ The rules themselves live in ``rules``; ``step`` applies them in named phases.
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -221,10 +222,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         """One step of ``dt`` seconds: controls, move, events, rewards, outputs."""
         if self._world is None:
             raise RuntimeError("step: call reset() first (a new or unpickled env is not reset)")
-        for name in actions:
-            if name not in self._index:
-                raise KeyError(f"step: {name!r} is not an agent of this env "
-                               f"(agents: {', '.join(self.possible_agents)})")
+        check_agent_names(actions, self.possible_agents)
         live = self.agents
         if not live:
             return {}, {}, {}, {}, {}
@@ -439,6 +437,14 @@ def _checked_action(agent: str, action: Any) -> np.ndarray:
     if not np.isfinite(array).all():
         raise ValueError(f"action for {agent}: must be finite, got {array.tolist()}")
     return array
+
+
+def check_agent_names(actions: dict[str, Any], agents: Sequence[str]) -> None:
+    """``KeyError`` naming the first key of ``actions`` that is not one of ``agents``."""
+    for name in actions:
+        if name not in agents:
+            raise KeyError(f"step: {name!r} is not an agent of this env "
+                           f"(agents: {', '.join(agents)})")
 
 
 def _live_part(overlay: Overlay | None, state: GameState) -> Overlay | None:

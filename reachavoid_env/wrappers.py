@@ -29,7 +29,7 @@ from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 
 from reachavoid_env import checks
-from reachavoid_env.environment import ReachAvoidEnv
+from reachavoid_env.environment import ReachAvoidEnv, check_agent_names
 from reachavoid_env.game_state import AttackerStatus, GameState, Policy, merged_overlay
 from reachavoid_env.scenario import Scenario
 
@@ -108,7 +108,22 @@ class _Scripted:
             self.game.set_overlay(merged_overlay(*(policy for policy, _ in self.scripted)))
 
 
-class AttackerParallelEnv(ParallelEnv, EzPickle):
+class _OnGame:
+    """What a training view passes straight to its ``game`` (a ``ReachAvoidEnv``)."""
+
+    game: ReachAvoidEnv
+
+    def game_state(self) -> GameState:
+        return self.game.game_state()
+
+    def render(self) -> np.ndarray | None:
+        return self.game.render()
+
+    def close(self) -> None:
+        self.game.close()
+
+
+class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
     """The attackers of a reach-avoid game as a PettingZoo ``ParallelEnv``; ``defenders``
     (a policy or a factory ``scenario -> policy``) moves the defenders every step.
 
@@ -191,10 +206,7 @@ class AttackerParallelEnv(ParallelEnv, EzPickle):
     def step(self, actions: dict[str, Any]) -> tuple[dict[str, np.ndarray], dict[str, float],
                                                      dict[str, bool], dict[str, bool],
                                                      dict[str, dict[str, Any]]]:
-        for name in actions:
-            if name not in self._learners:
-                raise KeyError(f"step: {name!r} is not an agent of this env "
-                               f"(agents: {', '.join(self.possible_agents)})")
+        check_agent_names(actions, self.possible_agents)
         live = self.agents
         if not live:
             return {}, {}, {}, {}, {}
@@ -221,17 +233,8 @@ class AttackerParallelEnv(ParallelEnv, EzPickle):
     def state(self) -> np.ndarray:
         return self.game.state()
 
-    def game_state(self) -> GameState:
-        return self.game.game_state()
 
-    def render(self) -> np.ndarray | None:
-        return self.game.render()
-
-    def close(self) -> None:
-        self.game.close()
-
-
-class SingleAttackerEnv(gymnasium.Env, EzPickle):
+class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
     """One learning attacker (``attacker_{attacker}``) of a reach-avoid game as a Gymnasium
     ``Env``; ``defenders`` moves the defenders and ``teammates`` the other attackers (each a
     policy or a factory ``scenario -> policy``; ``teammates`` is required when the scenario
@@ -336,12 +339,3 @@ class SingleAttackerEnv(gymnasium.Env, EzPickle):
             status = self.game.game_state().attacker_status[self._learner_index]
             info["is_success"] = status is AttackerStatus.ARRIVED
         return obs[learner], total, terminated, truncated, info
-
-    def game_state(self) -> GameState:
-        return self.game.game_state()
-
-    def render(self) -> np.ndarray | None:
-        return self.game.render()
-
-    def close(self) -> None:
-        self.game.close()
