@@ -49,7 +49,7 @@ class SolverSettings:
     exchange_symmetry: bool = True
     warm_start: bool = False
     warm_from: int = 12
-    warm_margin: float = 0.05
+    warm_margin: float = 0.1
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "scheme", scheme_named(self.scheme))
