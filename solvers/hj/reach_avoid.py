@@ -130,7 +130,8 @@ def time_step(game: Game, grid: Grid, settings: SolverSettings) -> float:
 def memory_needed(game: Game, grid: Grid, settings: SolverSettings) -> int:
     """Bytes a solve on ``grid`` holds at its peak: the stored float32 value rows (once for
     red-black Gauss-Seidel, twice for Jacobi), the pair tables (one ``(nodes, m)`` float32
-    array per row player and table), the row index tables and a fixed 32 MiB."""
+    array per row player and table), the row layout while it is built, and 200 MiB for
+    the interpreter with numpy and numba."""
     players = len(game.players)
     m = grid.shape[-2] * grid.shape[-1]
     row_counts = [grid.shape[2 * k] * grid.shape[2 * k + 1] for k in range(players - 1)]
@@ -140,7 +141,8 @@ def memory_needed(game: Game, grid: Grid, settings: SolverSettings) -> int:
         stored = stored // n**k * math.comb(n + k - 1, k)
     arrays = 1 if settings.iteration == "red_black" else 2
     pair_tables = 4 * m * sum(row_counts) * (2 + len(game.tables()))
-    return arrays * 4 * stored * m + pair_tables + 8 * (3 * rows + 2 * stored) + (32 << 20)
+    layout = 8 * (8 * rows + 2 * stored)  # built from every row's node indices
+    return arrays * 4 * stored * m + pair_tables + layout + (200 << 20)
 
 
 def available_memory() -> int:
@@ -263,10 +265,10 @@ def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
     ``layout.stored_shape``), their layout and how it went.
 
     ``warm_start``: a converged solve of the same game on a coarser grid; the start is its
-    interpolation plus ``settings.warm_margin`` (module docstring). Nothing is written
+    interpolation plus ``settings.warm_margin`` (module docstring). The caller checks the
+    memory first (``check_memory``, as ``solve.solve_declared`` does). Nothing is written
     anywhere; an interrupt (Ctrl-C) between sweeps propagates and frees the arrays.
     """
-    check_memory(problem.game, problem.grid, settings, label)
     sweeper = Sweeper.prepare(problem, settings)
     layout = sweeper.layout
     dt = time_step(problem.game, problem.grid, settings)
