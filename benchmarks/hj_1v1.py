@@ -8,6 +8,11 @@ it (first order, Lax-Friedrichs, forward Euler, zero-gradient boundary) to the s
 time, with the agreement of the two winning sets.
 
     python benchmarks/hj_1v1.py [--grid 45] [--threads 2] [--no-hj-reachability]
+                                [--base /tmp/hj-base] [--repeat 3]
+
+``--base DIR`` also runs our solver from another checkout (e.g. the commit before a
+change, ``git worktree add /tmp/hj-base f5f4333``), alternating with this one ``--repeat``
+times in the same run.
 
 On a machine with more cores, pin the run to two of them (``taskset -c 0,1 ...``) to
 compare with the 2-core figures: jax uses every core it sees.
@@ -66,19 +71,14 @@ def worker_hj_reachability(grid: int, horizon: float, out: str) -> dict:
     import jax.numpy as jnp
 
     from reachavoid_env import builtin_map
-    from solvers.hj.games import problem_1v1
+    from solvers.hj import game_1v1
     from solvers.hj.grid import Grid
-    from solvers.hj.kernels_reference import game_sets
+    from solvers.hj.reach_avoid import map_problem
 
     game_map = builtin_map("paper")
     ours = Grid.for_players(game_map.domain, 2, grid)
-    problem = problem_1v1(game_map, SPEEDS, RADIUS, ours)
+    target, avoid = map_problem(game_1v1(SPEEDS, RADIUS), game_map, ours).sets()
     shape = ours.shape
-    planar = shape[:2]
-    target, avoid = game_sets(problem.target.reshape(planar),
-                              problem.attacker_free.reshape(planar),
-                              problem.defender_free.reshape(planar), ours.sub((0, 1)).mesh(),
-                              ours.sub((2, 3)).mesh(), RADIUS, None)
 
     class Pursuit(hj.ControlAndDisturbanceAffineDynamics):
         def __init__(self) -> None:
@@ -118,11 +118,15 @@ def worker_hj_reachability(grid: int, horizon: float, out: str) -> dict:
             "iterations": None, "peak_rss_mb": _peak_rss_mb()}
 
 
-def _run_worker(args: list[str], threads: int) -> dict:
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _run_worker(args: list[str], threads: int, checkout: str = ROOT) -> dict:
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads),
+               PYTHONPATH=checkout)
     result = subprocess.run([sys.executable, __file__, *args], env=env, check=True,
-                            capture_output=True, text=True)
-    return json.loads(result.stdout.strip().splitlines()[-1])
+                            capture_output=True, text=True, cwd=checkout)
+    return json.loads(result.stdout.strip().splitlines()[-1]) | {"checkout": checkout}
 
 
 def main() -> None:
@@ -130,6 +134,8 @@ def main() -> None:
     parser.add_argument("--grid", type=int, default=45)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--no-hj-reachability", action="store_true")
+    parser.add_argument("--base", help="another checkout to run side by side")
+    parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--worker", choices=["numba", "hj_reachability"], help=argparse.SUPPRESS)
     parser.add_argument("--horizon", type=float, default=0.0, help=argparse.SUPPRESS)
     parser.add_argument("--out", default="", help=argparse.SUPPRESS)
@@ -145,12 +151,23 @@ def main() -> None:
 
     print(f"# hj_1v1: paper map, {args.grid}^4, vA={SPEEDS[0]}, vD={SPEEDS[1]}, R={RADIUS}, "
           f"{args.threads} threads, {platform.processor() or platform.machine()}, "
-          f"{os.cpu_count()} CPUs visible, {time.strftime('%Y-%m-%d')}")
+          f"{os.cpu_count()} CPUs visible, {time.strftime('%Y-%m-%d')}, load "
+          f"{os.getloadavg()[0]:.1f}")
     with tempfile.TemporaryDirectory() as scratch:
         ours_file = os.path.join(scratch, "ours.npy")
-        ours = _run_worker(["--worker", "numba", "--grid", str(args.grid), "--out", ours_file],
-                           args.threads)
-        print(json.dumps(ours))
+        base_file = os.path.join(scratch, "base.npy")
+        for _ in range(args.repeat):
+            for checkout in [ROOT] + ([os.path.abspath(args.base)] if args.base else []):
+                result = _run_worker(["--worker", "numba", "--grid", str(args.grid), "--out",
+                                      ours_file if checkout == ROOT else base_file],
+                                     args.threads, checkout)
+                print(json.dumps(result | {"load_after": round(os.getloadavg()[0], 1)}),
+                      flush=True)
+                if checkout == ROOT:
+                    ours = result
+        if args.base:
+            same = np.array_equal(np.load(ours_file), np.load(base_file))
+            print(f"# values identical to the base checkout's: {same}")
         try:
             import hj_reachability  # noqa: F401
         except ImportError:

@@ -8,10 +8,14 @@ own memory estimate, and the paper's example (defender (0.3, -0.3) vs attackers
 available memory, and whether the solver refuses (checked by calling it).
 
     python benchmarks/hj_2v1.py [--grids 20 25 30] [--threads 2] [--store] [--probe 36 40 45]
+                                [--base /tmp/hj-base] [--sweeps N]
 
 ``--store`` solves into the real cache (``$REACHAVOID_CACHE_DIR`` or ``~/.cache/reachavoid``)
 and leaves the tubes there for the policies; without it a temporary cache is used. The 1 vs
-1 value is the 45^4 solve (the paper's), from the same cache.
+1 value is the 45^4 solve (the paper's), from the same cache. ``--base DIR``: also run every
+grid with the solver of another checkout (e.g. ``git worktree add /tmp/hj-base f5f4333``),
+alternating with ours, in the same run. ``--sweeps N``: stop after N sweeps (for grids too
+slow to converge here: time per sweep and peak RSS).
 """
 
 from __future__ import annotations
@@ -28,27 +32,29 @@ import time
 EXAMPLE = [-0.5, 0.0, 0.0, 0.8, 0.3, -0.3]
 
 
-def worker(grid: int) -> dict:
+def worker(grid: int, sweeps: int | None) -> dict:
+    """Runs with either checkout's ``solvers`` (the same public API)."""
     import numba
     import numpy as np
 
+    import solvers
     from reachavoid_env import builtin_map
     from solvers.hj import SolverSettings, solve_1v1, solve_2v1
-    from solvers.hj.grid import Grid
-    from solvers.hj.reach_avoid import memory_needed
 
     game_map = builtin_map("paper")
     vf11 = solve_1v1(game_map, grid_points=45, progress=False)
     start = time.perf_counter()
     solve_2v1(game_map, vf11, grid_points=7, cache=False, progress=False)
     compile_seconds = time.perf_counter() - start
+    settings = SolverSettings() if sweeps is None else SolverSettings(max_iterations=sweeps)
     start = time.perf_counter()
-    vf = solve_2v1(game_map, vf11, grid_points=grid, progress=sys.stderr.isatty())
+    vf = solve_2v1(game_map, vf11, grid_points=grid, progress=sys.stderr.isatty(),
+                   settings=settings, cache=sweeps is None)
     wall = time.perf_counter() - start
     solver = vf.solver
-    estimate = memory_needed(Grid.for_players(game_map.domain, 3, grid), SolverSettings())
     stored_points = (grid**2 * (grid**2 + 1) // 2) * grid**2
     return {
+        "solver": os.path.dirname(os.path.dirname(solvers.__file__)),
         "grid": f"{grid}^6", "threads": numba.get_num_threads(),
         "iterations": solver["iterations"], "converged": solver["converged"],
         "residual": solver["residual"], "game_time": solver["iterations"] * solver["dt"],
@@ -56,7 +62,6 @@ def worker(grid: int) -> dict:
         "sweep_s": solver["seconds"] / solver["iterations"],
         "mpoints_per_s": stored_points * solver["iterations"] / solver["seconds"] / 1e6,
         "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
-        "estimate_gb": estimate / 2**30,
         "example_value": float(vf.value(np.array(EXAMPLE))),
         "example_1v1": [float(v) for v in vf11.value(np.array([EXAMPLE[:2] + EXAMPLE[4:],
                                                                EXAMPLE[2:]]))],
@@ -64,14 +69,25 @@ def worker(grid: int) -> dict:
     }
 
 
+def _estimate(grid: int) -> int:
+    """Our solver's memory estimate for the 2 vs 1 solve on ``grid``^6 (bytes)."""
+    from reachavoid_env import builtin_map
+    from solvers.hj import SolverSettings, game_2v1
+    from solvers.hj.grid import Grid
+    from solvers.hj.reach_avoid import memory_needed
+
+    domain = builtin_map("paper").domain
+    return memory_needed(game_2v1((1.0, 1.5), 0.1), Grid.for_players(domain, 3, grid),
+                         SolverSettings())
+
+
 def probe(grid: int) -> dict:
     from reachavoid_env import builtin_map
-    from solvers.hj import InsufficientMemoryError, SolverSettings, solve_1v1, solve_2v1
-    from solvers.hj.grid import Grid
-    from solvers.hj.reach_avoid import available_memory, memory_needed
+    from solvers.hj import InsufficientMemoryError, solve_1v1, solve_2v1
+    from solvers.hj.reach_avoid import available_memory
 
     game_map = builtin_map("paper")
-    need = memory_needed(Grid.for_players(game_map.domain, 3, grid), SolverSettings())
+    need = _estimate(grid)
     report = {"grid": f"{grid}^6", "estimate_gb": need / 2**30,
               "available_gb": available_memory() / 2**30}
     if need <= available_memory():
@@ -91,25 +107,38 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--store", action="store_true")
     parser.add_argument("--probe", type=int, nargs="*", default=[36, 40, 45])
+    parser.add_argument("--base", help="another checkout to run side by side")
+    parser.add_argument("--sweeps", type=int)
     parser.add_argument("--worker", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker is not None:
-        print(json.dumps(worker(args.worker)))
+        print(json.dumps(worker(args.worker, args.sweeps)))
         return
     print(f"# hj_2v1: paper map, vA=1, vD=1.5, R=0.1, 1v1 at 45^4, {args.threads} threads, "
-          f"{os.cpu_count()} CPUs visible, {time.strftime('%Y-%m-%d %H:%M')}", flush=True)
+          f"{os.cpu_count()} CPUs visible, {time.strftime('%Y-%m-%d %H:%M')}, load "
+          f"{os.getloadavg()[0]:.1f}", flush=True)
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    sys.path.insert(0, root)  # this checkout's solvers, whatever is installed
+    checkouts = [root] + ([os.path.abspath(args.base)] if args.base else [])
     with tempfile.TemporaryDirectory() as scratch:
-        env = dict(os.environ, NUMBA_NUM_THREADS=str(args.threads))
-        if not args.store:
-            env["REACHAVOID_CACHE_DIR"] = scratch
         results = []
         for grid in args.grids:
-            run = subprocess.run([sys.executable, __file__, "--worker", str(grid)], env=env,
-                                 check=True, stdout=subprocess.PIPE, text=True)
-            results.append(json.loads(run.stdout.strip().splitlines()[-1]))
-            print(json.dumps(results[-1]), flush=True)
-        if len(results) >= 2:
-            first, last = results[0], results[-1]
+            for checkout in checkouts:
+                env = dict(os.environ, NUMBA_NUM_THREADS=str(args.threads), PYTHONPATH=checkout)
+                if not args.store or checkout != root:
+                    env["REACHAVOID_CACHE_DIR"] = os.path.join(scratch, str(len(results)))
+                command = [sys.executable, __file__, "--worker", str(grid)]
+                command += ["--sweeps", str(args.sweeps)] if args.sweeps else []
+                run = subprocess.run(command, env=env, cwd=checkout, check=True,
+                                     stdout=subprocess.PIPE, text=True)
+                result = json.loads(run.stdout.strip().splitlines()[-1])
+                result["estimate_gb"] = _estimate(grid) / 2**30 if checkout == root else None
+                result["load_after"] = round(os.getloadavg()[0], 1)
+                results.append(result)
+                print(json.dumps(result), flush=True)
+        ours = [r for r in results if r["solver"] == root]
+        if len(ours) >= 2:
+            first, last = ours[0], ours[-1]
             ratio = args.grids[-1] / args.grids[0]
             print(f"# {first['grid']} -> {last['grid']}: time x"
                   f"{last['solve_s'] / first['solve_s']:.1f}, iterations x"

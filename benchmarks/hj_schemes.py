@@ -1,0 +1,101 @@
+"""Benchmark: the upwind schemes against the open-map theory checks (BENCHMARKS.md).
+
+The 1 vs 1 game on an obstacle-free map (disc target of radius 0.3 at the origin of
+[-2, 2]^2, vA = 1, vD = 1.5, capture radius 0.1): the certificates of
+``tests/test_hj_1v1.py`` say who must win from 20,000 random states, the attacker where it
+reaches the target along a straight line before the defender can come within the capture
+radius of its path, the defender where the Apollonius disc misses the target. Here with a
+fixed margin (``--margin`` seconds of slack, map units of clearance), the same states at
+every grid, so the errors are comparable:
+
+- ``wrong``: fraction of certified states on the wrong side;
+- ``excess``: mean value on the wrong side (map units; the value's error there);
+- ``order``: ``log(excess ratio) / log(spacing ratio)`` between successive grids;
+- ``seconds``: the solve (compile excluded), ``excess_x_s``: error times time (lower is
+  more accuracy per second).
+
+    python benchmarks/hj_schemes.py [--grids 21 31 45] [--schemes godunov lax_friedrichs eno2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from reachavoid_env import Circle, GameMap  # noqa: E402
+from solvers.hj import SolverSettings, solve_1v1  # noqa: E402
+
+VA, VD, R, TARGET = 1.0, 1.5, 0.1, 0.3
+
+
+def _segment_distance(p, a, b):
+    ab = b - a
+    t = np.clip(np.sum((p - a) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-12), 0.0, 1.0)
+    return np.linalg.norm(p - (a + t[..., None] * ab), axis=-1)
+
+
+def certified_states(margin: float, count: int = 20000):
+    """States ``(K, 4)`` and whether the attacker (True) or the defender (False) must win."""
+    rng = np.random.default_rng(0)
+    a = rng.uniform(-1.4, 1.4, (count, 2))
+    d = rng.uniform(-1.4, 1.4, (count, 2))
+    angles = np.linspace(0.0, 2 * np.pi, 128, endpoint=False)
+    slack = np.full(count, -np.inf)
+    for z in TARGET * np.stack([np.cos(angles), np.sin(angles)], axis=1):
+        z = np.broadcast_to(z, (count, 2))
+        slack = np.maximum(slack, (_segment_distance(d, a, z) - R) / VD
+                           - np.linalg.norm(a - z, axis=1) / VA)
+    k = VA / VD
+    centre = (a - k * k * d) / (1 - k * k)
+    miss = np.linalg.norm(centre, axis=1) - k * np.linalg.norm(a - d, axis=1) / (1 - k * k) \
+        - TARGET
+    attacker, defender = slack > margin, miss > margin
+    states = np.concatenate([a, d], axis=1)
+    return states[attacker | defender], attacker[attacker | defender]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--grids", type=int, nargs="*", default=[21, 31, 45])
+    parser.add_argument("--schemes", nargs="*", default=["godunov", "lax_friedrichs", "eno2"])
+    parser.add_argument("--margin", type=float, default=0.1)
+    args = parser.parse_args()
+    game_map = GameMap((-2.0, 2.0, -2.0, 2.0), (Circle((0.0, 0.0), TARGET),))
+    states, attacker_wins = certified_states(args.margin)
+    print(f"# hj_schemes: open map, {len(states)} certified states ({attacker_wins.sum()} "
+          f"attacker, {(~attacker_wins).sum()} defender), margin {args.margin}, "
+          f"{time.strftime('%Y-%m-%d %H:%M')}, load {os.getloadavg()[0]:.1f}", flush=True)
+    for scheme in args.schemes:
+        settings = SolverSettings(scheme=scheme)
+        solve_1v1(game_map, (VA, VD), R, 9, settings=settings, cache=False, progress=False)
+        previous = None
+        for grid in args.grids:
+            start = time.perf_counter()
+            vf = solve_1v1(game_map, (VA, VD), R, grid, settings=settings, cache=False,
+                           progress=False)
+            seconds = time.perf_counter() - start
+            value = vf.value(states)
+            wrong_side = np.where(attacker_wins, np.maximum(value, 0), np.maximum(-value, 0))
+            excess = float(wrong_side.mean())
+            h = vf.grid.spacing[0]
+            order = None if previous is None else \
+                math.log(previous[1] / excess) / math.log(previous[0] / h)
+            previous = (h, excess)
+            print(json.dumps({
+                "scheme": scheme, "grid": f"{grid}^4", "iterations": vf.solver["iterations"],
+                "converged": vf.solver["converged"], "seconds": round(seconds, 2),
+                "wrong": float(np.mean(wrong_side > 0)), "excess": excess,
+                "order": order, "excess_x_s": excess * seconds,
+                "load": round(os.getloadavg()[0], 1)}), flush=True)
+
+
+if __name__ == "__main__":
+    main()
