@@ -278,10 +278,7 @@ def _solve(args: argparse.Namespace) -> int:
         _check(checks.integer, args.grid, "--grid",
                *GRID_RANGE["grid1" if args.game == "1v1" else "grid2"])
     if args.out is not None:
-        out = writable_folder(args.out, "--out")
-        if out.is_dir() and any(out.iterdir()) and not (out / "meta.json").is_file():
-            raise UsageError(f"--out: {args.out!r} is a folder that holds other files and no "
-                             "value function; give a new or empty folder")
+        writable_folder(args.out, "--out")
     if args.plot is not None:
         writable_file(args.plot, "--plot")
     try:

@@ -9,6 +9,7 @@ from pathlib import Path
 from reachavoid_env import load_scenario
 from solvers.hj import ValueFunction, solve_1v1, solve_2v1
 from solvers.hj.plot import scenario_panels, tube_figure
+from solvers.hj.value import refuse_foreign
 
 GAMES = ("1v1", "2v1")
 DEFAULT_GRID = {"1v1": 45, "2v1": 30}
@@ -44,11 +45,14 @@ def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
     ``scenario`` is a built-in name or a TOML file; speeds and capture radius come from it.
     ``grid_points`` defaults to the paper's grids (``DEFAULT_GRID``). The 2 vs 1 game uses
     the scenario's 1 vs 1 value at ``grid_points_1v1``. The value goes to the cache, and is
-    also saved to ``out`` when given. ``plot``: a PNG of the value's slices at the
+    also saved to ``out`` when given (refused before any work when ``out`` holds anything
+    but a value directory: ``OutputPathError``). ``plot``: a PNG of the value's slices at the
     scenario's fixed starts (the paper's Fig. 2).
     """
     if game not in GAMES:
         raise ValueError(f"game: expected one of {', '.join(GAMES)}, got {game!r}")
+    if out is not None:
+        refuse_foreign(Path(out))
     sc = load_scenario(scenario)
     if plot is not None and (sc.attackers is None or sc.defenders is None):
         raise ValueError(f"plot: scenario {sc.name!r} has random starts; the slices need "
@@ -61,7 +65,7 @@ def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
         vf = solve_2v1(sc.map, vf, grid_points, progress=progress)
     path = vf.save(out) if out is not None else _cached_location(vf)
     if plot is not None:
-        tube_figure(scenario_panels(vf, sc.attackers, sc.defenders[0]), plot)
+        tube_figure(scenario_panels(vf, sc.attackers, sc.defenders), plot)
     return SolveReport(path=path, game=game, shape=vf.grid.shape,
                        iterations=int(vf.solver.get("iterations", 0)),
                        residual=float(vf.solver.get("residual", float("nan"))),

@@ -40,11 +40,12 @@ def bounded_controls(controls: np.ndarray) -> np.ndarray:
     return controls / np.maximum(lengths, 1.0)[..., None]
 
 
-def unit_vectors(vectors: np.ndarray) -> np.ndarray:
-    """``vectors`` ``(..., 2)`` scaled to length 1; zero vectors stay zero."""
+def unit_vectors(vectors: np.ndarray, floor: float = 0.0) -> np.ndarray:
+    """``vectors`` ``(..., 2)`` scaled to length 1; those no longer than ``floor`` become
+    zero (no direction)."""
     lengths = np.hypot(vectors[..., 0], vectors[..., 1])[..., None]
     return np.divide(vectors, lengths, out=np.zeros_like(vectors, dtype=np.float64),
-                     where=lengths > 0)
+                     where=lengths > floor)
 
 
 def within_capture(attackers: np.ndarray, defenders: np.ndarray,

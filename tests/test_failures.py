@@ -55,7 +55,7 @@ def test_solve_out_refuses_a_folder_of_other_files(tmp_path, capsys):
     notes = tmp_path / "notes.txt"
     notes.write_text("hi")
     fails_cleanly(capsys, ["solve", "--scenario", "paper_2v1", "--grid", "9", "--out",
-                           str(tmp_path)], "holds other files and no value function")
+                           str(tmp_path)], "exists and is not a value directory")
     assert notes.read_text() == "hi"
 
 

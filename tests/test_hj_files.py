@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 import pytest
 
+from reachavoid.solve import solve_scenario
 from reachavoid_env import Circle, GameMap, builtin_map
 from solvers.hj import (
     OutputPathError,
@@ -19,9 +20,7 @@ from solvers.hj import (
     ValueFunctionError,
     load_value_function,
     solve_1v1,
-    solve_game,
 )
-from solvers.hj.cache import cache_dir
 
 LOW = SolverSettings.with_accuracy("low")
 MAP = GameMap((-1.0, 1.0, -1.0, 1.0), (Circle((0.5, 0.5), 0.2),))
@@ -44,21 +43,21 @@ def test_out_refuses_a_folder_that_is_not_a_value_directory(cache_in_tmp, tmp_pa
     mine.mkdir()
     (mine / "notes.txt").write_text("hi")
     with pytest.raises(OutputPathError, match=str(mine)):
-        solve_game("paper_1v1", "1v1", 9, out=str(mine), progress=False)
+        solve_scenario("paper_1v1", "1v1", 9, out=str(mine), progress=False)
     assert (mine / "notes.txt").read_text() == "hi" and sorted(os.listdir(mine)) == ["notes.txt"]
-    solve_game("paper_1v1", "1v1", 9, progress=False)
+    solve_scenario("paper_1v1", "1v1", 9, progress=False)
     entries = sorted(os.listdir(cache_in_tmp))
     with pytest.raises(OutputPathError, match="not a value directory"):
-        solve_game("paper_1v1", "1v1", 9, out=str(cache_in_tmp), progress=False)
+        solve_scenario("paper_1v1", "1v1", 9, out=str(cache_in_tmp), progress=False)
     assert sorted(os.listdir(cache_in_tmp)) == entries
     # a value directory of ours, or an empty folder, is replaced
     out = tmp_path / "out.vf"
     for _ in range(2):
-        report = solve_game("paper_1v1", "1v1", 9, out=str(out), progress=False)
+        report = solve_scenario("paper_1v1", "1v1", 9, out=str(out), progress=False)
         assert report.path == out and sorted(os.listdir(out)) == ["meta.json", "value.npy"]
     empty = tmp_path / "empty"
     empty.mkdir()
-    solve_game("paper_1v1", "1v1", 9, out=str(empty), progress=False)
+    solve_scenario("paper_1v1", "1v1", 9, out=str(empty), progress=False)
     assert sorted(os.listdir(tmp_path)) == ["cache", "empty", "mine", "out.vf"]
 
 

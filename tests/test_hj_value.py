@@ -8,17 +8,17 @@ import warnings
 import numpy as np
 import pytest
 
+from reachavoid.solve import solve_scenario
 from reachavoid_env import Box, Circle, GameMap, builtin_map
 from solvers.hj import (
     Grid,
     InsufficientMemoryError,
     SolverSettings,
     ValueFunctionError,
-    load_value_function,
     game_1v1,
     game_2v1,
+    load_value_function,
     solve_1v1,
-    solve_game,
 )
 from solvers.hj.cache import cache_dir
 from solvers.hj.reach_avoid import check_memory, memory_needed
@@ -121,17 +121,17 @@ def test_memory_guard_names_grid_and_need():
 
 
 def test_solve_game_reports_where_and_how(cache_in_tmp, tmp_path):
-    report = solve_game("paper_1v1", "1v1", 11, out=str(tmp_path / "out.vf"), progress=False)
+    report = solve_scenario("paper_1v1", "1v1", 11, out=str(tmp_path / "out.vf"), progress=False)
     assert report.path == tmp_path / "out.vf" and (report.path / "value.npy").is_file()
     assert report.iterations > 0 and report.converged
     text = report.summary()
     assert "iterations" in text and str(report.path) in text
-    cached = solve_game("paper_1v1", "1v1", 11, plot=str(tmp_path / "slices.png"),
+    cached = solve_scenario("paper_1v1", "1v1", 11, plot=str(tmp_path / "slices.png"),
                         progress=False)
     assert cached.path.parent == cache_in_tmp
     assert (tmp_path / "slices.png").stat().st_size > 10000 and "slices" in cached.summary()
     with pytest.raises(ValueError, match="game"):
-        solve_game("paper_1v1", "3v1", 11, progress=False)
+        solve_scenario("paper_1v1", "3v1", 11, progress=False)
 
 
 def test_settings_validate_and_presets():

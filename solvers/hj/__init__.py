@@ -1,7 +1,6 @@
 """Hamilton-Jacobi reach-avoid solvers (numba) for games declared as players, target and
 avoid functions and symmetries (``game``); the paper's 1 vs 1 and 2 vs 1 in ``games``."""
 
-from solvers.hj.driver import SolveReport, solve_game
 from solvers.hj.game import Game, Player, attacker, defender, distance, maximum, minimum, table
 from solvers.hj.games import game_1v1, game_2v1, solve_1v1, solve_2v1
 from solvers.hj.grid import Grid
@@ -27,7 +26,6 @@ __all__ = [
     "OutputPathError",
     "Player",
     "Scheme",
-    "SolveReport",
     "SolveResult",
     "SolverSettings",
     "ValueFunction",
@@ -43,6 +41,5 @@ __all__ = [
     "solve_1v1",
     "solve_2v1",
     "solve_declared",
-    "solve_game",
     "table",
 ]

@@ -16,7 +16,8 @@ from matplotlib import patches
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from reachavoid_env import Box, Circle, GameMap, Polygon
+from reachavoid_env import GameMap
+from reachavoid_env.files import atomic_write
 from solvers.hj.value import ValueFunction
 
 Point = tuple[float, float]
@@ -54,22 +55,14 @@ def draw_map(ax: Axes, game_map: GameMap) -> None:
     ax.add_patch(patches.Rectangle((xmin, ymin), xmax - xmin, ymax - ymin, fill=False,
                                    edgecolor="black", linewidth=1.0))
     for shape in game_map.obstacles:
-        ax.add_patch(_patch(shape, facecolor="0.35", edgecolor="black", zorder=3))
+        ax.add_patch(patches.Polygon(shape.outline(), closed=True, facecolor="0.35",
+                                     edgecolor="black", zorder=3))
     for shape in game_map.target:
-        ax.add_patch(_patch(shape, facecolor="#2ca02c", edgecolor="#1b5e20", alpha=0.8,
-                            zorder=3))
+        ax.add_patch(patches.Polygon(shape.outline(), closed=True, facecolor="#2ca02c",
+                                     edgecolor="#1b5e20", alpha=0.8, zorder=3))
     ax.set_xlim(xmin, xmax)
     ax.set_ylim(ymin, ymax)
     ax.set_aspect("equal")
-
-
-def _patch(shape: Box | Circle | Polygon, **style: object) -> patches.Patch:
-    if isinstance(shape, Box):
-        (x0, y0), (x1, y1) = shape.min, shape.max
-        return patches.Rectangle((x0, y0), x1 - x0, y1 - y0, **style)
-    if isinstance(shape, Circle):
-        return patches.Circle(shape.center, shape.radius, **style)
-    return patches.Polygon(np.asarray(shape.vertices), closed=True, **style)
 
 
 def plot_slice(vf: ValueFunction, free: str, fixed: Mapping[str, Point], ax: Axes | None = None,
@@ -128,13 +121,8 @@ def scenario_panels(vf: ValueFunction, attackers: Sequence[Point], defenders: Se
 
 
 def save_figure(figure: Figure, path: str | os.PathLike[str]) -> Path:
-    """Save ``figure`` as PNG through a temporary file and ``os.replace``."""
-    path = Path(path)
-    temporary = path.with_name(f".{path.name}.tmp")
-    try:
-        figure.savefig(temporary, dpi=120, format="png")
-        os.replace(temporary, path)
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
-    return path
+    """Save ``figure`` as PNG through ``atomic_write`` (a temporary name of its own, then
+    renamed), so two processes saving the same figure never collide."""
+    with atomic_write(path, "wb") as handle:
+        figure.savefig(handle, dpi=120, format="png")
+    return Path(path)

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from reachavoid_env import GameMap, ScenarioError
+from reachavoid_env.rules import unit_vectors
 from solvers.hj.game import Player
 from solvers.hj.grid import Grid
 from solvers.hj.layout import Layout, layout_of
@@ -149,7 +150,7 @@ class ValueFunction:
         if player not in names:
             raise ValueError(f"player: expected one of {names}, got {player!r}")
         k = names.index(player)
-        heading = _unit(self.gradient(states)[..., 2 * k:2 * k + 2])
+        heading = unit_vectors(self.gradient(states)[..., 2 * k:2 * k + 2], _GRADIENT_FLOOR)
         return -heading if self.players[k].role == "attacker" else heading
 
     def attacker_control(self, states: np.ndarray, attacker: int = 0) -> np.ndarray:
@@ -298,12 +299,6 @@ def checksum(values: np.ndarray) -> str:
 def all_finite(values: np.ndarray) -> bool:
     flat = np.asarray(values).reshape(-1)
     return all(np.isfinite(flat[s:s + _CHUNK]).all() for s in range(0, flat.size, _CHUNK))
-
-
-def _unit(p: np.ndarray) -> np.ndarray:
-    norm = np.linalg.norm(p, axis=-1, keepdims=True)
-    safe = np.where(norm > _GRADIENT_FLOOR, norm, 1.0)
-    return np.where(norm > _GRADIENT_FLOOR, p / safe, 0.0)
 
 
 def load_value_function(path: str | os.PathLike[str], game_map: GameMap | None = None,
