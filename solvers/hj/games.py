@@ -1,5 +1,9 @@
 """The paper's games (Section III B-C) as declarations, and their solves.
 
+"Captured", "in the target" and "in an obstacle" are the rules of
+``reachavoid_env/rules.py`` written as level sets (``tests/test_rules_in_games.py`` checks
+the sets against the rules node by node); ``R`` is the capture radius.
+
 1 vs 1, eq. (RA_11), axes ``(xA, yA, xD, yD)``:
 - target ``R11``: the attacker is in the target and not captured, or the defender is in an
   obstacle: ``l = min(max(sT(a), R - |a - d|), sF(d))``;
