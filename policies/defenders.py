@@ -229,16 +229,22 @@ class HJDefenderPolicy(_AssignmentDefender):
         _check_tube(self.vf21, scenario, "vf21")
 
     def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
+        """The MIP on this step's tables. (c5) binds only pairs of attackers that the
+        defender beats one by one, so the 2 vs 1 tube is read for those triples alone, in
+        one lookup."""
         m, n = beats.shape
         beats_2v1 = np.zeros((m, m, n), dtype=bool)
-        takers = np.flatnonzero(active & ~beats.all(axis=1))
-        if len(takers) >= 2:
-            first, second = np.triu_indices(len(takers), k=1)
-            pairs = np.stack([takers[first], takers[second]], axis=1)
-            states = triple_states(state.attacker_positions, pairs, state.defender_positions)
-            wins = self.vf21.value(states) <= 0.0
-            beats_2v1[pairs[:, 0], pairs[:, 1]] = wins
-            beats_2v1[pairs[:, 1], pairs[:, 0]] = wins
+        candidates = active[:, None] & ~beats
+        first, second = np.triu_indices(m, k=1)
+        both = candidates[first] & candidates[second]            # (pairs, N)
+        pair, j = np.nonzero(both)
+        if len(j):
+            one, two = first[pair], second[pair]
+            attackers, defenders = state.attacker_positions, state.defender_positions
+            wins = self.vf21.value(np.concatenate([attackers[one], attackers[two],
+                                                   defenders[j]], axis=1)) <= 0.0
+            beats_2v1[one, two, j] = wins
+            beats_2v1[two, one, j] = wins
         return self.solver.solve(beats, beats_2v1, active)
 
     def _idle_target(self, state: GameState, j: int, values11: np.ndarray) -> int | None:
