@@ -12,7 +12,8 @@ paper); indices are attacker ``i`` in ``0..M-1`` and defenders ``j``, ``k`` in
   says so; the diagonal is ignored.
 - ``beats_1v2[i, j, k]``: attacker ``i`` beats defenders ``j`` and ``k`` together in the
   1 vs 2 game, i.e. ``i`` is in the set ``Q_jk`` (beyond the paper). Either order of the
-  defenders counts, as for ``beats_2v1``; the diagonal ``j == k`` is ignored.
+  defenders counts, as for ``beats_2v1``; the diagonal ``j == k`` is ignored, and so are
+  attackers that ``j`` or ``k`` stops alone (a team is never needed for them).
 
 ``solve_assignment`` is the paper's program (c1)-(c5): each defender takes at most two
 attackers, each attacker at most one defender, never an attacker that beats it alone nor
@@ -116,11 +117,13 @@ class _Tables:
     @property
     def team_candidates(self) -> np.ndarray:
         """``(M, N, N)``: the variables ``f_ijk`` that exist (j < k, (c7), active)."""
-        m, n = self.beats_1v1.shape
+        one = self.beats_1v1
+        m, n = one.shape
         if self.beats_1v2 is None:
             return np.zeros((m, n, n), dtype=bool)
         upper = np.triu(np.ones((n, n), dtype=bool), k=1)
-        return ~self.beats_1v2 & upper[None] & self.active[:, None, None]
+        return (~self.beats_1v2 & one[:, :, None] & one[:, None, :] & upper[None]
+                & self.active[:, None, None])
 
 
 def _integer_table(name: str, table: np.ndarray | None,
@@ -208,12 +211,16 @@ def solve_assignment(beats_1v1: np.ndarray, beats_2v1: np.ndarray,
         (c4)  e_sj = 0                                        for all j, s in I_j
         (c5)  e_kj + e_lj <= 1                                for all j, (k, l) in P_j
         (c6)  f_ijk in {0, 1}                                 for all i, j < k
-        (c7)  f_sjk = 0                                       for all j < k, s in Q_jk
+        (c7)  f_sjk = 0                 for all j < k, s in Q_jk or s not in I_j & I_k
         (c8)  sum_j e_ij + sum_{j<k} f_ijk <= 1               for all i
         (c9)  sum_i e_ij + 2 sum_i sum_{k != j} f_i{jk} <= 2  for all j
 
-    (c8) covers each attacker at most once and contains (c3); (c9) puts a defender in at
-    most one team and then gives it nothing else, and contains (c2). Without ``f``
+    (c7) forms a team only for an attacker that it stops and neither of its defenders
+    stops alone: where ``j`` stops ``s`` alone, ``f_sjk`` is dominated (``e_sj`` in its
+    place keeps every constraint and the objective), so leaving it out never lowers the
+    optimum and keeps the model small. (c8) covers each attacker at most once and
+    contains (c3); (c9) puts a defender in at most one team and then gives it nothing
+    else, and contains (c2). Without ``f``
     variables (no ``beats_1v2``, or every entry true) the program is exactly (c1)-(c5).
     (c4) and (c7) are applied by not creating the variables, as are inactive attackers.
     """

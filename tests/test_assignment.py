@@ -18,11 +18,14 @@ def random_instance(rng: np.random.Generator, m: int, n: int):
     return one, two, active
 
 
-def random_teams(rng: np.random.Generator, one: np.ndarray) -> np.ndarray:
-    """A ``beats_1v2 (M, N, N)`` table, not symmetric in the defenders; attackers often beat
-    every defender alone and lose to some pair (where pairs matter)."""
-    m, n = one.shape
-    return rng.random((m, n, n)) < rng.uniform(0.1, 0.9)
+def random_team_instance(rng: np.random.Generator, m: int, n: int):
+    """``(beats_1v1, beats_2v1, beats_1v2, active)``; the 1 vs 2 table is not symmetric in
+    the defenders, and attackers beat defenders alone more often than in
+    ``random_instance`` (slow defenders: where teams matter)."""
+    one, two, active = random_instance(rng, m, n)
+    one |= rng.random((m, n)) < 0.5
+    three = rng.random((m, n, n)) < rng.uniform(0.1, 0.9)
+    return one, two, three, active
 
 
 def feasible_mip(pairs, one, two, active) -> bool:
@@ -57,8 +60,8 @@ def feasible_with_teams(pairs, shared, one, two, three, active) -> bool:
     """(c1)-(c9) checked on whole pair lists, independently of the model."""
     if not feasible_mip(pairs, one, two, active):
         return False  # (c1)-(c5)
-    if any(three[i, j, k] or three[i, k, j] or not active[i] or not j < k
-           for i, j, k in shared):
+    if any(three[i, j, k] or three[i, k, j] or not (one[i, j] and one[i, k])
+           or not active[i] or not j < k for i, j, k in shared):
         return False  # (c6), (c7), inactive attackers
     covered = [i for i, _ in pairs] + [i for i, _, _ in shared]
     if len(set(covered)) != len(covered):
@@ -324,8 +327,7 @@ def test_mip_with_teams_equals_brute_force_on_random_instances():
     used_teams = 0
     for _ in range(300):
         m, n = int(rng.integers(1, 6)), int(rng.integers(1, 5))
-        one, two, active = random_instance(rng, m, n)
-        three = random_teams(rng, one)
+        one, two, three, active = random_team_instance(rng, m, n)
         result = solve_assignment(one, two, active, beats_1v2=three)
         check_teams(result, n)
         assert feasible_with_teams(result.pairs, result.shared, one, two, three, active)
@@ -338,8 +340,7 @@ def test_shared_preference_breaks_ties_without_lowering_captures():
     rng = np.random.default_rng(8)
     for _ in range(150):
         m, n = int(rng.integers(1, 5)), int(rng.integers(1, 5))
-        one, two, active = random_instance(rng, m, n)
-        three = random_teams(rng, one)
+        one, two, three, active = random_team_instance(rng, m, n)
         preference = rng.integers(0, 50, size=(m, n))
         shared_preference = rng.integers(0, 50, size=(m, n, n))
         result = solve_assignment(one, two, active, preference, three, shared_preference)
