@@ -11,9 +11,10 @@ state where the reference says the attacker side wins: the slack a certificate
 ``value > margin`` needs on this sample), and the share of defender wins (value > 0) it
 would give up.
 
-``margins``: the same episodes with the certificate rule ``value > margin`` (the tubes
-read ``margin`` lower; controls unchanged): episodes violated, the guarantee at the start,
-and the attackers stopped and captured, per margin pair.
+``margins``: the same episodes with the certificate rule ``value > margin``, optionally
+with hysteresis (``--keep``: a game once taken is kept while its value stays > 0), as a
+subclass of the policy (controls unchanged): episodes violated, the guarantee at the
+start, and the attackers stopped and captured, per margin pair.
 
 ``episodes``: the episodes of ``benchmarks/guarantee.py`` (same configurations, seeds
 and attacker order), recorded. For each episode whose guarantee broke, the first broken
@@ -41,7 +42,7 @@ whether the shadowing of unassigned defenders matters.
     python benchmarks/guarantee_causes.py tubes [--grids1 25 31 45] [--reference1 81]
     python benchmarks/guarantee_causes.py episodes --grid1 25 --grid2 13 --episodes 20
     python benchmarks/guarantee_causes.py margins --grid1 25 --grid2 13 --m11 0 0.023 \
-        --m21 0 0.03
+        --m21 0 0.03 [--keep]
 """
 
 from __future__ import annotations
@@ -279,7 +280,12 @@ def classify(rec: Episode, result, coarse: Tubes, fine: Tubes, scenario: Scenari
 def episodes(args: argparse.Namespace) -> None:
     base = reachavoid_env.builtin_scenario("paper_2v1")
     coarse = Tubes(*_tubes(base, args.grid1, args.grid2))
-    fine = Tubes(*_tubes(base, args.fine1, args.fine2))
+    fine11 = tube_1v1(base, args.fine1)
+    # The same 6-D grid: keep the coarse 2 vs 1 tube rather than solve it again on the
+    # finer 1 vs 1 tube (a 30^6 solve is minutes and gigabytes).
+    fine21 = coarse.vf21 if args.fine2 == args.grid2 else solve_2v1(
+        base.map, fine11, grid_points=args.fine2)
+    fine = Tubes(fine11, fine21)
     defenders = Recorder(HJDefenderPolicy(coarse.vf11, coarse.vf21))
     standing = HJDefenderPolicy(coarse.vf11, coarse.vf21, idle="stand")
     breaks: list[Break] = []
@@ -306,31 +312,61 @@ def episodes(args: argparse.Namespace) -> None:
     _print_breaks(args, breaks, total)
 
 
-class Shifted:
-    """A value function read ``margin`` lower (``value - margin``), everything else as is:
-    the policy then keeps a game only where its value exceeds ``margin`` (the certificate
-    rule ``V > margin`` without touching the policy); controls are unchanged."""
+class CertifiedDefender(HJDefenderPolicy):
+    """A preview of the certificate rule (phase 2; the policy itself is unchanged): a game
+    is taken only where its value exceeds a margin (``V11 > m11``, ``V21 > m21``) and,
+    with ``keep``, a game of the previous decision is kept while its value stays > 0
+    (hysteresis: a certified game is not dropped for dipping into the margin band).
+    Controls are the policy's."""
 
-    def __init__(self, vf: ValueFunction, margin: float) -> None:
-        self.vf, self.margin = vf, margin
+    def __init__(self, vf11: ValueFunction, vf21: ValueFunction, m11: float, m21: float,
+                 keep: bool) -> None:
+        super().__init__(vf11, vf21)
+        self.m11, self.m21, self.keep = m11, m21, keep
 
-    def value(self, states: np.ndarray) -> np.ndarray:
-        return self.vf.value(states) - self.margin
+    def _previous(self) -> Assignment | None:
+        return self._assignment if self.keep else None
 
-    def __getattr__(self, name: str) -> object:
-        return getattr(self.vf, name)
+    def _beats_1v1(self, state: GameState) -> np.ndarray:
+        values = self.vf11.value(pair_states(state.attacker_positions,
+                                             state.defender_positions))
+        threshold = np.full(values.shape, self.m11)
+        previous = self._previous()
+        for i, j in previous.pairs if previous is not None else ():
+            threshold[i, j] = 0.0
+        return values <= threshold
+
+    def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
+        m, n = beats.shape
+        beats_2v1 = np.zeros((m, m, n), dtype=bool)
+        takers = np.flatnonzero(active & ~beats.all(axis=1))
+        if len(takers) >= 2:
+            first, second = np.triu_indices(len(takers), k=1)
+            pairs = np.stack([takers[first], takers[second]], axis=1)
+            values = self.vf21.value(triple_states(state.attacker_positions, pairs,
+                                                   state.defender_positions))
+            threshold = np.full(values.shape, self.m21)
+            previous = self._previous()
+            for j, mine in enumerate(previous.by_defender if previous is not None else ()):
+                row = np.flatnonzero((pairs == mine).all(axis=1)) if len(mine) == 2 else []
+                threshold[row, j] = 0.0
+            wins = values <= threshold
+            beats_2v1[pairs[:, 0], pairs[:, 1]] = wins
+            beats_2v1[pairs[:, 1], pairs[:, 0]] = wins
+        return self.solver.solve(beats, beats_2v1, active)
 
 
 def margins(args: argparse.Namespace) -> None:
     base = reachavoid_env.builtin_scenario("paper_2v1")
     vf11, vf21 = _tubes(base, args.grid1, args.grid2)
-    print(f"tubes {args.grid1}^4 / {args.grid2}^6, HJ + MIP defenders keeping a game only "
-          f"where V11 > m11 and V21 > m21; {args.episodes} episodes per configuration and "
+    rule = "; a game once taken is kept while V > 0" if args.keep else ""
+    print(f"tubes {args.grid1}^4 / {args.grid2}^6, HJ + MIP defenders taking a game only "
+          f"where V11 > m11 and V21 > m21{rule}; {args.episodes} episodes per configuration and "
           f"attacker ({len(CONFIGS) * 3 * args.episodes} in all)")
     print("| m11 | m21 | episodes violated | guaranteed at start | stopped | captured |")
     print("|---|---|---|---|---|---|")
     for m11, m21 in zip(args.m11, args.m21, strict=True):
-        defenders = HJDefenderPolicy(Shifted(vf11, m11), Shifted(vf21, m21))
+        defenders = CertifiedDefender(vf11, vf21, m11, m21, args.keep)
         violated, first, stopped, captured = 0, [], [], []
         for m, n in CONFIGS:
             env = reachavoid_env.parallel_env(scenario=base.with_players(m, n))
@@ -460,6 +496,8 @@ def main() -> None:
     g.add_argument("--m11", type=float, nargs="+", default=[0.0, 0.0228, 0.036])
     g.add_argument("--m21", type=float, nargs="+", default=[0.0, 0.0293, 0.036])
     g.add_argument("--episodes", type=int, default=20, help="per configuration and attacker")
+    g.add_argument("--keep", action="store_true",
+                   help="keep a game of the previous decision while its value is > 0")
     args = parser.parse_args()
     {"tubes": tubes, "episodes": episodes, "margins": margins}[args.study](args)
 
