@@ -56,11 +56,10 @@ from tqdm import tqdm
 
 import reachavoid_env
 from policies import HJAttacker, HJDefenderPolicy, RandomAttacker, ShortestPathAttacker
-from policies.base import overlay_of
 from policies.defenders import pair_states, triple_states
 from policies.tubes import tube_1v1
-from reachavoid_env import AttackerStatus, GameState, Overlay, Scenario
-from reachavoid_env.rollout import run_episode
+from reachavoid.rollout import run_episode
+from reachavoid_env import AttackerStatus, GameState, Overlay, Scenario, merged_overlay
 from solvers.assignment import Assignment
 from solvers.hj import ValueFunction, solve_2v1
 
@@ -135,7 +134,7 @@ class Recorder:
         return getattr(self.policy, "guaranteed_captures", None)
 
     def overlay(self) -> Overlay | None:
-        return overlay_of(self.policy)
+        return merged_overlay(self.policy)
 
 
 @dataclass(frozen=True)
