@@ -63,9 +63,6 @@ class Expr:
         """Names of the players this expression depends on."""
         raise NotImplementedError
 
-    def children(self) -> tuple[Expr, ...]:
-        return ()
-
 
 @dataclass(frozen=True)
 class Const(Expr):
@@ -106,9 +103,6 @@ class Op(Expr):
 
     def players(self) -> frozenset[str]:
         return frozenset().union(*(a.players() for a in self.args))
-
-    def children(self) -> tuple[Expr, ...]:
-        return self.args
 
 
 def _expr(value: Expr | float) -> Expr:
