@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from theory import segment_distance
 
 from reachavoid_env import Circle, GameMap, builtin_map
 from solvers.hj import (
@@ -31,12 +32,6 @@ def edge_race(speeds=(VA, VD), radius=R) -> Game:
                 parameters={"capture_radius": radius})
 
 
-def _segment_distance(p, a, b):
-    ab = b - a
-    t = np.clip(np.sum((p - a) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-12), 0.0, 1.0)
-    return np.linalg.norm(p - (a + t[..., None] * ab), axis=-1)
-
-
 def test_a_game_declared_in_a_test_solves_and_agrees_with_theory():
     """Attacker sure: running straight left, it reaches the strip before the defender can
     come within the capture radius of its path. Defender sure: the Apollonius disc (capture
@@ -51,7 +46,7 @@ def test_a_game_declared_in_a_test_solves_and_agrees_with_theory():
     a = rng.uniform(-0.7, 0.9, (20000, 2))
     d = rng.uniform(-0.9, 0.9, (20000, 2))
     goal = np.stack([np.full(len(a), EDGE), a[:, 1]], axis=1)
-    slack = (_segment_distance(d, a, goal) - R) / VD - (a[:, 0] - EDGE) / VA
+    slack = (segment_distance(d, a, goal) - R) / VD - (a[:, 0] - EDGE) / VA
     k = VA / VD
     centre = (a - k * k * d) / (1 - k * k)
     radius = k * np.linalg.norm(a - d, axis=1) / (1 - k * k)

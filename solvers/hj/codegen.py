@@ -21,6 +21,7 @@ source text to the kernel directory and their numba compilation is cached there.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import os
@@ -245,9 +246,10 @@ def kernel_dir() -> Path:
     return base / "reachavoid-kernels"
 
 
+@functools.cache
 def _kernels_stamp() -> str:
     """Numba does not notice changes of the functions a cached kernel calls, so the
-    generated file's name covers the ``kernels`` module's source too."""
+    generated file's name covers the ``kernels`` module's source too (as imported)."""
     return Path(kernels.__file__).read_text()
 
 

@@ -23,7 +23,7 @@ The value is <= 0 exactly where the attacker side wins.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -62,9 +62,6 @@ class Expr:
     def players(self) -> frozenset[str]:
         """Names of the players this expression depends on."""
         raise NotImplementedError
-
-    def children(self) -> tuple[Expr, ...]:
-        return ()
 
 
 @dataclass(frozen=True)
@@ -106,9 +103,6 @@ class Op(Expr):
 
     def players(self) -> frozenset[str]:
         return frozenset().union(*(a.players() for a in self.args))
-
-    def children(self) -> tuple[Expr, ...]:
-        return self.args
 
 
 def _expr(value: Expr | float) -> Expr:
@@ -269,10 +263,9 @@ _NUMPY = {"add": np.add, "sub": np.subtract, "mul": np.multiply, "neg": np.negat
           "min": np.minimum, "max": np.maximum, "sqrt": np.sqrt}
 
 
-def evaluate(expr: Expr, leaf_value: Mapping[Expr, np.ndarray] | None = None,
-             lookup: object = None) -> np.ndarray:
+def evaluate(expr: Expr, lookup: Callable[[Expr], np.ndarray]) -> np.ndarray:
     """Evaluate ``expr`` in float64; ``lookup(leaf)`` gives each leaf's broadcastable array."""
-    cache: dict[Expr, np.ndarray] = dict(leaf_value or {})
+    cache: dict[Expr, np.ndarray] = {}
 
     def run(node: Expr) -> np.ndarray:
         if node not in cache:
@@ -281,7 +274,7 @@ def evaluate(expr: Expr, leaf_value: Mapping[Expr, np.ndarray] | None = None,
             elif isinstance(node, Const):
                 cache[node] = np.float64(node.value)
             else:
-                cache[node] = np.asarray(lookup(node), dtype=np.float64)  # type: ignore[operator]
+                cache[node] = np.asarray(lookup(node), dtype=np.float64)
         return cache[node]
 
     return run(expr)

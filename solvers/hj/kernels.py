@@ -96,15 +96,18 @@ def in_row_differences(row, ny, fx, fy):
 # first-order pieces
 # ---------------------------------------------------------------------------------------
 
+@njit(cache=True)
+def _in_row_views(fx, fy, ny):
+    """Forward and backward raw differences at every element (``in_row_differences``)."""
+    return fx[2 * ny:], fx[ny:], fy[2:], fy[1:]
+
+
 @njit(cache=True, fastmath=FASTMATH)
 def godunov_in_row(row, ny, fx, fy, inv_hx, inv_hy, speed, maximise, ham, jump):
     """Set ``ham`` to the last player's Godunov term and ``jump`` to the in-row jumps (the
     first piece of a row, after ``in_row_differences``)."""
     m = ham.size
-    fxp = fx[2 * ny:]
-    fxm = fx[ny:]
-    fyp = fy[2:]
-    fym = fy[1:]
+    fxp, fxm, fyp, fym = _in_row_views(fx, fy, ny)
     sign = np.float32(1.0) if maximise else np.float32(-1.0)
     for r in range(m):
         qx = max(max(sign * fxp[r], -sign * fxm[r]), _ZERO) * inv_hx
@@ -117,10 +120,7 @@ def godunov_in_row(row, ny, fx, fy, inv_hx, inv_hy, speed, maximise, ham, jump):
 def lax_friedrichs_in_row(row, ny, fx, fy, inv_hx, inv_hy, speed, maximise, ham, jump):
     """Set ``ham`` and ``jump``: the last player's Lax-Friedrichs term (as ``godunov_in_row``)."""
     m = ham.size
-    fxp = fx[2 * ny:]
-    fxm = fx[ny:]
-    fyp = fy[2:]
-    fym = fy[1:]
+    fxp, fxm, fyp, fym = _in_row_views(fx, fy, ny)
     sign = np.float32(1.0) if maximise else np.float32(-1.0)
     for r in range(m):
         cx = (fxp[r] + fxm[r]) * (_HALF * inv_hx)
