@@ -46,24 +46,22 @@ class Assignment:
     alone, sorted (at most two for the MIP, one for the matching). ``shared``:
     ``(attacker, j, k)`` with ``j < k``, attackers taken by two defenders together
     (variables ``f``; only with ``beats_1v2``), sorted; a defender in ``shared`` takes
-    nothing else. ``captures``: the optimal objective, the number of covered attackers.
-    ``status``: the solver's status name (always ``"OPTIMAL"``).
+    nothing else. ``captures``: the optimal objective, the number of covered attackers
+    (always optimal: a solve that does not prove optimality is an error).
     """
 
     pairs: tuple[tuple[int, int], ...]
     by_defender: tuple[tuple[int, ...], ...]
     captures: int
-    status: str
     shared: tuple[tuple[int, int, int], ...] = ()
 
     @classmethod
     def from_pairs(cls, pairs: list[tuple[int, int]], num_defenders: int,
-                   status: str = "OPTIMAL",
                    shared: list[tuple[int, int, int]] | None = None) -> Assignment:
         ordered = tuple(sorted(pairs))
         teams = tuple(sorted((i, min(j, k), max(j, k)) for i, j, k in shared or ()))
         by_defender = tuple(tuple(i for i, d in ordered if d == j) for j in range(num_defenders))
-        return cls(ordered, by_defender, len(ordered) + len(teams), status, teams)
+        return cls(ordered, by_defender, len(ordered) + len(teams), teams)
 
     def defender_of(self, attacker: int) -> int | None:
         """The defender that takes ``attacker`` alone, or ``None`` (also when shared)."""
@@ -269,7 +267,7 @@ def solve_assignment(beats_1v1: np.ndarray, beats_2v1: np.ndarray,
         raise RuntimeError(f"assignment MIP: CP-SAT ended with {solver.status_name(status)}")
     pairs = [key for key, var in e.items() if solver.boolean_value(var)]
     shared = [key for key, var in f.items() if solver.boolean_value(var)]
-    return Assignment.from_pairs(pairs, n, solver.status_name(status), shared)
+    return Assignment.from_pairs(pairs, n, shared)
 
 
 def max_matching(beats_1v1: np.ndarray, active: np.ndarray | None = None,
