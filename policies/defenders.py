@@ -7,6 +7,7 @@ defender's speed) for every defender.
 
 from __future__ import annotations
 
+import functools
 from abc import ABC, abstractmethod
 
 import numpy as np
@@ -64,9 +65,16 @@ class GreedyDefender:
 def pair_states(attackers: np.ndarray, defenders: np.ndarray) -> np.ndarray:
     """1 vs 1 states ``(M, N, 4)``: every attacker against every defender, axes
     ``(xA, yA, xD, yD)``."""
-    m, n = len(attackers), len(defenders)
-    return np.concatenate([np.broadcast_to(attackers[:, None, :], (m, n, 2)),
-                           np.broadcast_to(defenders[None, :, :], (m, n, 2))], axis=-1)
+    states = np.empty((len(attackers), len(defenders), 4))
+    states[..., :2] = attackers[:, None, :]
+    states[..., 2:] = defenders[None, :, :]
+    return states
+
+
+@functools.cache
+def _attacker_pairs(m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs ``i < k`` of ``m`` attackers (cached: ``triu_indices`` is slow)."""
+    return np.triu_indices(m, k=1)
 
 
 def triple_states(attackers: np.ndarray, pairs: np.ndarray, defenders: np.ndarray) -> np.ndarray:
@@ -235,7 +243,7 @@ class HJDefenderPolicy(_AssignmentDefender):
         m, n = beats.shape
         beats_2v1 = np.zeros((m, m, n), dtype=bool)
         candidates = active[:, None] & ~beats
-        first, second = np.triu_indices(m, k=1)
+        first, second = _attacker_pairs(m)
         both = candidates[first] & candidates[second]            # (pairs, N)
         pair, j = np.nonzero(both)
         if len(j):
