@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -74,7 +76,7 @@ def test_solve_converges_and_reports(paper_solves):
     settings = SolverSettings()
     assert solver["converged"] and solver["residual"] < settings.tolerance
     assert 0 < solver["iterations"] < settings.max_iterations
-    assert solver["scheme"] == settings.scheme and solver["tolerance"] == settings.tolerance
+    assert solver["scheme"] == settings.scheme.name and solver["tolerance"] == settings.tolerance
 
 
 def _node_states(vf):
@@ -149,8 +151,7 @@ def test_controls_vanish_where_gradient_vanishes():
     game_map = GameMap((-1.0, 1.0, -1.0, 1.0), (Circle((0.0, 0.0), 0.3),))
     vf = solve_1v1(game_map, grid_points=9, settings=SolverSettings.with_accuracy("low"),
                    cache=False, progress=False)
-    flat = type(vf)(values=np.full(vf.grid.shape, 0.5, np.float32), grid=vf.grid, game="1v1",
-                    attacker_speed=VA, defender_speed=VD, capture_radius=R, game_map=game_map)
+    flat = dataclasses.replace(vf, values=np.full(vf.grid.shape, 0.5, np.float32))
     state = np.array([[0.5, 0.5, -0.5, -0.5]])
     assert np.all(flat.attacker_control(state) == 0) and np.all(flat.defender_control(state) == 0)
     with pytest.raises(ValueError, match="attacker"):

@@ -58,7 +58,7 @@ def test_one_attacker_winning_alone_wins_the_pair(vf11, vf21):
     points = grid.sub((0, 1)).mesh().reshape(na, 1, 1, 2)
     defender = grid.sub((4, 5)).mesh().reshape(1, 1, m, 2)
     gap = np.linalg.norm(points - defender, axis=-1)
-    v21 = vf21.values.reshape(na, na, m)
+    v21 = vf21.full_values().reshape(na, na, m)
     for swap in (False, True):
         alone, other = (v11, v11.transpose(1, 0, 2))
         second_gap = gap.transpose(1, 0, 2)
@@ -74,17 +74,26 @@ def test_one_attacker_winning_alone_wins_the_pair(vf11, vf21):
 
 
 def test_exchange_symmetry(paper_map, vf11):
-    """The half-space solve mirrors exactly; a full solve without the symmetry shortcut
-    agrees with it and is symmetric to the solver tolerance."""
+    """The stored half (a1 >= a2) answers both orderings exactly and holds about half the
+    values; a full solve without the symmetry shortcut agrees with it and is symmetric to
+    the solver tolerance."""
     half = solve_2v1(paper_map, vf11, grid_points=11, cache=False, progress=False)
     full = solve_2v1(paper_map, vf11, grid_points=11, cache=False, progress=False,
                      settings=SolverSettings(exchange_symmetry=False))
+    na = 11 * 11
+    assert half.values.shape == (na * (na + 1) // 2, na) and full.values.shape == (11,) * 6
     swap = (2, 3, 0, 1, 4, 5)
-    np.testing.assert_array_equal(half.values, half.values.transpose(swap))
+    values = half.full_values()
+    np.testing.assert_array_equal(values, values.transpose(swap))
+    states = np.random.default_rng(4).uniform(-1, 1, (500, 6))
+    swapped = states[:, [2, 3, 0, 1, 4, 5]]
+    np.testing.assert_allclose(half.value(states), half.value(swapped), atol=1e-6)
+    np.testing.assert_allclose(half.gradient(states)[:, [2, 3, 0, 1, 4, 5]],
+                               half.gradient(swapped), atol=1e-5)
     assert np.abs(full.values - full.values.transpose(swap)).max() < 1e-4
     near = np.abs(full.values) < 0.02
-    assert np.abs(full.values - half.values)[~near].max() < 0.02
-    assert np.mean((full.values <= 0) == (half.values <= 0)) > 0.999
+    assert np.abs(full.values - values)[~near].max() < 0.02
+    assert np.mean((full.values <= 0) == (values <= 0)) > 0.999
 
 
 def test_jacobi_and_red_black_reach_the_same_fixed_point(paper_map, vf11):
@@ -94,7 +103,7 @@ def test_jacobi_and_red_black_reach_the_same_fixed_point(paper_map, vf11):
     jacobi = solve_2v1(paper_map, vf11, grid_points=9, cache=False, progress=False,
                        settings=high.replace(iteration="jacobi"))
     assert red_black.solver["converged"] and jacobi.solver["converged"]
-    assert np.abs(red_black.values - jacobi.values).max() < 5e-3
+    assert np.abs(red_black.full_values() - jacobi.full_values()).max() < 5e-3
 
 
 def test_saved_6d_value_is_memory_mapped(vf21, tmp_path, paper_map):

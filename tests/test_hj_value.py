@@ -15,6 +15,8 @@ from solvers.hj import (
     SolverSettings,
     ValueFunctionError,
     load_value_function,
+    game_1v1,
+    game_2v1,
     solve_1v1,
     solve_game,
 )
@@ -103,13 +105,19 @@ def test_cache_reuses_and_recomputes_corrupt_entries(cache_in_tmp):
 
 
 def test_memory_guard_names_grid_and_need():
-    grid = Grid.for_players((-1, 1, -1, 1), 3, 60)
+    grid = Grid.for_players((-1, 1, -1, 1), 3, 70)
+    game = game_2v1((1.0, 1.5), 0.1)
     red_black, jacobi = SolverSettings(), SolverSettings(iteration="jacobi")
-    assert 4 * 60**6 < memory_needed(grid, red_black) < 1.01 * 4 * 60**6
-    assert 8 * 60**6 < memory_needed(grid, jacobi) < 1.01 * 8 * 60**6
-    with pytest.raises(InsufficientMemoryError, match=r"60x60x60x60x60x60 grid needs about"):
-        check_memory(grid, red_black, "2v1 HJ solve")
-    check_memory(Grid.for_players((-1, 1, -1, 1), 2, 21), red_black, "1v1 HJ solve")
+    na = 70**2
+    half = 4 * na * (na + 1) // 2 * na
+    assert half < memory_needed(game, grid, red_black) < 1.01 * half
+    assert 2 * half < memory_needed(game, grid, jacobi) < 1.01 * 2 * half
+    full = SolverSettings(exchange_symmetry=False)
+    assert 4 * 70**6 < memory_needed(game, grid, full) < 1.01 * 4 * 70**6
+    with pytest.raises(InsufficientMemoryError, match=r"70x70x70x70x70x70 grid needs about"):
+        check_memory(game, grid, red_black, "2v1 HJ solve")
+    check_memory(game_1v1((1.0, 1.5), 0.1), Grid.for_players((-1, 1, -1, 1), 2, 21), red_black,
+                 "1v1 HJ solve")
 
 
 def test_solve_game_reports_where_and_how(cache_in_tmp, tmp_path):
@@ -132,6 +140,6 @@ def test_settings_validate_and_presets():
     with pytest.raises(ValueError, match="cfl"):
         SolverSettings(cfl=1.5)
     with pytest.raises(ValueError, match="scheme"):
-        SolverSettings(scheme="weno")  # type: ignore[arg-type]
+        SolverSettings(scheme="weno")
     with pytest.raises(ValueError, match="accuracy"):
         SolverSettings.with_accuracy("extreme")  # type: ignore[arg-type]

@@ -1,21 +1,48 @@
-"""Hamilton-Jacobi reach-avoid solvers for the 1 vs 1 and 2 vs 1 games (numba)."""
+"""Hamilton-Jacobi reach-avoid solvers (numba) for games declared as players, target and
+avoid functions and symmetries (``game``); the paper's 1 vs 1 and 2 vs 1 in ``games``."""
 
-from solvers.hj.games import SolveReport, solve_1v1, solve_2v1, solve_game
+from solvers.hj.driver import SolveReport, solve_game
+from solvers.hj.game import Game, Player, attacker, defender, distance, maximum, minimum, table
+from solvers.hj.games import game_1v1, game_2v1, solve_1v1, solve_2v1
 from solvers.hj.grid import Grid
 from solvers.hj.reach_avoid import InsufficientMemoryError, SolveResult
-from solvers.hj.settings import SolverSettings
-from solvers.hj.value import ValueFunction, ValueFunctionError, load_value_function
+from solvers.hj.schemes import ENO2, GODUNOV, LAX_FRIEDRICHS, Scheme
+from solvers.hj.settings import SOLVER_VERSION, SolverSettings
+from solvers.hj.solve import solve_declared
+from solvers.hj.value import (
+    OutputPathError,
+    ValueFunction,
+    ValueFunctionError,
+    load_value_function,
+)
 
 __all__ = [
+    "ENO2",
+    "GODUNOV",
+    "LAX_FRIEDRICHS",
+    "SOLVER_VERSION",
+    "Game",
     "Grid",
     "InsufficientMemoryError",
+    "OutputPathError",
+    "Player",
+    "Scheme",
     "SolveReport",
     "SolveResult",
     "SolverSettings",
     "ValueFunction",
     "ValueFunctionError",
+    "attacker",
+    "defender",
+    "distance",
+    "game_1v1",
+    "game_2v1",
     "load_value_function",
+    "maximum",
+    "minimum",
     "solve_1v1",
     "solve_2v1",
+    "solve_declared",
     "solve_game",
+    "table",
 ]

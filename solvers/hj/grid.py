@@ -13,6 +13,9 @@ import numpy as np
 
 from solvers.hj import kernels
 
+_WHOLE = np.zeros(1, dtype=np.int64)
+"""``stored_of`` of an array held whole, as one row."""
+
 
 @dataclass(frozen=True)
 class Grid:
@@ -93,32 +96,39 @@ class Grid:
         axes = [self.coordinates(k) for k in range(self.ndim)]
         return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
 
-    def interpolate(self, values: np.ndarray, points: np.ndarray) -> np.ndarray:
+    def interpolate(self, values: np.ndarray, points: np.ndarray,
+                    stored_of: np.ndarray | None = None) -> np.ndarray:
         """Multilinear interpolation of nodal ``values`` at ``points (K, ndim)`` -> ``(K,)``.
 
-        Points outside the grid are clamped onto its boundary.
+        Points outside the grid are clamped onto its boundary. ``values`` has the grid's
+        shape, or with ``stored_of`` is stored as rows (``layout.Layout``).
         """
-        flat = self._values(values)
-        return kernels.interpolate(flat, *self._arrays(), self._points(points))
+        rows, stored_of = self._values(values, stored_of)
+        return kernels.interpolate(rows, stored_of, *self._arrays(), self._points(points))
 
-    def interpolate_gradient(self, values: np.ndarray, points: np.ndarray) -> np.ndarray:
+    def interpolate_gradient(self, values: np.ndarray, points: np.ndarray,
+                             stored_of: np.ndarray | None = None) -> np.ndarray:
         """Gradient at ``points (K, ndim)`` -> ``(K, ndim)``: nodal central differences
         (one-sided on the grid's edges), interpolated multilinearly. Units: value per map unit.
         """
-        flat = self._values(values)
-        return kernels.interpolate_gradient(flat, *self._arrays(), self._points(points))
+        rows, stored_of = self._values(values, stored_of)
+        return kernels.interpolate_gradient(rows, stored_of, *self._arrays(),
+                                            self._points(points))
 
     def _arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return (np.asarray(self.shape, dtype=np.int64), np.asarray(self.lo, dtype=np.float64),
                 np.asarray(self.spacing, dtype=np.float64))
 
-    def _values(self, values: np.ndarray) -> np.ndarray:
+    def _values(self, values: np.ndarray,
+                stored_of: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        if values.dtype != np.float32 or not values.flags.c_contiguous:
+            raise ValueError("values: expected a C-contiguous float32 array")
+        if stored_of is not None:
+            return values, stored_of
         if tuple(values.shape) != self.shape:
             raise ValueError(f"values: shape {tuple(values.shape)} does not match the grid "
                              f"{self.shape}")
-        if values.dtype != np.float32 or not values.flags.c_contiguous:
-            raise ValueError("values: expected a C-contiguous float32 array")
-        return values.reshape(-1)
+        return values.reshape(1, -1), _WHOLE
 
     def _points(self, points: np.ndarray) -> np.ndarray:
         points = np.ascontiguousarray(points, dtype=np.float64)

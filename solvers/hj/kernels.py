@@ -1,44 +1,28 @@
-"""Numba kernels of the reach-avoid solver and of grid interpolation.
+"""Numba kernels of the reach-avoid solver (the game-independent parts) and interpolation.
 
 Every kernel takes plain arrays; ``kernels_reference`` holds a slow numpy twin of each.
 
-Layout of a game's value array (design.md section 4): the axes are the attackers' planar
-positions first, then the defender's, ``(xA1, yA1[, xA2, yA2], xD, yD)``. The kernels see it
-as a 2-D array ``(rows, m)``: one row per attacker configuration and the defender's two axes
-flattened into ``m = nxD * nyD`` contiguous elements. Differences along the defender axes are
-taken inside a row; differences along an attacker axis compare a row with a neighbouring
-row. Each row is processed in short, branch-free passes over its ``m`` elements that LLVM
-vectorises: one per player (the per-player pieces of the Hamiltonian) and one that applies
-the game's target and avoid sets.
+Row layout (``layout``): a game's value is held as a 2-D float32 array ``(rows, m)``. The
+last player's plane is a row: its two axes flattened into ``m = nx * ny`` contiguous
+elements. Each configuration of the other players (the "row players") is one row; under
+exchange symmetry only the canonical configurations are stored and ``stored_of`` maps
+every configuration to the row that holds it. Differences along the last player's axes
+are taken inside a row, differences along a row player's axis compare a row with its
+neighbouring rows. Each pass over a row's ``m`` elements is short and branch-free so that
+LLVM vectorises it; no signed offset is added to an element index (row views instead).
 
-Scheme: ``V_new = max(min(V + dt * H, l), g)`` with the decoupled Hamiltonian
-``H = -vA * sum_i |p_Ai| + vD * |p_D|`` (the attackers minimise, the defender maximises).
-Spatial derivatives are one-sided differences ``D+`` and ``D-`` with a zero-gradient
-boundary (a missing neighbour is replaced by the node itself). Godunov per player: the
-defender's ``|p|`` is ``sqrt(sum_axes max(D+, -D-, 0)^2)`` and an attacker's
-``sqrt(sum_axes max(-D+, D-, 0)^2)``; Lax-Friedrichs: ``|p|`` of the central difference
-plus ``speed * (D+ - D-) / 2`` per axis. Both are monotone while
-``dt <= 1 / sum_players (speed * sqrt(sum_axes h^-2))`` (Godunov) or
-``dt <= 1 / sum_axes (speed / h)`` (Lax-Friedrichs).
-
-Target and avoid functions are never stored as arrays of the value's size; they are
-assembled per element from planar tables of the players' grids: ``target[a]`` (signed
-distance to the target), ``attacker_free[a]`` and ``defender_free[d]`` (signed distance to
-obstacles, negative inside), the node coordinates, and for 2 vs 1 the table
-``survive[a, d]`` (the 1 vs 1 value: > 0 when that attacker loses its 1 vs 1 game). With
-``gap = R - |a - d|`` (> 0: captured), ``reach = max(target[a], gap)`` (<= 0: in the target
-uncaptured) and ``lost = max(gap, -attacker_free[a])`` (> 0: captured or in an obstacle):
-1 vs 1: ``l = min(reach(a), defender_free)``, ``g = lost(a)``.
-2 vs 1: ``l = min(reach(a1), reach(a2), defender_free)``,
-``g = max(min(lost(a1), survive[a2]), min(lost(a2), survive[a1]))``.
-
-A sweep updates rows plane after plane (``sweep``): all rows at once from a separate output
-array (Jacobi), or in place with planes whose rows are never stencil neighbours of each other
-(red-black Gauss-Seidel), so results never depend on the number of threads.
-
-Convergence is measured on the nodes next to the zero level set: a node counts when its
-absolute value is at most the largest jump to one of its stencil neighbours (so a
-neighbour may have the other sign).
+Schemes (``schemes``): the numerical Hamiltonian is a sum over players,
+``H = sum_attackers -v |p| + sum_defenders v |p|``; a piece adds one player's term to
+``ham`` and raises ``jump`` (the largest jump to a stencil neighbour, for the convergence
+measure). Spatial derivatives use a zero-gradient boundary (a missing neighbour is the
+node itself, ``width`` nodes deep). First order, per axis with raw one-sided differences
+``f+ = u[i+1] - u[i]`` and ``f- = u[i] - u[i-1]``:
+- Godunov: a maximiser's ``|p|`` is ``sqrt(sum_axes max(f+, -f-, 0)^2 / h^2)``, a
+  minimiser's ``sqrt(sum_axes max(-f+, f-, 0)^2 / h^2)``;
+- Lax-Friedrichs: ``|p|`` of the central difference, plus the dissipation
+  ``speed * (f+ - f-) / (2 h)`` per axis;
+- ENO2 (second order, Godunov's upwinding of the ENO2 one-sided derivatives
+  ``D+- = f+- / h -+ minmod(second differences) / (2 h)``, two nodes deep).
 """
 
 from __future__ import annotations
@@ -46,283 +30,243 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-_FASTMATH = {"nnan", "ninf", "nsz", "reassoc", "contract"}
+FASTMATH = {"nnan", "ninf", "nsz", "reassoc", "contract"}
 _ZERO = np.float32(0.0)
 _HALF = np.float32(0.5)
-_HUGE = np.float32(1e30)
-GODUNOV = 0
-LAX_FRIEDRICHS = 1
 
 
 # ---------------------------------------------------------------------------------------
-# per-player pieces of one row
+# rows and their neighbours
 # ---------------------------------------------------------------------------------------
 
-@njit(cache=True, fastmath=_FASTMATH)
-def _row_differences(row, ny, fx, fy):
-    """Raw forward differences of a row along the defender's two in-row axes.
+@njit(cache=True)
+def neighbour_rows(row, row_nodes, row_shape, row_stride, stored_of, width, out):
+    """``out[k, axis, j]``: the stored row ``offset`` nodes away from ``row`` along axis
+    ``axis`` (0: x, 1: y) of row player ``k``, offsets ``-width..-1, 1..width`` in order of
+    ``j``, clamped into the grid (zero-gradient boundary: the row itself at the edge)."""
+    players = row_nodes.shape[1]
+    full = 0
+    for k in range(players):
+        full += row_nodes[row, k] * row_stride[k]
+    for k in range(players):
+        nx = row_shape[k, 0]
+        ny = row_shape[k, 1]
+        node = row_nodes[row, k]
+        ix = node // ny
+        iy = node % ny
+        for j in range(2 * width):
+            offset = j - width if j < width else j - width + 1
+            jx = min(max(ix + offset, 0), nx - 1)
+            jy = min(max(iy + offset, 0), ny - 1)
+            out[k, 0, j] = stored_of[full + (jx - ix) * ny * row_stride[k]]
+            out[k, 1, j] = stored_of[full + (jy - iy) * row_stride[k]]
 
-    ``fx`` (length ``m + ny``) and ``fy`` (length ``m + 1``) are padded so that at element
-    ``r`` the forward difference is ``fx[ny + r]`` / ``fy[1 + r]`` and the backward one
-    ``fx[r]`` / ``fy[r]``; differences across the grid's edge are zero.
+
+@njit(cache=True, fastmath=FASTMATH)
+def in_row_differences(row, ny, fx, fy):
+    """Raw forward differences of a row along the last player's two in-row axes.
+
+    ``fx`` (length ``m + 3 ny``) and ``fy`` (length ``m + 3``) are padded so that at element
+    ``r`` the forward difference from node ``r + k`` steps ahead is ``fx[(2 + k) ny + r]`` /
+    ``fy[2 + k + r]`` for ``k`` in ``-2..1``; differences across the grid's edge are zero.
     """
     m = row.size
-    for r in range(ny):
+    for r in range(2 * ny):
         fx[r] = _ZERO
-        fx[m + r] = _ZERO
+    for r in range(ny):
+        fx[m + 2 * ny + r] = _ZERO
     ahead_x = row[ny:]
-    out_x = fx[ny:]
+    out_x = fx[2 * ny:]
     for r in range(m - ny):
         out_x[r] = ahead_x[r] - row[r]
+    for r in range(m - ny, m):
+        out_x[r] = _ZERO
     fy[0] = _ZERO
-    fy[m] = _ZERO
+    fy[1] = _ZERO
+    fy[m + 2] = _ZERO
     ahead_y = row[1:]
-    out_y = fy[1:]
+    out_y = fy[2:]
     for r in range(m - 1):
         out_y[r] = ahead_y[r] - row[r]
     for r in range(ny - 1, m, ny):
         out_y[r] = _ZERO
 
 
-@njit(cache=True, fastmath=_FASTMATH)
-def _defender_piece(fx, fy, ny, inv_hx, inv_hy, speed, scheme, ham, jump):
-    """``ham = +speed * |p_D|`` (maximiser); ``jump`` starts as the in-row neighbour jumps."""
+# ---------------------------------------------------------------------------------------
+# first-order pieces
+# ---------------------------------------------------------------------------------------
+
+@njit(cache=True, fastmath=FASTMATH)
+def godunov_in_row(row, ny, fx, fy, inv_hx, inv_hy, speed, maximise, ham, jump):
+    """Set ``ham`` to the last player's Godunov term and ``jump`` to the in-row jumps (the
+    first piece of a row, after ``in_row_differences``)."""
     m = ham.size
-    fxp = fx[ny:]
-    fyp = fy[1:]
-    if scheme == GODUNOV:
-        for r in range(m):
-            qx = max(max(fxp[r], -fx[r]), _ZERO) * inv_hx
-            qy = max(max(fyp[r], -fy[r]), _ZERO) * inv_hy
-            ham[r] = speed * np.sqrt(qx * qx + qy * qy)
-            jump[r] = max(max(abs(fxp[r]), abs(fx[r])), max(abs(fyp[r]), abs(fy[r])))
-    else:
-        for r in range(m):
-            cx = (fxp[r] + fx[r]) * (_HALF * inv_hx)
-            cy = (fyp[r] + fy[r]) * (_HALF * inv_hy)
-            diss = (fxp[r] - fx[r]) * inv_hx + (fyp[r] - fy[r]) * inv_hy
-            ham[r] = speed * (np.sqrt(cx * cx + cy * cy) + _HALF * diss)
-            jump[r] = max(max(abs(fxp[r]), abs(fx[r])), max(abs(fyp[r]), abs(fy[r])))
+    fxp = fx[2 * ny:]
+    fxm = fx[ny:]
+    fyp = fy[2:]
+    fym = fy[1:]
+    sign = np.float32(1.0) if maximise else np.float32(-1.0)
+    for r in range(m):
+        qx = max(max(sign * fxp[r], -sign * fxm[r]), _ZERO) * inv_hx
+        qy = max(max(sign * fyp[r], -sign * fym[r]), _ZERO) * inv_hy
+        ham[r] = sign * speed * np.sqrt(qx * qx + qy * qy)
+        jump[r] = max(max(abs(fxp[r]), abs(fxm[r])), max(abs(fyp[r]), abs(fym[r])))
 
 
-@njit(cache=True, fastmath=_FASTMATH)
-def _attacker_piece(row, xm, xp, ym, yp, inv_hx, inv_hy, speed, scheme, ham, jump):
-    """``ham -= speed * |p_A|`` (minimiser) from the four neighbouring rows of one attacker.
-
-    A neighbour row missing at the grid's edge is passed as ``row`` itself.
-    """
+@njit(cache=True, fastmath=FASTMATH)
+def lax_friedrichs_in_row(row, ny, fx, fy, inv_hx, inv_hy, speed, maximise, ham, jump):
+    """Set ``ham`` and ``jump``: the last player's Lax-Friedrichs term (as ``godunov_in_row``)."""
     m = ham.size
-    if scheme == GODUNOV:
+    fxp = fx[2 * ny:]
+    fxm = fx[ny:]
+    fyp = fy[2:]
+    fym = fy[1:]
+    sign = np.float32(1.0) if maximise else np.float32(-1.0)
+    for r in range(m):
+        cx = (fxp[r] + fxm[r]) * (_HALF * inv_hx)
+        cy = (fyp[r] + fym[r]) * (_HALF * inv_hy)
+        diss = (fxp[r] - fxm[r]) * inv_hx + (fyp[r] - fym[r]) * inv_hy
+        ham[r] = speed * (sign * np.sqrt(cx * cx + cy * cy) + _HALF * diss)
+        jump[r] = max(max(abs(fxp[r]), abs(fxm[r])), max(abs(fyp[r]), abs(fym[r])))
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def godunov_across(row, values, nbr, inv_hx, inv_hy, speed, maximise, ham, jump):
+    """Add a row player's Godunov term; ``nbr`` = ``neighbour_rows`` of that player
+    (width 1: ``[axis, (minus, plus)]``)."""
+    xm, xp = values[nbr[0, 0]], values[nbr[0, 1]]
+    ym, yp = values[nbr[1, 0]], values[nbr[1, 1]]
+    m = ham.size
+    if maximise:
         for r in range(m):
             v = row[r]
-            ax = max(v - min(xp[r], xm[r]), _ZERO) * inv_hx
-            ay = max(v - min(yp[r], ym[r]), _ZERO) * inv_hy
-            ham[r] -= speed * np.sqrt(ax * ax + ay * ay)
+            qx = max(max(xp[r], xm[r]) - v, _ZERO) * inv_hx
+            qy = max(max(yp[r], ym[r]) - v, _ZERO) * inv_hy
+            ham[r] += speed * np.sqrt(qx * qx + qy * qy)
             big = max(max(abs(xp[r] - v), abs(xm[r] - v)), max(abs(yp[r] - v), abs(ym[r] - v)))
             jump[r] = max(jump[r], big)
     else:
         for r in range(m):
             v = row[r]
-            cx = (xp[r] - xm[r]) * (_HALF * inv_hx)
-            cy = (yp[r] - ym[r]) * (_HALF * inv_hy)
-            diss = (xp[r] + xm[r] - v - v) * inv_hx + (yp[r] + ym[r] - v - v) * inv_hy
-            ham[r] += speed * (_HALF * diss - np.sqrt(cx * cx + cy * cy))
+            qx = max(v - min(xp[r], xm[r]), _ZERO) * inv_hx
+            qy = max(v - min(yp[r], ym[r]), _ZERO) * inv_hy
+            ham[r] -= speed * np.sqrt(qx * qx + qy * qy)
             big = max(max(abs(xp[r] - v), abs(xm[r] - v)), max(abs(yp[r] - v), abs(ym[r] - v)))
             jump[r] = max(jump[r], big)
 
 
-@njit(cache=True, fastmath=_FASTMATH)
-def _capture_gap(r, ax, ay, dxs, dys, radius):
-    """``R - |a - d|`` for attacker node ``(ax, ay)`` and defender node ``r``."""
-    ex = ax - dxs[r]
-    ey = ay - dys[r]
-    return radius - np.sqrt(ex * ex + ey * ey)
-
-
-@njit(cache=True, fastmath=_FASTMATH)
-def _close_1v1(row, new, ham, jump, dt, a, sets, acc):
-    """Apply the 1 vs 1 sets to a row."""
-    target, attacker_free, ax, ay, dxs, dys, defender_free, radius = sets
-    t, f, x, y = target[a], attacker_free[a], ax[a], ay[a]
-    for r in range(row.size):
+@njit(cache=True, fastmath=FASTMATH)
+def lax_friedrichs_across(row, values, nbr, inv_hx, inv_hy, speed, maximise, ham, jump):
+    """Add a row player's Lax-Friedrichs term (``nbr`` as in ``godunov_across``)."""
+    xm, xp = values[nbr[0, 0]], values[nbr[0, 1]]
+    ym, yp = values[nbr[1, 0]], values[nbr[1, 1]]
+    sign = np.float32(1.0) if maximise else np.float32(-1.0)
+    m = ham.size
+    for r in range(m):
         v = row[r]
-        gap = _capture_gap(r, x, y, dxs, dys, radius)
-        reach = min(max(t, gap), defender_free[r])
-        lost = max(gap, -f)
-        updated = max(min(v + dt * ham[r], reach), lost)
-        new[r] = updated
-        step = abs(updated - v)
-        acc[r] = max(acc[r], step if abs(v) <= jump[r] else _ZERO)
-
-
-@njit(cache=True, fastmath=_FASTMATH)
-def _close_2v1(row, new, ham, jump, dt, a1, a2, sets, survive, acc):
-    """Apply the 2 vs 1 sets to a row."""
-    target, attacker_free, ax, ay, dxs, dys, defender_free, radius = sets
-    t1, f1, x1, y1 = target[a1], attacker_free[a1], ax[a1], ay[a1]
-    t2, f2, x2, y2 = target[a2], attacker_free[a2], ax[a2], ay[a2]
-    survive1, survive2 = survive[a1], survive[a2]
-    for r in range(row.size):
-        v = row[r]
-        gap1 = _capture_gap(r, x1, y1, dxs, dys, radius)
-        gap2 = _capture_gap(r, x2, y2, dxs, dys, radius)
-        reach = min(min(max(t1, gap1), max(t2, gap2)), defender_free[r])
-        avoid = max(min(max(gap1, -f1), survive2[r]), min(max(gap2, -f2), survive1[r]))
-        updated = max(min(v + dt * ham[r], reach), avoid)
-        new[r] = updated
-        step = abs(updated - v)
-        acc[r] = max(acc[r], step if abs(v) <= jump[r] else _ZERO)
+        cx = (xp[r] - xm[r]) * (_HALF * inv_hx)
+        cy = (yp[r] - ym[r]) * (_HALF * inv_hy)
+        diss = (xp[r] + xm[r] - v - v) * inv_hx + (yp[r] + ym[r] - v - v) * inv_hy
+        ham[r] += speed * (sign * np.sqrt(cx * cx + cy * cy) + _HALF * diss)
+        big = max(max(abs(xp[r] - v), abs(xm[r] - v)), max(abs(yp[r] - v), abs(ym[r] - v)))
+        jump[r] = max(jump[r], big)
 
 
 # ---------------------------------------------------------------------------------------
-# row bookkeeping shared by both games
+# second order: ENO2
 # ---------------------------------------------------------------------------------------
 
-@njit(cache=True)
-def _attacker_index(row, player, n_attackers, na):
-    """Flat grid index of attacker ``player`` in ``row`` (rows are ``(a1[, a2])`` in C order)."""
-    stride = 1 if player == n_attackers - 1 else na
-    return (row // stride) % na
+@njit(cache=True, fastmath=FASTMATH)
+def _minmod(a, b):
+    return _HALF * (np.sign(a) + np.sign(b)) * min(abs(a), abs(b))
 
 
-@njit(cache=True)
-def canonical_row(row, n_attackers, na, symmetric):
-    """The row that stores ``row``: with exchange symmetry, ``(a1, a2)`` and ``(a2, a1)`` are
-    both stored at the one with ``a1 >= a2``."""
-    if symmetric and n_attackers == 2:
-        a1 = row // na
-        a2 = row % na
-        if a1 < a2:
-            return a2 * na + a1
-    return row
+@njit(cache=True, fastmath=FASTMATH)
+def _eno2_upwind(f_mm, f_m, f_p, f_pp, maximise):
+    """Upwinded raw difference (times h) of one axis from the forward differences
+    ``u[i-1]-u[i-2], u[i]-u[i-1], u[i+1]-u[i], u[i+2]-u[i+1]``."""
+    centre = f_p - f_m
+    plus = f_p - _HALF * _minmod(centre, f_pp - f_p)
+    minus = f_m + _HALF * _minmod(centre, f_m - f_mm)
+    if maximise:
+        return max(max(plus, -minus), _ZERO)
+    return max(max(-plus, minus), _ZERO)
 
 
-@njit(cache=True)
-def _neighbour_rows(row, n_attackers, na, any_, anx, symmetric, out):
-    """``out[player] = (x-, x+, y-, y+)`` neighbour rows, the row itself on the grid's edge."""
-    for player in range(n_attackers):
-        stride = 1 if player == n_attackers - 1 else na
-        a = (row // stride) % na
-        ix = a // any_
-        iy = a % any_
-        out[player, 0] = canonical_row(row - any_ * stride if ix > 0 else row,
-                                       n_attackers, na, symmetric)
-        out[player, 1] = canonical_row(row + any_ * stride if ix < anx - 1 else row,
-                                       n_attackers, na, symmetric)
-        out[player, 2] = canonical_row(row - stride if iy > 0 else row,
-                                       n_attackers, na, symmetric)
-        out[player, 3] = canonical_row(row + stride if iy < any_ - 1 else row,
-                                       n_attackers, na, symmetric)
+@njit(cache=True, fastmath=FASTMATH)
+def eno2_in_row(row, ny, fx, fy, inv_hx, inv_hy, speed, maximise, ham, jump):
+    """Set ``ham`` and ``jump``: the last player's ENO2 term (as ``godunov_in_row``)."""
+    m = ham.size
+    fx_mm, fx_m, fx_p, fx_pp = fx[:m], fx[ny:], fx[2 * ny:], fx[3 * ny:]
+    fy_mm, fy_m, fy_p, fy_pp = fy[:m], fy[1:], fy[2:], fy[3:]
+    sign = np.float32(1.0) if maximise else np.float32(-1.0)
+    for ix in range(m // ny):
+        for iy in range(ny):
+            r = ix * ny + iy
+            # two nodes deep across a y edge the padding holds the next x line's values
+            y_mm = fy_mm[r] if iy > 0 else _ZERO
+            y_pp = fy_pp[r] if iy < ny - 1 else _ZERO
+            qx = _eno2_upwind(fx_mm[r], fx_m[r], fx_p[r], fx_pp[r], maximise) * inv_hx
+            qy = _eno2_upwind(y_mm, fy_m[r], fy_p[r], y_pp, maximise) * inv_hy
+            ham[r] = sign * speed * np.sqrt(qx * qx + qy * qy)
+            jump[r] = max(max(abs(fx_p[r]), abs(fx_m[r])), max(abs(fy_p[r]), abs(fy_m[r])))
 
 
-@njit(cache=True, fastmath=_FASTMATH)
-def _update_row(values, out, row_index, n_attackers, any_, anx, dny, inv_h, speeds, dt, scheme,
-                symmetric, sets, survive, fx, fy, ham, jump, new, acc, nbr):
-    """Update one row: every read of ``values`` happens before ``out[row_index]`` is written,
-    so ``out`` may be ``values`` itself (Gauss-Seidel)."""
-    na = anx * any_
-    row = values[row_index]
-    _row_differences(row, dny, fx, fy)
-    _defender_piece(fx, fy, dny, inv_h[2 * n_attackers], inv_h[2 * n_attackers + 1], speeds[1],
-                    scheme, ham, jump)
-    _neighbour_rows(row_index, n_attackers, na, any_, anx, symmetric, nbr)
-    for player in range(n_attackers):
-        _attacker_piece(row, values[nbr[player, 0]], values[nbr[player, 1]],
-                        values[nbr[player, 2]], values[nbr[player, 3]], inv_h[2 * player],
-                        inv_h[2 * player + 1], speeds[0], scheme, ham, jump)
-    a1 = _attacker_index(row_index, 0, n_attackers, na)
-    if n_attackers == 1:
-        _close_1v1(row, new, ham, jump, dt, a1, sets, acc)
-    else:
-        a2 = _attacker_index(row_index, 1, n_attackers, na)
-        _close_2v1(row, new, ham, jump, dt, a1, a2, sets, survive, acc)
-    target = out[row_index]
-    for r in range(new.size):
-        target[r] = new[r]
+@njit(cache=True, fastmath=FASTMATH)
+def eno2_across(row, values, nbr, inv_hx, inv_hy, speed, maximise, ham, jump):
+    """Add a row player's ENO2 term; ``nbr`` of width 2: ``[axis, (-2, -1, +1, +2)]``."""
+    xmm, xm, xp, xpp = values[nbr[0, 0]], values[nbr[0, 1]], values[nbr[0, 2]], values[nbr[0, 3]]
+    ymm, ym, yp, ypp = values[nbr[1, 0]], values[nbr[1, 1]], values[nbr[1, 2]], values[nbr[1, 3]]
+    sign = np.float32(1.0) if maximise else np.float32(-1.0)
+    m = ham.size
+    for r in range(m):
+        v = row[r]
+        qx = _eno2_upwind(xm[r] - xmm[r], v - xm[r], xp[r] - v, xpp[r] - xp[r],
+                          maximise) * inv_hx
+        qy = _eno2_upwind(ym[r] - ymm[r], v - ym[r], yp[r] - v, ypp[r] - yp[r],
+                          maximise) * inv_hy
+        ham[r] += sign * speed * np.sqrt(qx * qx + qy * qy)
+        big = max(max(abs(xp[r] - v), abs(xm[r] - v)), max(abs(yp[r] - v), abs(ym[r] - v)))
+        jump[r] = max(jump[r], big)
 
 
-@njit(cache=True, parallel=True, fastmath=_FASTMATH)
-def sweep(values, out, rows, planes, reverse, n_attackers, any_, anx, dny, inv_h, speeds, dt,
-          scheme, symmetric, sets, survive, n_chunks):
-    """One step of the reach-avoid update over ``rows``, plane after plane.
-
-    - ``values``, ``out``: ``(R, m)`` float32. Distinct arrays: a Jacobi step (one plane).
-      The same array: Gauss-Seidel, updated in place; the rows of one plane must not be
-      stencil neighbours of each other (then the result does not depend on threading).
-    - ``rows``: int64 rows to update, grouped by plane: plane ``p`` is
-      ``rows[planes[p]:planes[p + 1]]``; planes run in order, or backwards with ``reverse``.
-      Rows not listed are left untouched in ``out``.
-    - ``any_``, ``anx``: attacker grid nodes along y and x (``na = anx * any_``);
-      ``dny``: defender nodes along y (``m = dnx * dny``).
-    - ``inv_h``: float32 ``(2 * n_attackers + 2,)`` inverse spacings in axis order.
-    - ``speeds``: float32 ``(attacker, defender)``; ``dt``: float32 time step.
-    - ``sets``: the planar tables ``(target (na,), attacker_free (na,), ax (na,), ay (na,),
-      dx (m,), dy (m,), defender_free (m,), capture_radius)``, float32 (node coordinates
-      ``ax``, ``ay`` of the attacker grid and ``dx``, ``dy`` of the defender grid, flat).
-    - ``survive``: ``(na, m)`` 1 vs 1 value table (2 vs 1 only; any 2-D array otherwise).
-    - ``n_chunks``: the rows of a plane are split into this many chunks for the threads.
-
-    Returns the largest change near the zero level set (divide by ``dt`` for the change per
-    unit game time).
-    """
-    m = values.shape[1]
-    fx = np.empty((n_chunks, m + dny), dtype=np.float32)
-    fy = np.empty((n_chunks, m + 1), dtype=np.float32)
-    ham = np.empty((n_chunks, m), dtype=np.float32)
-    jump = np.empty((n_chunks, m), dtype=np.float32)
-    new = np.empty((n_chunks, m), dtype=np.float32)
-    acc = np.zeros((n_chunks, m), dtype=np.float32)
-    nbr = np.empty((n_chunks, n_attackers, 4), dtype=np.int64)
-    n_planes = planes.size - 1
-    for step in range(n_planes):
-        plane = n_planes - 1 - step if reverse else step
-        first = planes[plane]
-        count = planes[plane + 1] - first
-        chunks = min(count, n_chunks)
-        for chunk in prange(chunks):
-            for k in range(first + chunk * count // chunks, first + (chunk + 1) * count // chunks):
-                _update_row(values, out, rows[k], n_attackers, any_, anx, dny, inv_h, speeds, dt,
-                            scheme, symmetric, sets, survive, fx[chunk], fy[chunk], ham[chunk],
-                            jump[chunk], new[chunk], acc[chunk], nbr[chunk])
-    best = _ZERO
-    for chunk in range(n_chunks):
-        for r in range(m):
-            best = max(best, acc[chunk, r])
-    return best
-
-
-@njit(cache=True, parallel=True, fastmath=_FASTMATH)
-def initial_values(out, rows, n_attackers, na, sets, survive):
-    """``out[row] = max(l, g)`` on the given rows: the value at zero time-to-go."""
-    m = out.shape[1]
-    ham = np.zeros(m, dtype=np.float32)
-    huge = np.full(m, _HUGE, dtype=np.float32)
-    for k in prange(rows.size):
-        row_index = rows[k]
-        acc = np.zeros(m, dtype=np.float32)
-        jump = np.zeros(m, dtype=np.float32)
-        a1 = _attacker_index(row_index, 0, n_attackers, na)
-        if n_attackers == 1:
-            _close_1v1(huge, out[row_index], ham, jump, _ZERO, a1, sets, acc)
-        else:
-            a2 = _attacker_index(row_index, 1, n_attackers, na)
-            _close_2v1(huge, out[row_index], ham, jump, _ZERO, a1, a2, sets, survive, acc)
-
+# ---------------------------------------------------------------------------------------
+# warm starts
+# ---------------------------------------------------------------------------------------
 
 @njit(cache=True, parallel=True)
-def mirror_rows(values, na):
-    """Fill the rows ``(a1, a2)`` with ``a1 < a2`` from their stored twins ``(a2, a1)``."""
-    m = values.shape[1]
-    for a1 in prange(na):
-        for a2 in range(a1 + 1, na):
-            source = values[a2 * na + a1]
-            target = values[a1 * na + a2]
-            for r in range(m):
-                target[r] = source[r]
+def interpolate_rows(coarse, coarse_stored_of, coarse_shape, coarse_stride, lo, spacing,
+                     points, margin, out):
+    """``out[k] = margin + sum_corners w * coarse[stored_of[corner row]]``: the coarse rows
+    (already interpolated onto the fine plane) multilinearly interpolated at the row
+    players' coordinates ``points[k]`` (``(rows, 2 P)``), clamped into the coarse grid.
+
+    ``coarse_shape`` ``(2 P,)`` node counts of the coarse row axes, ``coarse_stride``
+    ``(2 P,)`` their strides in coarse (full) row numbers, ``lo``/``spacing`` the coarse
+    row axes' grid."""
+    axes = coarse_shape.size
+    m = out.shape[1]
+    for k in prange(points.shape[0]):
+        frac = np.empty(axes, dtype=np.float64)
+        base = 0
+        for a in range(axes):
+            i, t = _cell(points[k, a], lo[a], spacing[a], coarse_shape[a])
+            base += i * coarse_stride[a]
+            frac[a] = t
+        target = out[k]
+        for r in range(m):
+            target[r] = margin
+        for corner in range(1 << axes):
+            weight, offset = _corner(corner, base, frac, coarse_stride)
+            if weight != 0.0:
+                source = coarse[coarse_stored_of[offset]]
+                w = np.float32(weight)
+                for r in range(m):
+                    target[r] += w * source[r]
 
 
 # ---------------------------------------------------------------------------------------
-# interpolation
+# interpolation (values stored as rows: ``values[stored_of[flat // m], flat % m]``)
 # ---------------------------------------------------------------------------------------
 
 @njit(cache=True)
@@ -375,18 +319,24 @@ def _corner(corner, base, frac, strides):
 
 
 @njit(cache=True)
-def _value_at(values, point, shape, lo, spacing, strides, frac, lower):
+def _read(values, stored_of, flat):
+    m = values.shape[1]
+    return values[stored_of[flat // m], flat % m]
+
+
+@njit(cache=True)
+def _value_at(values, stored_of, point, shape, lo, spacing, strides, frac, lower):
     base = _locate(point, shape, lo, spacing, strides, frac, lower)
     total = 0.0
     for corner in range(1 << shape.size):
         weight, offset = _corner(corner, base, frac, strides)
         if weight != 0.0:
-            total += weight * values[offset]
+            total += weight * _read(values, stored_of, offset)
     return total
 
 
 @njit(cache=True)
-def _gradient_at(values, point, shape, lo, spacing, strides, frac, lower, out):
+def _gradient_at(values, stored_of, point, shape, lo, spacing, strides, frac, lower, out):
     base = _locate(point, shape, lo, spacing, strides, frac, lower)
     for k in range(shape.size):
         out[k] = 0.0
@@ -399,7 +349,8 @@ def _gradient_at(values, point, shape, lo, spacing, strides, frac, lower, out):
             up = offset + strides[k] if node < shape[k] - 1 else offset
             down = offset - strides[k] if node > 0 else offset
             span = (up - down) // strides[k]
-            out[k] += weight * (values[up] - values[down]) / (span * spacing[k])
+            difference = _read(values, stored_of, up) - _read(values, stored_of, down)
+            out[k] += weight * difference / (span * spacing[k])
 
 
 _PARALLEL_FROM = 4096
@@ -407,59 +358,67 @@ _PARALLEL_FROM = 4096
 
 
 @njit(cache=True)
-def _interpolate_serial(values, shape, lo, spacing, points):
+def _interpolate_serial(values, stored_of, shape, lo, spacing, points):
     strides = _strides(shape)
     frac = np.empty(shape.size, dtype=np.float64)
     lower = np.empty(shape.size, dtype=np.int64)
     result = np.empty(points.shape[0], dtype=np.float64)
     for q in range(points.shape[0]):
-        result[q] = _value_at(values, points[q], shape, lo, spacing, strides, frac, lower)
+        result[q] = _value_at(values, stored_of, points[q], shape, lo, spacing, strides, frac,
+                              lower)
     return result
 
 
 @njit(cache=True, parallel=True)
-def _interpolate_parallel(values, shape, lo, spacing, points):
+def _interpolate_parallel(values, stored_of, shape, lo, spacing, points):
     strides = _strides(shape)
     result = np.empty(points.shape[0], dtype=np.float64)
     for q in prange(points.shape[0]):
         frac = np.empty(shape.size, dtype=np.float64)
         lower = np.empty(shape.size, dtype=np.int64)
-        result[q] = _value_at(values, points[q], shape, lo, spacing, strides, frac, lower)
+        result[q] = _value_at(values, stored_of, points[q], shape, lo, spacing, strides, frac,
+                              lower)
     return result
 
 
 @njit(cache=True)
-def _gradient_serial(values, shape, lo, spacing, points):
+def _gradient_serial(values, stored_of, shape, lo, spacing, points):
     strides = _strides(shape)
     frac = np.empty(shape.size, dtype=np.float64)
     lower = np.empty(shape.size, dtype=np.int64)
     result = np.empty((points.shape[0], shape.size), dtype=np.float64)
     for q in range(points.shape[0]):
-        _gradient_at(values, points[q], shape, lo, spacing, strides, frac, lower, result[q])
+        _gradient_at(values, stored_of, points[q], shape, lo, spacing, strides, frac, lower,
+                     result[q])
     return result
 
 
 @njit(cache=True, parallel=True)
-def _gradient_parallel(values, shape, lo, spacing, points):
+def _gradient_parallel(values, stored_of, shape, lo, spacing, points):
     strides = _strides(shape)
     result = np.empty((points.shape[0], shape.size), dtype=np.float64)
     for q in prange(points.shape[0]):
         frac = np.empty(shape.size, dtype=np.float64)
         lower = np.empty(shape.size, dtype=np.int64)
-        _gradient_at(values, points[q], shape, lo, spacing, strides, frac, lower, result[q])
+        _gradient_at(values, stored_of, points[q], shape, lo, spacing, strides, frac, lower,
+                     result[q])
     return result
 
 
-def interpolate(values: np.ndarray, shape: np.ndarray, lo: np.ndarray, spacing: np.ndarray,
-                points: np.ndarray) -> np.ndarray:
-    """Multilinear interpolation of flat C-order ``values`` at ``points (K, ndim)``, clamped
-    into the grid (float64)."""
+def interpolate(values: np.ndarray, stored_of: np.ndarray, shape: np.ndarray, lo: np.ndarray,
+                spacing: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Multilinear interpolation at ``points (K, ndim)``, clamped into the grid (float64).
+
+    ``values`` ``(stored rows, m)``: node ``flat`` (C order over ``shape``) is
+    ``values[stored_of[flat // m], flat % m]`` (a whole array: ``values.reshape(1, -1)``
+    with ``stored_of = [0]``)."""
     kernel = _interpolate_parallel if len(points) >= _PARALLEL_FROM else _interpolate_serial
-    return kernel(values, shape, lo, spacing, points)
+    return kernel(values, stored_of, shape, lo, spacing, points)
 
 
-def interpolate_gradient(values: np.ndarray, shape: np.ndarray, lo: np.ndarray,
-                         spacing: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Nodal central differences (one-sided on the edges), interpolated multilinearly."""
+def interpolate_gradient(values: np.ndarray, stored_of: np.ndarray, shape: np.ndarray,
+                         lo: np.ndarray, spacing: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Nodal central differences (one-sided on the edges), interpolated multilinearly
+    (``values`` and ``stored_of`` as in ``interpolate``)."""
     kernel = _gradient_parallel if len(points) >= _PARALLEL_FROM else _gradient_serial
-    return kernel(values, shape, lo, spacing, points)
+    return kernel(values, stored_of, shape, lo, spacing, points)

@@ -1,7 +1,7 @@
 """Slow pure-numpy twins of ``kernels``, written from the formulas, for tests.
 
-They work on whole arrays of the game's full shape ``(xA1, yA1[, xA2, yA2], xD, yD)`` in
-float64 and materialise everything; use them on small grids only.
+They work on whole arrays of a game's full shape (each player's ``x``, ``y`` axes in
+order) in float64 and materialise everything; use them on small grids only.
 """
 
 from __future__ import annotations
@@ -11,55 +11,62 @@ import itertools
 import numpy as np
 
 
-def _one_sided(values: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
-    """Raw forward and backward differences along ``axis`` with a zero-gradient edge."""
-    padded = np.concatenate([values.take([0], axis=axis), values,
-                             values.take([-1], axis=axis)], axis=axis)
+def _differences(values: np.ndarray, axis: int, width: int) -> list[np.ndarray]:
+    """Raw forward differences ``u[i+k+1] - u[i+k]`` for ``k = -width..width-1`` at every
+    node, with a zero-gradient edge ``width`` nodes deep."""
+    pad = [(0, 0)] * values.ndim
+    pad[axis] = (width, width)
+    padded = np.pad(values, pad, mode="edge")
     n = values.shape[axis]
-    ahead = padded.take(np.arange(2, n + 2), axis=axis)
-    behind = padded.take(np.arange(0, n), axis=axis)
-    return ahead - values, values - behind
+    forward = np.diff(padded, axis=axis)
+    return [forward.take(np.arange(k + width, k + width + n), axis=axis)
+            for k in range(-width, width)]
 
 
-def hamiltonian(values: np.ndarray, spacing: tuple[float, ...], speeds: tuple[float, float],
-                scheme: str) -> tuple[np.ndarray, np.ndarray]:
+def _minmod(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.where(a * b > 0, np.sign(a) * np.minimum(np.abs(a), np.abs(b)), 0.0)
+
+
+def hamiltonian(values: np.ndarray, spacing: tuple[float, ...],
+                players: list[tuple[float, bool]], scheme: str) -> tuple[np.ndarray, np.ndarray]:
     """Numerical Hamiltonian and the largest neighbour jump at every node.
 
-    Players are the consecutive axis pairs; all but the last pair are attackers (minimise,
-    speed ``speeds[0]``), the last pair is the defender (maximises, ``speeds[1]``).
+    Players are the consecutive axis pairs, ``(speed, maximise)`` each (a defender
+    maximises, an attacker minimises).
     """
     values = values.astype(np.float64)
-    ndim = values.ndim
     ham = np.zeros_like(values)
     jump = np.zeros_like(values)
-    for player in range(ndim // 2):
-        defender = player == ndim // 2 - 1
-        speed = speeds[1] if defender else speeds[0]
+    for player, (speed, maximise) in enumerate(players):
+        sign = 1.0 if maximise else -1.0
         norm2 = np.zeros_like(values)
         diss = np.zeros_like(values)
         for axis in (2 * player, 2 * player + 1):
-            forward, backward = _one_sided(values, axis)
-            jump = np.maximum(jump, np.maximum(np.abs(forward), np.abs(backward)))
-            dp, dm = forward / spacing[axis], backward / spacing[axis]
-            if scheme == "godunov":
-                if defender:
-                    q = np.maximum(np.maximum(dp, -dm), 0.0)
-                else:
-                    q = np.maximum(np.maximum(-dp, dm), 0.0)
-                norm2 += q**2
+            h = spacing[axis]
+            if scheme == "eno2":
+                f_mm, f_m, f_p, f_pp = _differences(values, axis, 2)
+                centre = f_p - f_m
+                plus = (f_p - 0.5 * _minmod(centre, f_pp - f_p)) / h
+                minus = (f_m + 0.5 * _minmod(centre, f_m - f_mm)) / h
             else:
-                norm2 += ((dp + dm) / 2) ** 2
-                diss += (dp - dm) / 2
-        sign = 1.0 if defender else -1.0
+                f_m, f_p = _differences(values, axis, 1)
+                plus, minus = f_p / h, f_m / h
+            jump = np.maximum(jump, np.maximum(np.abs(f_p), np.abs(f_m)))
+            if scheme == "lax_friedrichs":
+                norm2 += ((plus + minus) / 2) ** 2
+                diss += (plus - minus) / 2
+            else:
+                q = np.maximum(np.maximum(sign * plus, -sign * minus), 0.0)
+                norm2 += q**2
         ham += speed * (sign * np.sqrt(norm2) + diss)
     return ham, jump
 
 
-def game_sets(target: np.ndarray, attacker_free: np.ndarray, defender_free: np.ndarray,
-              attacker_points: np.ndarray, defender_points: np.ndarray, capture_radius: float,
-              survive: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    """Full target ``l`` and avoid ``g`` arrays of the 1 vs 1 (``survive is None``) or
-    2 vs 1 game from the planar tables.
+def paper_sets(target: np.ndarray, attacker_free: np.ndarray, defender_free: np.ndarray,
+               attacker_points: np.ndarray, defender_points: np.ndarray, capture_radius: float,
+               survive: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's target ``l`` and avoid ``g`` of 1 vs 1 (``survive is None``) or 2 vs 1,
+    written out by hand from eqs. (RA_11), (RA_21), (L) (checks the declarations).
 
     ``target``, ``attacker_free``: ``(nxA, nyA)``; ``defender_free``: ``(nxD, nyD)``;
     ``attacker_points`` ``(nxA, nyA, 2)`` and ``defender_points`` ``(nxD, nyD, 2)``: node
@@ -87,11 +94,11 @@ def game_sets(target: np.ndarray, attacker_free: np.ndarray, defender_free: np.n
     return target_set, avoid
 
 
-def sweep(values: np.ndarray, spacing: tuple[float, ...], speeds: tuple[float, float],
+def sweep(values: np.ndarray, spacing: tuple[float, ...], players: list[tuple[float, bool]],
           dt: float, scheme: str, target: np.ndarray,
           avoid: np.ndarray) -> tuple[np.ndarray, float]:
     """One update ``max(min(V + dt H, l), g)`` and the largest change near the zero level set."""
-    ham, jump = hamiltonian(values, spacing, speeds, scheme)
+    ham, jump = hamiltonian(values, spacing, players, scheme)
     new = np.maximum(np.minimum(values + dt * ham, target), avoid)
     near = np.abs(values) <= jump
     change = np.abs(new - values)

@@ -1,8 +1,8 @@
 """2-D slices of reach-avoid tubes (the paper's Fig. 2) with matplotlib (no pyplot state).
 
 A slice fixes every player but one and shades the free player's positions from which the
-attacker side wins (value <= 0). Players are named by the game's axes: ``"A"`` and ``"D"``
-(1 vs 1), ``"A1"``, ``"A2"`` and ``"D"`` (2 vs 1).
+attacker side wins (value <= 0). Players are named as in the game's declaration (``"A"``
+and ``"D"`` in 1 vs 1, ``"A1"``, ``"A2"`` and ``"D"`` in 2 vs 1).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ Point = tuple[float, float]
 
 def players(vf: ValueFunction) -> tuple[str, ...]:
     """Player names of the game, in axis order."""
-    return ("A", "D") if vf.game == "1v1" else ("A1", "A2", "D")
+    return tuple(p.name for p in vf.players)
 
 
 def slice_values(vf: ValueFunction, free: str, fixed: Mapping[str, Point],
@@ -81,8 +81,9 @@ def plot_slice(vf: ValueFunction, free: str, fixed: Mapping[str, Point], ax: Axe
     ax.contourf(xs, ys, value, levels=[value.min() - 1.0, 0.0], colors=["#ff9896"], alpha=0.7)
     ax.contour(xs, ys, value, levels=[0.0], colors=["#d62728"], linewidths=1.2)
     draw_map(ax, vf.game_map)
+    roles = {p.name: p.role for p in vf.players}
     for name, (x, y) in fixed.items():
-        defender = name.startswith("D")
+        defender = roles[name] == "defender"
         ax.plot(x, y, marker="o", color="#1f77b4" if defender else "#d62728",
                 markeredgecolor="black", markersize=7, zorder=5)
         ax.annotate(name, (x, y), textcoords="offset points", xytext=(6, 6), zorder=5)
@@ -108,17 +109,22 @@ def tube_figure(panels: Sequence[tuple[ValueFunction, str, Mapping[str, Point]]]
     return figure
 
 
-def scenario_panels(vf: ValueFunction, attackers: Sequence[Point], defender: Point
+def scenario_panels(vf: ValueFunction, attackers: Sequence[Point], defenders: Sequence[Point]
                     ) -> list[tuple[ValueFunction, str, dict[str, Point]]]:
-    """The paper's Fig. 2 slices at given starts: 1 vs 1, the attacker free (defender
-    fixed) and the defender free; 2 vs 1, attacker 2 free (A1 and D fixed) and the defender
-    free (both attackers fixed)."""
-    if vf.game == "1v1":
-        return [(vf, "A", {"D": defender}), (vf, "D", {"A": attackers[0]})]
-    if len(attackers) < 2:
-        raise ValueError("attackers: the 2v1 slices need two attacker positions")
-    return [(vf, "A2", {"A1": attackers[0], "D": defender}),
-            (vf, "D", {"A1": attackers[0], "A2": attackers[1]})]
+    """The paper's Fig. 2 slices at given starts, for any game: the last attacker free
+    (everyone else fixed) and the first defender free. 1 vs 1: A free, then D free; 2 vs 1:
+    A2 free (A1 and D fixed), then D free (both attackers fixed)."""
+    names = {"attacker": [p.name for p in vf.attackers],
+             "defender": [p.name for p in vf.defenders]}
+    given = {"attacker": list(attackers), "defender": list(defenders)}
+    for role in names:
+        if len(given[role]) < len(names[role]):
+            raise ValueError(f"{role}s: the {vf.game} slices need {len(names[role])} {role} "
+                             "positions")
+    position = {name: tuple(given[role][k]) for role in names
+                for k, name in enumerate(names[role])}
+    return [(vf, free, {n: p for n, p in position.items() if n != free})
+            for free in (names["attacker"][-1], names["defender"][0])]
 
 
 def save_figure(figure: Figure, path: str | os.PathLike[str]) -> Path:

@@ -1,10 +1,13 @@
 """The solve loop shared by every game: march the reach-avoid update to convergence.
 
 The infinite-horizon reach-avoid value is the fixed point of
-``V <- max(min(V + dt * H(V), l), g)`` started from ``V = max(l, g)``. The scheme is monotone
-under the CFL bound, so the iterates decrease monotonically towards it. The loop stops when
-the largest change of ``V`` over one unit of game time, on the nodes next to the zero level
-set, falls below ``settings.tolerance`` (or after ``settings.max_iterations`` sweeps).
+``V <- max(min(V + dt * H(V), l), g)`` started from ``V = max(l, g)`` (cold) or from a
+coarse grid's value plus a margin (warm, ``warm_start``). Every fixed point lies below
+``max(l, g)`` and the update is monotone under the CFL bound, so from any start between
+the largest fixed point and ``max(l, g)`` the iterates are squeezed onto the largest fixed
+point, the one the cold start reaches. The loop stops when the largest change of ``V``
+over one unit of game time, on the nodes next to the zero level set, falls below
+``settings.tolerance`` (or after ``settings.max_iterations`` sweeps).
 """
 
 from __future__ import annotations
@@ -12,15 +15,20 @@ from __future__ import annotations
 import math
 import os
 import time
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
 from tqdm.auto import tqdm
 
-from solvers.hj import kernels
+from solvers.hj import geometry, kernels
+from solvers.hj.codegen import TableSpec, compile_kernel
+from solvers.hj.game import PLANAR_TABLES, Coordinate, Expr, Game, Op, Table, evaluate
 from solvers.hj.grid import Grid
+from solvers.hj.layout import Layout, layout_of, stored_groups
 from solvers.hj.settings import SolverSettings
+from solvers.hj.value import ValueFunction
 
 
 class InsufficientMemoryError(MemoryError):
@@ -28,65 +36,72 @@ class InsufficientMemoryError(MemoryError):
 
 
 @dataclass(frozen=True, eq=False)
-class ReachAvoidProblem:
-    """A game on a grid, as the kernels see it (``kernels`` module docstring).
+class Problem:
+    """A game on a grid with its tables: ``planar[name][player]`` (``PLANAR_TABLES``,
+    ``(nx, ny)`` float over the player's grid) and ``extra[name]`` (the game's pair tables,
+    ``(nx_p, ny_p, nx_q, ny_q)``, e.g. a lower game's value). Grid axes: the game's."""
 
-    ``grid`` axes are ``(xA1, yA1[, xA2, yA2], xD, yD)`` (every attacker on the same planar
-    grid). Planar float32 tables, flat in C order: ``target`` and ``attacker_free`` over the
-    attacker grid ``(na,)``, ``defender_free`` over the defender grid ``(m,)`` (signed
-    distances, map units, ``geometry``); ``survive`` ``(na, m)``: the 1 vs 1 value on the
-    attacker x defender grid, required with two attackers. ``speeds`` is
-    ``(attacker, defender)`` in map units per second, ``capture_radius`` in map units.
-    """
-
+    game: Game
     grid: Grid
-    n_attackers: int
-    speeds: tuple[float, float]
-    capture_radius: float
-    target: np.ndarray
-    attacker_free: np.ndarray
-    defender_free: np.ndarray
-    survive: np.ndarray | None = None
+    planar: Mapping[str, Mapping[str, np.ndarray]]
+    extra: Mapping[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.n_attackers not in (1, 2) or self.grid.ndim != 2 * self.n_attackers + 2:
-            raise ValueError(f"problem: {self.n_attackers} attackers need a "
-                             f"{2 * self.n_attackers + 2}-D grid, got {self.grid.ndim}-D")
-        na, m = self.attacker_nodes, self.defender_nodes
-        tables = {"target": (self.target, (na,)), "attacker_free": (self.attacker_free, (na,)),
-                  "defender_free": (self.defender_free, (m,))}
-        if self.n_attackers == 2:
-            if self.survive is None:
-                raise ValueError("problem.survive: required with two attackers")
-            tables["survive"] = (self.survive, (na, m))
-            if self.grid.sub((0, 1)) != self.grid.sub((2, 3)):
-                raise ValueError("problem.grid: both attackers need the same planar grid")
-        for name, (table, shape) in tables.items():
-            if table.shape != shape or table.dtype != np.float32:
-                raise ValueError(f"problem.{name}: expected float32 {shape}, got "
-                                 f"{table.dtype} {table.shape}")
+        if self.grid.ndim != 2 * len(self.game.players):
+            raise ValueError(f"grid: the {self.game.name} game needs {2 * len(self.game.players)}"
+                             f" axes, got {self.grid.ndim}")
+        for name, over in self.game.tables().items():
+            if name not in self.extra:
+                raise ValueError(f"tables: the {self.game.name} game reads {name!r}, not given")
+            shape = sum((self.plane(k).shape for k in over), ())
+            if tuple(self.extra[name].shape) != shape:
+                raise ValueError(f"tables.{name}: expected shape {shape}, got "
+                                 f"{tuple(self.extra[name].shape)}")
 
-    @property
-    def attacker_nodes(self) -> int:
-        return self.grid.shape[0] * self.grid.shape[1]
+    def plane(self, player: int | str) -> Grid:
+        k = player if isinstance(player, int) else self.game.index(player)
+        return self.grid.sub((2 * k, 2 * k + 1))
 
-    @property
-    def defender_nodes(self) -> int:
-        return self.grid.shape[-2] * self.grid.shape[-1]
+    def evaluate(self, expr: Expr, span: tuple[str, ...]) -> np.ndarray:
+        """``expr`` over the grids of ``span`` (player names in axis order), float64, shape
+        the concatenation of their planar shapes."""
+        shapes = [self.plane(p).shape for p in span]
+        ndim = 2 * len(span)
 
-    @property
-    def rows(self) -> int:
-        return self.attacker_nodes ** self.n_attackers
+        def place(array: np.ndarray, players: tuple[str, ...]) -> np.ndarray:
+            order = sorted(range(len(players)), key=lambda i: span.index(players[i]))
+            axes = [a for i in order for a in (2 * i, 2 * i + 1)]
+            array = np.transpose(array, axes)
+            shape = [1] * ndim
+            for i in order:
+                k = span.index(players[i])
+                shape[2 * k:2 * k + 2] = shapes[k]
+            return array.reshape(shape)
 
-    def kernel_sets(self) -> tuple:
-        """The ``sets`` tuple of ``kernels.sweep``."""
-        attacker = self.grid.sub((0, 1)).mesh().reshape(-1, 2).astype(np.float32)
-        ndim = self.grid.ndim
-        defender = self.grid.sub((ndim - 2, ndim - 1)).mesh().reshape(-1, 2).astype(np.float32)
-        return (self.target, self.attacker_free, np.ascontiguousarray(attacker[:, 0]),
-                np.ascontiguousarray(attacker[:, 1]), np.ascontiguousarray(defender[:, 0]),
-                np.ascontiguousarray(defender[:, 1]), self.defender_free,
-                np.float32(self.capture_radius))
+        def lookup(leaf: Expr) -> np.ndarray:
+            if isinstance(leaf, Coordinate):
+                coords = self.plane(leaf.player).mesh()[..., leaf.axis]
+                return place(coords, (leaf.player,))
+            assert isinstance(leaf, Table)
+            if leaf.name in PLANAR_TABLES:
+                return place(self.planar[leaf.name][leaf.over[0]], leaf.over)
+            return place(self.extra[leaf.name], leaf.over)
+
+        return np.broadcast_to(evaluate(expr, lookup=lookup), sum(shapes, ()))
+
+    def sets(self) -> tuple[np.ndarray, np.ndarray]:
+        """Full target and avoid arrays ``l``, ``g`` (float64, small grids: the reference)."""
+        span = tuple(p.name for p in self.game.players)
+        return self.evaluate(self.game.target, span), self.evaluate(self.game.avoid, span)
+
+
+def map_problem(game: Game, game_map, grid: Grid,
+                extra: Mapping[str, np.ndarray] | None = None) -> Problem:
+    """``game`` on ``game_map`` (a ``GameMap``): the planar tables from the map's shapes."""
+    planes = {p.name: grid.sub((2 * k, 2 * k + 1)) for k, p in enumerate(game.players)}
+    planar = {"target": {n: geometry.target_distance(game_map, g) for n, g in planes.items()},
+              "free": {n: geometry.free_distance(game_map, g) for n, g in planes.items()}}
+    return Problem(game=game, grid=grid, planar=planar, extra=dict(extra or {}))
 
 
 @dataclass(frozen=True)
@@ -105,28 +120,27 @@ class SolveResult:
         return self.iterations * self.dt
 
 
-def time_step(grid: Grid, n_attackers: int, speeds: tuple[float, float],
-              settings: SolverSettings) -> float:
-    """The largest monotone time step times ``settings.cfl`` (seconds)."""
+def time_step(game: Game, grid: Grid, settings: SolverSettings) -> float:
+    """The scheme's time step (seconds) at ``settings.cfl``."""
     h = grid.spacing
-    players = [(speeds[0], h[2 * i], h[2 * i + 1]) for i in range(n_attackers)]
-    players.append((speeds[1], h[-2], h[-1]))
-    if settings.scheme == "godunov":
-        rate = sum(v * math.hypot(1 / hx, 1 / hy) for v, hx, hy in players)
-    else:
-        rate = sum(v * (1 / hx + 1 / hy) for v, hx, hy in players)
-    return settings.cfl / rate
+    players = [(p.speed, h[2 * k], h[2 * k + 1]) for k, p in enumerate(game.players)]
+    return settings.scheme.time_step(players, settings.cfl)
 
 
-def memory_needed(grid: Grid, settings: SolverSettings) -> int:
-    """Bytes a solve on ``grid`` holds at its peak: the float32 value arrays (one for
-    red-black Gauss-Seidel, two for Jacobi), the ``(na, m)`` 1 vs 1 table (2 vs 1) and the
-    row orders."""
-    na = grid.shape[0] * grid.shape[1]
+def memory_needed(game: Game, grid: Grid, settings: SolverSettings) -> int:
+    """Bytes a solve on ``grid`` holds at its peak: the stored float32 value rows (once for
+    red-black Gauss-Seidel, twice for Jacobi), the pair tables (one ``(nodes, m)`` float32
+    array per row player and table), the row index tables and a fixed 32 MiB."""
+    players = len(game.players)
     m = grid.shape[-2] * grid.shape[-1]
-    rows = grid.size // m
+    row_counts = [grid.shape[2 * k] * grid.shape[2 * k + 1] for k in range(players - 1)]
+    rows = stored = math.prod(row_counts)
+    for group in stored_groups(game, settings.exchange_symmetry):
+        n, k = row_counts[group[0]], len(group)
+        stored = stored // n**k * math.comb(n + k - 1, k)
     arrays = 1 if settings.iteration == "red_black" else 2
-    return arrays * 4 * grid.size + 4 * na * m + 40 * rows + (32 << 20)
+    pair_tables = 4 * m * sum(row_counts) * (2 + len(game.tables()))
+    return arrays * 4 * stored * m + pair_tables + 8 * (3 * rows + 2 * stored) + (32 << 20)
 
 
 def available_memory() -> int:
@@ -141,76 +155,129 @@ def available_memory() -> int:
     return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
-def check_memory(grid: Grid, settings: SolverSettings, label: str) -> None:
+def check_memory(game: Game, grid: Grid, settings: SolverSettings, label: str) -> None:
     """Raise ``InsufficientMemoryError`` when a solve on ``grid`` would not fit in memory."""
-    need, have = memory_needed(grid, settings), available_memory()
+    need, have = memory_needed(game, grid, settings), available_memory()
     if need > have:
         dims = "x".join(str(n) for n in grid.shape)
-        arrays = "one float32 value array" if settings.iteration == "red_black" else \
-            "two float32 value arrays"
         raise InsufficientMemoryError(
-            f"{label} on a {dims} grid needs about {need / 2**30:.1f} GiB ({arrays} of "
-            f"{4 * grid.size / 2**30:.1f} GiB, {settings.iteration} iteration) but only "
-            f"{have / 2**30:.1f} GiB is available; use a coarser grid")
+            f"{label} on a {dims} grid needs about {need / 2**30:.1f} GiB ({settings.iteration}"
+            f" iteration, {'one' if settings.iteration == 'red_black' else 'two'} float32 "
+            f"value arrays) but only {have / 2**30:.1f} GiB is available; use a coarser grid")
 
 
-def _stored_rows(problem: ReachAvoidProblem, symmetric: bool) -> np.ndarray:
-    rows = np.arange(problem.rows, dtype=np.int64)
-    if symmetric:
-        na = problem.attacker_nodes
-        rows = rows[rows // na >= rows % na]
-    return rows
+def _fill_tables(problem: Problem, specs: tuple[TableSpec, ...]) -> tuple[np.ndarray, ...]:
+    """The kernel's arrays, float32, shaped ``(row-player nodes..., m)``; a table equal to
+    another up to its row player (the same expression on the same grids) is filled once."""
+    game = problem.game
+    last = game.players[-1].name
+    done: dict[tuple, np.ndarray] = {}
+    arrays = []
+    for spec in specs:
+        row_players = [p for p in spec.span if p != last]
+        key: tuple = (spec.expr, spec.span)
+        if len(row_players) == 1 and isinstance(spec.expr, Op):
+            player = row_players[0]
+            key = (_renamed(spec.expr, player), problem.plane(player), problem.plane(last),
+                   last in spec.span)
+        if key not in done:
+            values = problem.evaluate(spec.expr, spec.span)
+            shape = [problem.plane(p).shape[0] * problem.plane(p).shape[1] for p in spec.span]
+            done[key] = np.ascontiguousarray(values.reshape(shape), dtype=np.float32)
+        arrays.append(done[key])
+    return tuple(arrays)
+
+
+def _renamed(expr: Expr, player: str) -> Expr:
+    """``expr`` with ``player`` written as ``"_"`` (to recognise equal tables)."""
+    if isinstance(expr, Coordinate) and expr.player == player:
+        return Coordinate("_", expr.axis)
+    if isinstance(expr, Table):
+        return Table(expr.name, tuple("_" if p == player else p for p in expr.over))
+    if isinstance(expr, Op):
+        return Op(expr.kind, tuple(_renamed(a, player) for a in expr.args))
+    return expr
 
 
 Order = tuple[np.ndarray, np.ndarray, bool]
 
 
-def _sweep_orders(problem: ReachAvoidProblem, stored: np.ndarray,
-                  settings: SolverSettings) -> list[Order]:
-    """``(rows, planes, reverse)`` of successive sweeps (``kernels.sweep``).
+def sweep_orders(layout: Layout, settings: SolverSettings) -> list[Order]:
+    """``(rows, planes, reverse)`` of successive sweeps (the generated ``sweep``).
 
-    Jacobi: all rows in one plane. Red-black: the rows whose attacker node indices have an
-    even sum, then the odd ones, and the other way round on the next sweep. Stencil
-    neighbours differ by one in exactly one index, so they never share a colour; swapping
-    the attackers keeps the sum, so the stored twin of a neighbour never does either.
+    Jacobi: all stored rows in one plane. Red-black: the rows of each colour
+    (``Layout.colours``) form a plane, forwards and then backwards on the next sweep.
     """
+    stored = np.arange(layout.stored_rows, dtype=np.int64)
     if settings.iteration == "jacobi":
         return [(stored, np.array([0, stored.size], dtype=np.int64), False)]
-    na, any_ = problem.attacker_nodes, problem.grid.shape[1]
-    players = [stored % na] if problem.n_attackers == 1 else [stored // na, stored % na]
-    odd = sum(a // any_ + a % any_ for a in players) % 2
-    rows = np.concatenate([stored[odd == 0], stored[odd == 1]])
-    planes = np.array([0, np.count_nonzero(odd == 0), stored.size], dtype=np.int64)
+    colours = layout.colours(settings.scheme.width)
+    rows = np.argsort(colours, kind="stable").astype(np.int64)
+    counts = np.bincount(colours, minlength=settings.scheme.width + 1)
+    planes = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
     return [(rows, planes, False), (rows, planes, True)]
 
 
-def solve(problem: ReachAvoidProblem, settings: SolverSettings, progress: bool = True,
-          label: str = "reach-avoid") -> tuple[np.ndarray, SolveResult]:
-    """March ``problem`` to convergence; returns the value (float32, ``grid.shape``) and how.
+@dataclass(frozen=True, eq=False)
+class Sweeper:
+    """A problem ready for the generated kernels: its layout, tables and motion arrays."""
 
-    Nothing is written anywhere; an interrupt (Ctrl-C) between sweeps propagates and frees
-    the arrays.
+    problem: Problem
+    settings: SolverSettings
+    layout: Layout
+    tables: tuple[np.ndarray, ...]
+    module: object
+
+    @classmethod
+    def prepare(cls, problem: Problem, settings: SolverSettings) -> Sweeper:
+        kernel = compile_kernel(problem.game, settings.scheme)
+        layout = layout_of(problem.grid, stored_groups(problem.game, settings.exchange_symmetry))
+        return cls(problem, settings, layout, _fill_tables(problem, kernel.tables), kernel.module)
+
+    def project(self, values: np.ndarray) -> None:
+        """``values = max(min(values, l), g)`` on every stored row, in place."""
+        rows = np.arange(self.layout.stored_rows, dtype=np.int64)
+        self.module.project(values, rows, self.layout.row_nodes, self.tables)
+
+    def sweep(self, values: np.ndarray, out: np.ndarray, order: Order, dt: float,
+              n_chunks: int | None = None) -> float:
+        """One update of ``order``'s rows (``sweep_orders``) from ``values`` into ``out``
+        (the same array: in place); returns the largest change near the zero level set."""
+        game, grid = self.problem.game, self.problem.grid
+        layout = self.layout
+        layout_arrays = (layout.row_nodes, layout.row_shape, layout.row_stride,
+                         layout.stored_of, np.int64(grid.shape[-1]))
+        motion = ((1.0 / np.asarray(grid.spacing)).astype(np.float32),
+                  np.array([p.speed for p in game.players], dtype=np.float32),
+                  np.array([p.role == "defender" for p in game.players]))
+        rows, planes, reverse = order
+        chunks = n_chunks or 4 * numba.get_num_threads()
+        return float(self.module.sweep(values, out, rows, planes, reverse, layout_arrays,
+                                       motion, np.float32(dt), self.tables, chunks))
+
+
+def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
+          label: str = "reach-avoid", warm_start: ValueFunction | None = None,
+          ) -> tuple[np.ndarray, Layout, SolveResult]:
+    """March ``problem`` to convergence; returns the stored value rows (float32,
+    ``layout.stored_shape``), their layout and how it went.
+
+    ``warm_start``: a converged solve of the same game on a coarser grid; the start is its
+    interpolation plus ``settings.warm_margin`` (module docstring). Nothing is written
+    anywhere; an interrupt (Ctrl-C) between sweeps propagates and frees the arrays.
     """
-    check_memory(problem.grid, settings, label)
-    grid = problem.grid
-    symmetric = settings.exchange_symmetry and problem.n_attackers == 2
-    na, m = problem.attacker_nodes, problem.defender_nodes
-    anx, any_ = grid.shape[0], grid.shape[1]
-    dny = grid.shape[-1]
-    dt = time_step(grid, problem.n_attackers, problem.speeds, settings)
-    scheme = kernels.GODUNOV if settings.scheme == "godunov" else kernels.LAX_FRIEDRICHS
-    inv_h = (1.0 / np.asarray(grid.spacing)).astype(np.float32)
-    speeds = np.asarray(problem.speeds, dtype=np.float32)
-    survive = problem.survive if problem.survive is not None else np.zeros((1, 1), np.float32)
-    sets = problem.kernel_sets()
-    n_chunks = 4 * numba.get_num_threads()
-
-    jacobi = settings.iteration == "jacobi"
-    current = np.empty((problem.rows, m), dtype=np.float32)
-    spare = np.empty((problem.rows, m), dtype=np.float32) if jacobi else current
-    stored = _stored_rows(problem, symmetric)
-    orders = _sweep_orders(problem, stored, settings)
-    kernels.initial_values(current, stored, problem.n_attackers, na, sets, survive)
+    check_memory(problem.game, problem.grid, settings, label)
+    sweeper = Sweeper.prepare(problem, settings)
+    layout = sweeper.layout
+    dt = time_step(problem.game, problem.grid, settings)
+    current = np.empty(layout.stored_shape, dtype=np.float32)
+    if warm_start is None:
+        current.fill(np.float32(1e30))
+    else:
+        _interpolate_start(warm_start, layout, settings.warm_margin, current)
+    sweeper.project(current)
+    spare = np.empty_like(current) if settings.iteration == "jacobi" else current
+    orders = sweep_orders(layout, settings)
     first = residual = math.inf
     iterations = 0
     converged = False
@@ -218,13 +285,10 @@ def solve(problem: ReachAvoidProblem, settings: SolverSettings, progress: bool =
     bar_format = "{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}{postfix}"
     with tqdm(total=100, desc=label, disable=not progress, bar_format=bar_format) as bar:
         while iterations < settings.max_iterations:
-            rows, planes, reverse = orders[iterations % len(orders)]
-            change = kernels.sweep(current, spare, rows, planes, reverse, problem.n_attackers,
-                                   any_, anx, dny, inv_h, speeds, np.float32(dt), scheme,
-                                   symmetric, sets, survive, n_chunks)
+            change = sweeper.sweep(current, spare, orders[iterations % len(orders)], dt)
             current, spare = spare, current
             iterations += 1
-            residual = float(change) / dt
+            residual = change / dt
             if iterations == 1:
                 first = max(residual, settings.tolerance * 10)
             done = _progress(first, residual, settings.tolerance)
@@ -235,11 +299,43 @@ def solve(problem: ReachAvoidProblem, settings: SolverSettings, progress: bool =
                 converged = True
                 break
     del spare
-    if symmetric:
-        kernels.mirror_rows(current, na)
     result = SolveResult(iterations=iterations, residual=residual, converged=converged,
                          seconds=time.perf_counter() - start, dt=dt)
-    return current.reshape(grid.shape), result
+    return current, layout, result
+
+
+def _interpolate_start(coarse: ValueFunction, layout: Layout, margin: float,
+                       out: np.ndarray) -> None:
+    """``out`` = the coarse value at the fine nodes plus ``margin``, row by row: the coarse
+    rows are first interpolated onto the fine plane, then combined across the row axes."""
+    fine, grid = layout.grid, coarse.grid
+    if fine.lo != grid.lo or fine.hi != grid.hi:
+        raise ValueError("warm_start: the coarse grid must span the same box")
+    ndim = grid.ndim
+    plane = np.kron(*(_linear_weights(grid.coordinates(a), fine.coordinates(a))
+                      for a in (ndim - 2, ndim - 1)))
+    up = np.asarray(coarse.values).reshape(coarse.layout.stored_shape) @ plane.T.astype(
+        np.float32)
+    row_axes = grid.sub(tuple(range(ndim - 2)))
+    strides = np.array([math.prod(row_axes.shape[a + 1:]) for a in range(ndim - 2)],
+                       dtype=np.int64)
+    ny = layout.row_shape[:, 1]
+    index = np.stack([layout.row_nodes // ny, layout.row_nodes % ny], axis=2)
+    points = fine.sub(tuple(range(ndim - 2))).points(index.reshape(len(index), -1))
+    kernels.interpolate_rows(up, coarse.layout.stored_of,
+                             np.asarray(row_axes.shape, dtype=np.int64), strides,
+                             np.asarray(row_axes.lo), np.asarray(row_axes.spacing),
+                             np.ascontiguousarray(points), np.float32(margin), out)
+
+
+def _linear_weights(coarse: np.ndarray, fine: np.ndarray) -> np.ndarray:
+    """``(len(fine), len(coarse))`` weights of linear interpolation along one axis."""
+    s = np.clip((fine - coarse[0]) / (coarse[1] - coarse[0]), 0, coarse.size - 1)
+    lower = np.minimum(s.astype(np.int64), coarse.size - 2)
+    weights = np.zeros((fine.size, coarse.size))
+    weights[np.arange(fine.size), lower] = 1 - (s - lower)
+    weights[np.arange(fine.size), lower + 1] += s - lower
+    return weights
 
 
 def _progress(first: float, residual: float, tolerance: float) -> int:

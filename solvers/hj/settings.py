@@ -5,14 +5,15 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, replace
 from typing import Any, Literal
 
-SOLVER_VERSION = "1"
-"""Bumped whenever a change can alter solved values; part of every cache key."""
+from solvers.hj.schemes import GODUNOV, Scheme, scheme_named
 
-Scheme = Literal["godunov", "lax_friedrichs"]
+SOLVER_VERSION = "2"
+"""Bumped whenever a change can alter solved values or files; part of every cache key and
+checked when a value file is loaded (files of another version are solved again)."""
+
 Iteration = Literal["red_black", "jacobi"]
 Accuracy = Literal["low", "medium", "high"]
 
-_SCHEMES = ("godunov", "lax_friedrichs")
 _ITERATIONS = ("red_black", "jacobi")
 
 
@@ -20,34 +21,38 @@ _ITERATIONS = ("red_black", "jacobi")
 class SolverSettings:
     """How the reach-avoid variational inequality is discretised and marched.
 
-    - ``scheme``: the monotone first-order numerical Hamiltonian. ``"godunov"`` upwinds
-      each player separately (the exact min-max of the one-step dynamic programme on the
-      grid); ``"lax_friedrichs"`` is central differences plus dissipation ``alpha = speed``
-      per axis (the paper's OptimizedDP scheme, more diffusive and a smaller time step).
+    - ``scheme``: the numerical Hamiltonian (``schemes``: ``"godunov"``, the default,
+      upwinds each player separately; ``"lax_friedrichs"`` is central differences plus
+      dissipation ``alpha = speed`` per axis, the paper's OptimizedDP scheme; ``"eno2"``
+      is second order). A name or a ``Scheme``.
     - ``iteration``: ``"red_black"`` (Gauss-Seidel) updates the value array in place, the
-      rows of one parity of the attacker node indices, then the other (one value array in
-      memory); ``"jacobi"`` computes every sweep from the previous one (two arrays). Both
-      are monotone, need about as many sweeps and converge to the same fixed point.
-    - ``cfl``: fraction of the largest time step that keeps the scheme monotone, in (0, 1].
+      rows of one colour at a time (``layout.Layout.colours``: one value array in memory);
+      ``"jacobi"`` computes every sweep from the previous one (two arrays).
+    - ``cfl``: fraction of the scheme's largest stable time step, in (0, 1].
     - ``tolerance``: convergence when the largest change of the value over one unit of game
       time, on the grid nodes next to the zero level set, falls below this (value units per
       second; values are map units).
     - ``max_iterations``: give up (``converged=False``) after this many sweeps.
-    - ``exchange_symmetry``: 2 vs 1 only; solve the half of the state space with
-      ``A1 >= A2`` (flat grid index) and read the other half through
-      ``V(a1, a2, d) = V(a2, a1, d)``; exact, halves the work.
+    - ``exchange_symmetry``: store and solve one ordering of the game's exchangeable players
+      (``Game.symmetries``) and read the others by index mapping; exact, halves the memory
+      and work of 2 vs 1.
+    - ``warm_start``: start a grid of ``n`` nodes per axis from the solve on
+      ``(n + 1) // 2`` nodes (itself warm-started the same way, down to ``warm_from``
+      nodes), interpolated, plus ``warm_margin`` map units (``reach_avoid``).
     """
 
-    scheme: Scheme = "godunov"
+    scheme: Scheme = GODUNOV
     iteration: Iteration = "red_black"
     cfl: float = 0.95
     tolerance: float = 5e-3
     max_iterations: int = 20_000
     exchange_symmetry: bool = True
+    warm_start: bool = False
+    warm_from: int = 12
+    warm_margin: float = 0.1
 
     def __post_init__(self) -> None:
-        if self.scheme not in _SCHEMES:
-            raise ValueError(f"settings.scheme: expected one of {_SCHEMES}, got {self.scheme!r}")
+        object.__setattr__(self, "scheme", scheme_named(self.scheme))
         if self.iteration not in _ITERATIONS:
             raise ValueError(f"settings.iteration: expected one of {_ITERATIONS}, got "
                              f"{self.iteration!r}")
@@ -58,6 +63,10 @@ class SolverSettings:
             raise ValueError(f"settings.tolerance: must be positive, got {self.tolerance}")
         if self.max_iterations < 1:
             raise ValueError(f"settings.max_iterations: must be >= 1, got {self.max_iterations}")
+        if self.warm_from < 3:
+            raise ValueError(f"settings.warm_from: must be >= 3 nodes, got {self.warm_from}")
+        if not self.warm_margin >= 0.0:
+            raise ValueError(f"settings.warm_margin: must be >= 0, got {self.warm_margin}")
 
     @classmethod
     def with_accuracy(cls, level: Accuracy) -> SolverSettings:
@@ -74,5 +83,12 @@ class SolverSettings:
     def replace(self, **changes: Any) -> SolverSettings:
         return replace(self, **changes)
 
+    def coarse_points(self, points: tuple[int, ...]) -> tuple[int, ...] | None:
+        """Node counts of the warm start's coarse grid, or ``None`` for a cold start."""
+        if not self.warm_start:
+            return None
+        coarse = tuple((n + 1) // 2 for n in points)
+        return coarse if min(coarse) >= self.warm_from else None
+
     def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        return asdict(self) | {"scheme": self.scheme.name}

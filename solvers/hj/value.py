@@ -2,7 +2,9 @@
 
 Sign convention (design.md section 4): value <= 0 exactly where the attacker side wins.
 On disk a solved game is a directory ``NAME.vf/`` with ``value.npy`` (float32, C order,
-opened with ``mmap_mode="r"``) and ``meta.json``.
+opened with ``mmap_mode="r"``) and ``meta.json``. Under exchange symmetry ``value.npy``
+holds the stored rows only (``layout``): ``(stored rows, m)``; any state is answered
+from them by index mapping.
 """
 
 from __future__ import annotations
@@ -12,23 +14,29 @@ import os
 import shutil
 import tempfile
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from reachavoid_env import GameMap, ScenarioError
+from solvers.hj.game import Player
 from solvers.hj.grid import Grid
+from solvers.hj.layout import Layout, layout_of
+from solvers.hj.settings import SOLVER_VERSION
 
-AXES = {
-    "1v1": ("xA", "yA", "xD", "yD"),
-    "2v1": ("xA1", "yA1", "xA2", "yA2", "xD", "yD"),
-}
 _GRADIENT_FLOOR = 1e-9
+_FILES = ("meta.json", "value.npy")
+_CHUNK = 1 << 24
 
 
 class ValueFunctionError(ValueError):
     """A value-function directory is missing, truncated or does not match what was asked."""
+
+
+class OutputPathError(ValueError):
+    """A save would replace something that is not a value directory written by us."""
 
 
 def _map_dict(game_map: GameMap) -> dict[str, Any]:
@@ -38,38 +46,78 @@ def _map_dict(game_map: GameMap) -> dict[str, Any]:
 
 @dataclass(frozen=True, eq=False)
 class ValueFunction:
-    """The value of a 1 vs 1 (4-D) or 2 vs 1 (6-D) game on a grid.
+    """The value of a game on a grid (axes: each player's ``x``, ``y`` in ``players`` order).
 
-    States are arrays ``(..., ndim)`` in the game's axis order (``axes``), map units.
-    ``values`` may be a read-only memory map of ``value.npy``.
+    ``values`` is the grid's array, or, when ``symmetries`` (groups of exchangeable
+    players' names) are given, the stored rows of ``layout``; it may be a read-only
+    memory map of ``value.npy``. ``parameters``: the game's (``capture_radius``...).
+    States are arrays ``(..., ndim)`` in axis order (``axes``), map units.
     """
 
     values: np.ndarray
     grid: Grid
     game: str
-    attacker_speed: float
-    defender_speed: float
-    capture_radius: float
+    players: tuple[Player, ...]
     game_map: GameMap
+    parameters: dict[str, float] = field(default_factory=dict)
+    symmetries: tuple[tuple[str, ...], ...] = ()
     solver: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.game not in AXES:
-            raise ValueError(f"game: expected one of {sorted(AXES)}, got {self.game!r}")
-        if self.grid.ndim != len(AXES[self.game]):
-            raise ValueError(f"grid: the {self.game} game needs {len(AXES[self.game])} axes, "
+        if self.grid.ndim != 2 * len(self.players):
+            raise ValueError(f"grid: the {self.game} game needs {2 * len(self.players)} axes, "
                              f"got {self.grid.ndim}")
-        if tuple(self.values.shape) != self.grid.shape or self.values.dtype != np.float32:
-            raise ValueError(f"values: expected float32 {self.grid.shape}, got "
+        expected = self.layout.stored_shape if self.symmetries else self.grid.shape
+        if tuple(self.values.shape) != tuple(expected) or self.values.dtype != np.float32:
+            raise ValueError(f"values: expected float32 {tuple(expected)}, got "
                              f"{self.values.dtype} {tuple(self.values.shape)}")
+
+    @cached_property
+    def layout(self) -> Layout:
+        names = [p.name for p in self.players]
+        return layout_of(self.grid, tuple(tuple(names.index(n) for n in g)
+                                          for g in self.symmetries))
 
     @property
     def axes(self) -> tuple[str, ...]:
-        return AXES[self.game]
+        return tuple(a for p in self.players for a in p.axes)
+
+    @property
+    def attackers(self) -> tuple[Player, ...]:
+        return tuple(p for p in self.players if p.role == "attacker")
+
+    @property
+    def defenders(self) -> tuple[Player, ...]:
+        return tuple(p for p in self.players if p.role == "defender")
 
     @property
     def num_attackers(self) -> int:
-        return self.grid.ndim // 2 - 1
+        return len(self.attackers)
+
+    @property
+    def attacker_speed(self) -> float:
+        return self.attackers[0].speed
+
+    @property
+    def defender_speed(self) -> float:
+        return self.defenders[0].speed
+
+    @property
+    def capture_radius(self) -> float:
+        return float(self.parameters["capture_radius"])
+
+    @property
+    def stored_of(self) -> np.ndarray:
+        """Stored row of every row (``layout``); one row when the array is held whole."""
+        return self.layout.stored_of if self.symmetries else np.zeros(1, dtype=np.int64)
+
+    def stored_values(self) -> np.ndarray:
+        """The values as stored rows ``(rows, m)`` (one row when held whole)."""
+        return self.values if self.symmetries else self.values.reshape(1, -1)
+
+    def full_values(self) -> np.ndarray:
+        """The value on every node, ``grid.shape`` (expands stored rows: small grids)."""
+        return self.layout.full(self.values) if self.symmetries else np.asarray(self.values)
 
     def _states(self, states: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
         states = np.asarray(states, dtype=np.float64)
@@ -81,41 +129,56 @@ class ValueFunction:
     def value(self, states: np.ndarray) -> np.ndarray:
         """Interpolated value ``(...)`` of ``states (..., ndim)``; <= 0: attackers win."""
         flat, lead = self._states(states)
-        return self.grid.interpolate(self.values, flat).reshape(lead)
+        return self.grid.interpolate(self.stored_values(), flat, self.stored_of).reshape(lead)
 
     def gradient(self, states: np.ndarray) -> np.ndarray:
         """Interpolated gradient ``(..., ndim)`` of the value (per map unit)."""
         flat, lead = self._states(states)
-        return self.grid.interpolate_gradient(self.values, flat).reshape(*lead, self.grid.ndim)
+        gradient = self.grid.interpolate_gradient(self.stored_values(), flat, self.stored_of)
+        return gradient.reshape(*lead, self.grid.ndim)
 
     def attacker_wins(self, states: np.ndarray) -> np.ndarray:
         """Whether the attacker side wins from ``states`` (value <= 0)."""
         return self.value(states) <= 0.0
 
+    def control(self, states: np.ndarray, player: str) -> np.ndarray:
+        """The optimal heading ``(..., 2)`` of ``player``, a unit vector (times the speed for
+        a velocity): ``-p / |p|`` for an attacker (minimiser), ``p / |p|`` for a defender,
+        with ``p`` the value's gradient along the player's axes; zero where ``p`` vanishes."""
+        names = [p.name for p in self.players]
+        if player not in names:
+            raise ValueError(f"player: expected one of {names}, got {player!r}")
+        k = names.index(player)
+        heading = _unit(self.gradient(states)[..., 2 * k:2 * k + 2])
+        return -heading if self.players[k].role == "attacker" else heading
+
     def attacker_control(self, states: np.ndarray, attacker: int = 0) -> np.ndarray:
-        """The paper's optimal attacker heading ``-p_A / |p_A|`` ``(..., 2)``, a unit vector
-        (multiply by the attacker speed for a velocity); zero where ``p_A`` vanishes."""
+        """``control`` of the ``attacker``-th attacker (the paper's ``-p_A / |p_A|``)."""
         if not 0 <= attacker < self.num_attackers:
             raise ValueError(f"attacker: expected 0..{self.num_attackers - 1}, got {attacker}")
-        p = self.gradient(states)[..., 2 * attacker:2 * attacker + 2]
-        return -_unit(p)
+        return self.control(states, self.attackers[attacker].name)
 
-    def defender_control(self, states: np.ndarray) -> np.ndarray:
-        """The paper's optimal defender heading ``p_D / |p_D|`` ``(..., 2)``, a unit vector;
-        zero where ``p_D`` vanishes."""
-        return _unit(self.gradient(states)[..., -2:])
+    def defender_control(self, states: np.ndarray, defender: int = 0) -> np.ndarray:
+        """``control`` of the ``defender``-th defender (the paper's ``p_D / |p_D|``)."""
+        if not 0 <= defender < len(self.defenders):
+            raise ValueError(f"defender: expected 0..{len(self.defenders) - 1}, got {defender}")
+        return self.control(states, self.defenders[defender].name)
 
     def meta(self) -> dict[str, Any]:
-        """The ``meta.json`` contents (design.md section 4)."""
+        """The ``meta.json`` contents (design.md section 4), without the checksum."""
         return {
             "game": self.game,
             "axes": list(self.axes),
+            "players": [[p.name, p.role, p.speed] for p in self.players],
+            "symmetries": [list(g) for g in self.symmetries],
+            "stored_shape": list(self.values.shape),
             "grid_min": list(self.grid.lo),
             "grid_max": list(self.grid.hi),
             "shape": list(self.grid.shape),
             "attacker_speed": self.attacker_speed,
             "defender_speed": self.defender_speed,
-            "capture_radius": self.capture_radius,
+            "parameters": dict(self.parameters),
+            "capture_radius": self.parameters.get("capture_radius"),
             "map": _map_dict(self.game_map),
             "solver": self.solver,
         }
@@ -123,30 +186,118 @@ class ValueFunction:
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write the directory ``path`` (``value.npy`` + ``meta.json``) and return it.
 
-        Both files are written into a temporary sibling directory that is then renamed into
-        place, so an interrupted save leaves no partial directory behind.
+        Both files are written into a temporary sibling directory (named with this
+        process's id) that is then renamed into place, so an interrupted save leaves no
+        partial directory behind. An existing ``path`` is replaced only when it is a value
+        directory (``OutputPathError`` otherwise, naming it). When another process renames
+        its entry into place first, theirs is kept when it holds the same values.
         """
         path = Path(path)
+        refuse_foreign(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"))
+        temporary = Path(tempfile.mkdtemp(dir=path.parent, prefix=temporary_prefix(path),
+                                          suffix=".tmp"))
         try:
+            os.chmod(temporary, 0o777 & ~_umask())
             with open(temporary / "value.npy", "wb") as handle:
                 np.save(handle, np.ascontiguousarray(self.values), allow_pickle=False)
                 handle.flush()
                 os.fsync(handle.fileno())
-            (temporary / "meta.json").write_text(json.dumps(self.meta(), indent=2) + "\n")
-            if path.exists():
-                retired = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.",
-                                                suffix=".old"))
-                os.replace(path, retired / path.name)
-                os.replace(temporary, path)
-                shutil.rmtree(retired, ignore_errors=True)
-            else:
-                os.replace(temporary, path)
+            meta = self.meta() | {"checksum": checksum(self.values)}
+            (temporary / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
+            _move_into_place(temporary, path, meta)
         except BaseException:
             shutil.rmtree(temporary, ignore_errors=True)
             raise
         return path
+
+
+def temporary_prefix(path: Path) -> str:
+    """Name prefix of this process's temporaries next to ``path``: ``.NAME.PID.``."""
+    return f".{path.name}.{os.getpid()}."
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def is_value_directory(path: Path) -> bool:
+    """Whether ``path`` is a directory holding only what ``save`` writes."""
+    if not path.is_dir():
+        return False
+    names = {p.name for p in path.iterdir()}
+    if not names <= set(_FILES) or "meta.json" not in names:
+        return False
+    try:
+        meta = json.loads((path / "meta.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(meta, dict) and "game" in meta and "axes" in meta
+
+
+def refuse_foreign(path: Path) -> None:
+    """Raise ``OutputPathError`` unless ``path`` is absent, an empty folder or a value
+    directory (what a save may replace)."""
+    if not path.exists() and not path.is_symlink():
+        return
+    if path.is_dir() and not path.is_symlink() and not any(path.iterdir()):
+        return
+    if path.is_symlink() or not is_value_directory(path):
+        raise OutputPathError(f"{path}: exists and is not a value directory (meta.json and "
+                              "value.npy only); refusing to replace it")
+
+
+def _move_into_place(temporary: Path, path: Path, meta: dict[str, Any]) -> None:
+    if not path.exists():
+        try:
+            os.replace(temporary, path)
+            return
+        except OSError:
+            if not path.exists():
+                raise
+    # someone else's entry is there (or appeared since the check): keep an identical one
+    if _same_entry(path, meta):
+        shutil.rmtree(temporary, ignore_errors=True)
+        return
+    refuse_foreign(path)
+    retired = Path(tempfile.mkdtemp(dir=path.parent, prefix=temporary_prefix(path),
+                                    suffix=".old"))
+    os.replace(path, retired / path.name)
+    os.replace(temporary, path)
+    shutil.rmtree(retired, ignore_errors=True)
+
+
+def _same_entry(path: Path, meta: dict[str, Any]) -> bool:
+    """Whether ``path`` holds the same values and metadata (solver timings aside)."""
+    try:
+        theirs = json.loads((path / "meta.json").read_text())
+        size = (path / "value.npy").stat().st_size
+    except (OSError, ValueError):
+        return False
+    ours = json.loads(json.dumps(meta))
+    return (isinstance(theirs, dict) and size > 0
+            and {k: v for k, v in theirs.items() if k != "solver"}
+            == {k: v for k, v in ours.items() if k != "solver"})
+
+
+def checksum(values: np.ndarray) -> str:
+    """A cheap checksum of float32 ``values``: their count and the wrapping sums of the raw
+    32-bit words, plain and weighted by the chunk they fall in (catches edits, truncation
+    and fills; not a cryptographic hash)."""
+    words = np.asarray(values).reshape(-1).view(np.uint32)
+    plain = weighted = 0
+    for index, start in enumerate(range(0, words.size, _CHUNK)):
+        part = int(words[start:start + _CHUNK].sum(dtype=np.uint64))
+        plain += part
+        weighted += (index + 1) * part
+    return f"{words.size}:{plain % (1 << 64):016x}:{weighted % (1 << 64):016x}"
+
+
+def all_finite(values: np.ndarray) -> bool:
+    flat = np.asarray(values).reshape(-1)
+    return all(np.isfinite(flat[s:s + _CHUNK]).all() for s in range(0, flat.size, _CHUNK))
 
 
 def _unit(p: np.ndarray) -> np.ndarray:
@@ -155,12 +306,14 @@ def _unit(p: np.ndarray) -> np.ndarray:
     return np.where(norm > _GRADIENT_FLOOR, p / safe, 0.0)
 
 
-def load_value_function(path: str | os.PathLike[str],
-                        game_map: GameMap | None = None) -> ValueFunction:
+def load_value_function(path: str | os.PathLike[str], game_map: GameMap | None = None,
+                        verify: bool = False) -> ValueFunction:
     """Open a saved value function; ``value.npy`` is memory-mapped read-only.
 
-    With ``game_map`` the file must have been solved on that map. Raises
-    ``ValueFunctionError`` naming the problem for a missing, truncated or mismatched file.
+    With ``game_map`` the file must have been solved on that map. With ``verify`` the
+    values are read once: finite, and equal to the checksum in ``meta.json``. Raises
+    ``ValueFunctionError`` naming the problem for a missing, truncated, corrupt or
+    mismatched file, or one written by another solver version.
     """
     path = Path(path)
     meta_path, value_path = path / "meta.json", path / "value.npy"
@@ -171,24 +324,36 @@ def load_value_function(path: str | os.PathLike[str],
         meta = json.loads(meta_path.read_text())
     except (OSError, json.JSONDecodeError) as err:
         raise ValueFunctionError(f"{meta_path}: unreadable ({err})") from None
+    version = meta.get("solver", {}).get("version") if isinstance(meta, dict) else None
+    if version != SOLVER_VERSION:
+        raise ValueFunctionError(f"{meta_path}: written by solver version {version}, this is "
+                                 f"version {SOLVER_VERSION}")
     try:
-        game = meta["game"]
         shape = tuple(int(n) for n in meta["shape"])
         grid = Grid(tuple(meta["grid_min"]), tuple(meta["grid_max"]), shape)
+        players = tuple(Player(str(n), role, float(v)) for n, role, v in meta["players"])
+        symmetries = tuple(tuple(str(n) for n in g) for g in meta["symmetries"])
         stored_map = GameMap.from_dict(meta["map"])
-        speeds = (float(meta["attacker_speed"]), float(meta["defender_speed"]))
-        capture_radius = float(meta["capture_radius"])
+        parameters = {str(k): float(v) for k, v in meta["parameters"].items()}
+        stored_shape = tuple(int(n) for n in meta["stored_shape"])
     except (KeyError, TypeError, ValueError, ScenarioError) as err:
         raise ValueFunctionError(f"{meta_path}: malformed ({err})") from None
-    if game not in AXES or list(meta.get("axes", [])) != list(AXES[game]):
-        raise ValueFunctionError(f"{meta_path}: unknown game {game!r} or axes {meta.get('axes')}")
     if game_map is not None and meta["map"] != _map_dict(game_map):
         raise ValueFunctionError(f"{meta_path}: solved for another map ({meta['map']}), "
                                  f"not {_map_dict(game_map)}")
-    values = _open_values(value_path, shape)
-    return ValueFunction(values=values, grid=grid, game=game, attacker_speed=speeds[0],
-                         defender_speed=speeds[1], capture_radius=capture_radius,
-                         game_map=stored_map, solver=dict(meta.get("solver", {})))
+    values = _open_values(value_path, stored_shape)
+    if verify:
+        if not all_finite(values):
+            raise ValueFunctionError(f"{value_path}: holds NaN or infinite values")
+        if checksum(values) != meta.get("checksum"):
+            raise ValueFunctionError(f"{value_path}: checksum differs from meta.json (edited "
+                                     "or corrupt)")
+    try:
+        return ValueFunction(values=values, grid=grid, game=str(meta["game"]), players=players,
+                             game_map=stored_map, parameters=parameters, symmetries=symmetries,
+                             solver=dict(meta.get("solver", {})))
+    except ValueError as err:
+        raise ValueFunctionError(f"{meta_path}: inconsistent ({err})") from None
 
 
 def _open_values(value_path: Path, shape: tuple[int, ...]) -> np.ndarray:

@@ -1,0 +1,108 @@
+"""Solve any declared game on a map: tables, warm start, cache, value function.
+
+``solve_declared`` is the one entry every game goes through (``games`` declares the
+paper's): it builds the planar tables from the map and the lower games' tables from
+their value functions, starts from the coarser grid's solve when warm starts are on, and
+looks the result up in (or stores it to) the cache under a key of everything that
+decides the values.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from reachavoid_env import GameMap
+from solvers.hj import cache as value_cache
+from solvers.hj.game import Game
+from solvers.hj.grid import Grid
+from solvers.hj.reach_avoid import SolveResult, check_memory, map_problem, solve
+from solvers.hj.settings import SOLVER_VERSION, SolverSettings
+from solvers.hj.value import ValueFunction, checksum
+
+
+def _solver_meta(settings: SolverSettings, result: SolveResult,
+                 warm: ValueFunction | None) -> dict[str, object]:
+    return {
+        "scheme": settings.scheme.name,
+        "iteration": settings.iteration,
+        "cfl": settings.cfl,
+        "tolerance": settings.tolerance,
+        "iterations": result.iterations,
+        "residual": result.residual,
+        "converged": result.converged,
+        "seconds": round(result.seconds, 3),
+        "dt": result.dt,
+        "warm_start": None if warm is None else list(warm.grid.shape),
+        "version": SOLVER_VERSION,
+    }
+
+
+def lower_tables(game: Game, grid: Grid, lower: Mapping[str, ValueFunction]
+                 ) -> dict[str, np.ndarray]:
+    """Each extra table of ``game``: the lower game's value at the nodes of the two players
+    it spans, float32 ``(nx_p, ny_p, nx_q, ny_q)``."""
+    tables = {}
+    for name, (p, q) in game.tables().items():
+        if name not in lower:
+            raise ValueError(f"lower: the {game.name} game reads the table {name!r}")
+        sub = grid.sub((2 * p, 2 * p + 1, 2 * q, 2 * q + 1))
+        values = lower[name].value(sub.mesh().reshape(-1, 4))
+        tables[name] = values.astype(np.float32).reshape(sub.shape)
+    return tables
+
+
+def _key_parts(game: Game, game_map: GameMap, grid: Grid, settings: SolverSettings,
+               lower: Mapping[str, ValueFunction]) -> dict[str, object]:
+    return {
+        "game": game.describe(),
+        "map": game_map.to_dict(),
+        "grid": [list(grid.lo), list(grid.hi), list(grid.shape)],
+        "settings": [settings.scheme.name, settings.iteration, settings.cfl,
+                     settings.tolerance, settings.max_iterations, settings.exchange_symmetry,
+                     settings.warm_start, settings.warm_from, settings.warm_margin],
+        "lower": {name: [list(vf.grid.shape), checksum(vf.values)]
+                  for name, vf in sorted(lower.items())},
+        "version": SOLVER_VERSION,
+    }
+
+
+def solve_declared(game: Game, game_map: GameMap, grid: Grid,
+                   settings: SolverSettings | None = None, cache: bool = True,
+                   progress: bool = True,
+                   lower: Mapping[str, ValueFunction] | None = None) -> ValueFunction:
+    """Solve ``game`` on ``game_map`` over ``grid``; ``lower`` gives the value function of
+    every extra table the game reads (``Game.tables``). With ``cache`` the result (and a
+    warm start's coarse solve) is looked up in, or stored to, the on-disk cache."""
+    settings = settings or SolverSettings()
+    lower = dict(lower or {})
+    label = f"{game.name} HJ solve"
+    check_memory(game, grid, settings, label)
+
+    def run() -> ValueFunction:
+        warm = None
+        coarse = settings.coarse_points(grid.shape)
+        if coarse is not None:
+            warm = solve_declared(game, game_map, Grid(grid.lo, grid.hi, coarse), settings,
+                                  cache=cache, progress=progress, lower=lower)
+        problem = map_problem(game, game_map, grid, lower_tables(game, grid, lower))
+        values, layout, result = solve(problem, settings, progress=progress, label=label,
+                                       warm_start=warm)
+        names = [p.name for p in game.players]
+        symmetries = tuple(tuple(names[k] for k in g) for g in layout.groups)
+        return ValueFunction(values=values if symmetries else values.reshape(grid.shape),
+                             grid=grid, game=game.name, players=game.players,
+                             game_map=game_map, parameters=dict(game.parameters),
+                             symmetries=symmetries,
+                             solver=_solver_meta(settings, result, warm))
+
+    if not cache:
+        return run()
+    parts = _key_parts(game, game_map, grid, settings, lower)
+    description = game.describe()
+    expected = {"game": game.name, "players": description["players"],
+                "parameters": description["parameters"], "grid_min": list(grid.lo),
+                "grid_max": list(grid.hi), "shape": list(grid.shape),
+                "map": game_map.to_dict(), "scheme": settings.scheme.name}
+    return value_cache.cached(game.name, grid.shape, parts, expected, game_map, run)
