@@ -2,7 +2,11 @@
 
 Random instances of the paper's program for 2v1, 6v2, 8v4 and 16v8: each attacker beats
 each defender alone with probability ``--p1``, each pair beats each defender with
-probability ``--p2``. Reported per size, over ``--instances`` instances, as wall time
+probability ``--p2``. Rows "+ teams" add the defender teams (the 1 vs 2 table): each
+attacker beats each lone defender with probability ``--team-p1`` (defenders no faster than
+attackers, where teams matter) and each pair of defenders with probability ``--p3``, drawn
+below its 1 vs 1 table (a pair never loses where one of its defenders wins alone). Reported
+per size, over ``--instances`` instances, as wall time
 (``perf_counter``) and CPU time (``process_time``, less disturbed on a shared machine):
 
 - cold: ``solve_assignment`` / ``max_matching`` on a fresh instance (model built and
@@ -12,6 +16,7 @@ probability ``--p2``. Reported per size, over ``--instances`` instances, as wall
   ``I_j`` and ``P_j`` do during a game; unchanged steps reuse the last answer.
 
     python benchmarks/assignment_latency.py [--instances 300] [--p1 0.3] [--p2 0.3]
+        [--team-p1 0.7] [--p3 0.3]
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ import numpy as np
 from solvers.assignment import AssignmentSolver, max_matching, solve_assignment
 
 SIZES = ((2, 1), (6, 2), (8, 4), (16, 8))
+TEAM_SIZES = ((6, 4), (8, 4), (16, 8))
 
 
 def timed(call: Callable[..., object], *args: object) -> tuple[float, float]:
@@ -35,26 +41,38 @@ def timed(call: Callable[..., object], *args: object) -> tuple[float, float]:
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def instances(rng: np.random.Generator, m: int, n: int, count: int, p1: float, p2: float):
+def instances(rng: np.random.Generator, m: int, n: int, count: int, p1: float, p2: float,
+              p3: float | None = None):
+    """``(beats_1v1, beats_2v1, beats_1v2)`` tables; ``beats_1v2`` is ``None`` without
+    ``p3``, else true only where the attacker also beats both defenders alone."""
     for _ in range(count):
         one = rng.random((m, n)) < p1
         two = rng.random((m, m, n)) < p2
-        yield one, two | two.transpose(1, 0, 2)
+        three = None
+        if p3 is not None:
+            three = (rng.random((m, n, n)) < p3) & one[:, :, None] & one[:, None, :]
+            three |= three.transpose(0, 2, 1)
+        yield one, two | two.transpose(1, 0, 2), three
 
 
 def sequence(rng: np.random.Generator, m: int, n: int, steps: int, p1: float, p2: float,
-             change: float):
+             change: float, p3: float | None = None):
     """Inputs of ``steps`` consecutive steps, one random entry flipped on changed steps."""
-    one, two = next(instances(rng, m, n, 1, p1, p2))
+    one, two, three = next(instances(rng, m, n, 1, p1, p2, p3))
     for _ in range(steps):
         if rng.random() < change:
             one, two = one.copy(), two.copy()
-            if rng.random() < 0.5:
+            kind = rng.integers(2 if three is None else 3)
+            if kind == 0:
                 one[rng.integers(m), rng.integers(n)] ^= True
-            else:
+            elif kind == 1:
                 a, b, j = rng.integers(m), rng.integers(m), rng.integers(n)
                 two[a, b, j] = two[b, a, j] = not two[a, b, j]
-        yield one, two
+            else:
+                three = three.copy()
+                i, j, k = rng.integers(m), rng.integers(n), rng.integers(n)
+                three[i, j, k] = three[i, k, j] = not three[i, j, k]
+        yield one, two, three
 
 
 def summary(samples: list[tuple[float, float]]) -> str:
@@ -68,6 +86,10 @@ def main() -> None:
     parser.add_argument("--instances", type=int, default=300)
     parser.add_argument("--p1", type=float, default=0.3, help="P(attacker beats defender 1v1)")
     parser.add_argument("--p2", type=float, default=0.3, help="P(pair beats defender 2v1)")
+    parser.add_argument("--team-p1", type=float, default=0.7,
+                        help="P(attacker beats defender 1v1) in the team rows")
+    parser.add_argument("--p3", type=float, default=0.3,
+                        help="P(attacker beats a defender pair 1v2 | it beats both alone)")
     parser.add_argument("--change", type=float, default=0.1,
                         help="share of steps whose inputs change (cached runs)")
     parser.add_argument("--seed", type=int, default=0)
@@ -75,6 +97,7 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     print(f"machine: {platform.machine()} {platform.processor() or ''}, "
           f"python {platform.python_version()}; p1={args.p1}, p2={args.p2}, "
+          f"team rows: p1={args.team_p1}, p3={args.p3}; "
           f"change={args.change}, {args.instances} instances/steps per row")
     print("times in ms: wall p50 / p99 / max (cpu p50 / p99)")
     print("| size | MIP cold | MIP cached | matching cold | matching cached | MIP re-solves |")
@@ -82,15 +105,30 @@ def main() -> None:
     for m, n in SIZES:
         solve_assignment(np.zeros((m, n), bool), np.zeros((m, m, n), bool))  # warm-up
         mip_cold = [timed(solve_assignment, one, two)
-                    for one, two in instances(rng, m, n, args.instances, args.p1, args.p2)]
+                    for one, two, _ in instances(rng, m, n, args.instances, args.p1, args.p2)]
         match_cold = [timed(max_matching, one)
-                      for one, _ in instances(rng, m, n, args.instances, args.p1, args.p2)]
+                      for one, _, _ in instances(rng, m, n, args.instances, args.p1, args.p2)]
         steps = list(sequence(rng, m, n, args.instances, args.p1, args.p2, args.change))
         mip, matching = AssignmentSolver("mip"), AssignmentSolver("matching")
-        mip_cached = [timed(mip.solve, one, two) for one, two in steps]
-        match_cached = [timed(matching.solve, one) for one, _ in steps]
+        mip_cached = [timed(mip.solve, one, two) for one, two, _ in steps]
+        match_cached = [timed(matching.solve, one) for one, _, _ in steps]
         print(f"| {m}v{n} | {summary(mip_cold)} | {summary(mip_cached)} | "
               f"{summary(match_cold)} | {summary(match_cached)} | "
+              f"{mip.solves}/{mip.solves + mip.reuses} |")
+    print("\n| size | MIP + teams cold | MIP + teams cached | teams in answer | re-solves |")
+    print("|---|---|---|---|---|")
+    for m, n in TEAM_SIZES:
+        tables = list(instances(rng, m, n, args.instances, args.team_p1, args.p2, args.p3))
+        cold = [timed(solve_assignment, one, two, None, None, three)
+                for one, two, three in tables]
+        teams = sum(len(solve_assignment(one, two, beats_1v2=three).shared)
+                    for one, two, three in tables)
+        steps = list(sequence(rng, m, n, args.instances, args.team_p1, args.p2, args.change,
+                              args.p3))
+        mip = AssignmentSolver("mip")
+        cached = [timed(mip.solve, one, two, None, three) for one, two, three in steps]
+        print(f"| {m}v{n} | {summary(cold)} | {summary(cached)} | "
+              f"{teams / len(tables):.2f} per instance | "
               f"{mip.solves}/{mip.solves + mip.reuses} |")
 
 

@@ -1,23 +1,31 @@
-"""Assigning attackers to defenders: the paper's MIP on CP-SAT and the matching baseline.
+"""Assigning attackers to defenders: the paper's MIP on CP-SAT, its extension to defender
+pairs, and the matching baseline.
 
-Both work on plain boolean tables built from the solved HJ games (section III-C/D of the
-paper); indices are attacker ``i`` in ``0..M-1`` and defender ``j`` in ``0..N-1``:
+All work on plain boolean tables built from the solved HJ games (section III-C/D of the
+paper); indices are attacker ``i`` in ``0..M-1`` and defenders ``j``, ``k`` in
+``0..N-1``. Every table says where the *attacker side* wins (value <= 0), as the tubes do:
 
 - ``beats_1v1[i, j]``: attacker ``i`` beats defender ``j`` in the 1 vs 1 game, i.e.
   ``i`` is in the paper's set ``I_j``;
 - ``beats_2v1[k, l, j]``: attackers ``k`` and ``l`` together beat defender ``j`` in the
   2 vs 1 game, i.e. ``(k, l)`` is in ``P_j``. A pair counts as winning when either order
   says so; the diagonal is ignored.
+- ``beats_1v2[i, j, k]``: attacker ``i`` beats defenders ``j`` and ``k`` together in the
+  1 vs 2 game, i.e. ``i`` is in the set ``Q_jk`` (beyond the paper). Either order of the
+  defenders counts, as for ``beats_2v1``; the diagonal ``j == k`` is ignored, and so are
+  attackers that ``j`` or ``k`` stops alone (a team is never needed for them).
 
 ``solve_assignment`` is the paper's program (c1)-(c5): each defender takes at most two
 attackers, each attacker at most one defender, never an attacker that beats it alone nor
 a pair that beats it together; maximise the number of assignments, which is the number
-of captures the defenders can guarantee. ``max_matching`` is the baseline of Chen, Zhou
-and Tomlin (2014): each defender takes at most one attacker that it beats alone.
+of captures the defenders can guarantee. Given ``beats_1v2`` it also lets two defenders
+share one attacker that they beat together, (c6)-(c9) in its docstring. ``max_matching``
+is the baseline of Chen, Zhou and Tomlin (2014): each defender takes at most one attacker
+that it beats alone.
 
-Ties between optimal answers are broken by an optional integer ``preference`` table,
-strictly below the number of assignments (lexicographic), and otherwise by the
-deterministic single-worker solver.
+Ties between optimal answers are broken by optional integer preference tables, strictly
+below the number of covered attackers (lexicographic), and otherwise by the deterministic
+single-worker solver.
 """
 
 from __future__ import annotations
@@ -31,11 +39,14 @@ from ortools.sat.python import cp_model
 
 @dataclass(frozen=True)
 class Assignment:
-    """Which defender chases which attackers.
+    """Which defenders chase which attackers.
 
-    ``pairs``: ``(attacker, defender)`` index pairs, sorted. ``by_defender[j]``: the
-    attackers assigned to defender ``j``, sorted (at most two for the MIP, one for the
-    matching). ``captures``: the optimal objective, the number of assigned attackers.
+    ``pairs``: ``(attacker, defender)`` index pairs of attackers taken by one defender
+    alone (variables ``e``), sorted. ``by_defender[j]``: the attackers defender ``j`` takes
+    alone, sorted (at most two for the MIP, one for the matching). ``shared``:
+    ``(attacker, j, k)`` with ``j < k``, attackers taken by two defenders together
+    (variables ``f``; only with ``beats_1v2``), sorted; a defender in ``shared`` takes
+    nothing else. ``captures``: the optimal objective, the number of covered attackers.
     ``status``: the solver's status name (always ``"OPTIMAL"``).
     """
 
@@ -43,19 +54,36 @@ class Assignment:
     by_defender: tuple[tuple[int, ...], ...]
     captures: int
     status: str
+    shared: tuple[tuple[int, int, int], ...] = ()
 
     @classmethod
     def from_pairs(cls, pairs: list[tuple[int, int]], num_defenders: int,
-                   status: str = "OPTIMAL") -> Assignment:
+                   status: str = "OPTIMAL",
+                   shared: list[tuple[int, int, int]] | None = None) -> Assignment:
         ordered = tuple(sorted(pairs))
+        teams = tuple(sorted((i, min(j, k), max(j, k)) for i, j, k in shared or ()))
         by_defender = tuple(tuple(i for i, d in ordered if d == j) for j in range(num_defenders))
-        return cls(ordered, by_defender, len(ordered), status)
+        return cls(ordered, by_defender, len(ordered) + len(teams), status, teams)
 
     def defender_of(self, attacker: int) -> int | None:
-        """The defender assigned to ``attacker``, or ``None``."""
+        """The defender that takes ``attacker`` alone, or ``None`` (also when shared)."""
         for i, j in self.pairs:
             if i == attacker:
                 return j
+        return None
+
+    def defenders_of(self, attacker: int) -> tuple[int, ...]:
+        """Every defender assigned to ``attacker``: none, one, or a pair ``(j, k)``, j < k."""
+        alone = self.defender_of(attacker)
+        if alone is not None:
+            return (alone,)
+        return next(((j, k) for i, j, k in self.shared if i == attacker), ())
+
+    def partner_of(self, defender: int) -> tuple[int, int] | None:
+        """``(attacker, other defender)`` when ``defender`` shares an attacker, else ``None``."""
+        for i, j, k in self.shared:
+            if defender in (j, k):
+                return i, k if defender == j else j
         return None
 
 
@@ -70,80 +98,166 @@ class _Model(cp_model.CpModel):
         pass
 
 
-def _check_inputs(beats_1v1: np.ndarray, beats_2v1: np.ndarray | None,
-                  active: np.ndarray | None,
-                  preference: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None,
-                                                          np.ndarray, np.ndarray | None]:
+@dataclass(frozen=True)
+class _Tables:
+    """Checked inputs: ``beats_2v1`` / ``beats_1v2`` symmetrised, ``active`` filled in."""
+
+    beats_1v1: np.ndarray
+    beats_2v1: np.ndarray | None
+    beats_1v2: np.ndarray | None
+    active: np.ndarray
+    preference: np.ndarray | None
+    shared_preference: np.ndarray | None
+
+    @property
+    def candidates(self) -> np.ndarray:
+        """``(M, N)``: the variables ``e_ij`` that exist, (c4) and active attackers only."""
+        return ~self.beats_1v1 & self.active[:, None]
+
+    @property
+    def team_candidates(self) -> np.ndarray:
+        """``(M, N, N)``: the variables ``f_ijk`` that exist (j < k, (c7), active)."""
+        one = self.beats_1v1
+        m, n = one.shape
+        if self.beats_1v2 is None:
+            return np.zeros((m, n, n), dtype=bool)
+        upper = np.triu(np.ones((n, n), dtype=bool), k=1)
+        return (~self.beats_1v2 & one[:, :, None] & one[:, None, :] & upper[None]
+                & self.active[:, None, None])
+
+
+def _integer_table(name: str, table: np.ndarray | None,
+                   shape: tuple[int, ...]) -> np.ndarray | None:
+    if table is None:
+        return None
+    table = np.asarray(table)
+    if table.shape != shape or not np.issubdtype(table.dtype, np.integer):
+        raise ValueError(f"{name}: expected an integer array {shape}, got "
+                         f"{table.dtype} {table.shape}")
+    if np.any(table < 0):
+        raise ValueError(f"{name}: entries must be >= 0")
+    return table
+
+
+def _bool_table(name: str, table: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    table = np.asarray(table)
+    if table.shape != shape or table.dtype != np.bool_:
+        raise ValueError(f"{name}: expected a bool array {shape}, got {table.dtype} "
+                         f"{table.shape}")
+    return table
+
+
+def _check_inputs(beats_1v1: np.ndarray, beats_2v1: np.ndarray | None = None,
+                  active: np.ndarray | None = None, preference: np.ndarray | None = None,
+                  beats_1v2: np.ndarray | None = None,
+                  shared_preference: np.ndarray | None = None) -> _Tables:
     one = np.asarray(beats_1v1)
     if one.ndim != 2 or one.dtype != np.bool_:
         raise ValueError(f"beats_1v1: expected a bool array (M, N), got {one.dtype} {one.shape}")
     m, n = one.shape
-    two = None
-    if beats_2v1 is not None:
-        two = np.asarray(beats_2v1)
-        if two.shape != (m, m, n) or two.dtype != np.bool_:
-            raise ValueError(f"beats_2v1: expected a bool array {(m, m, n)}, got "
-                             f"{two.dtype} {two.shape}")
-        two = two | two.transpose(1, 0, 2)
-    mask = np.ones(m, dtype=bool) if active is None else np.asarray(active)
-    if mask.shape != (m,) or mask.dtype != np.bool_:
-        raise ValueError(f"active: expected a bool array ({m},), got {mask.dtype} {mask.shape}")
-    pref = None
-    if preference is not None:
-        pref = np.asarray(preference)
-        if pref.shape != (m, n) or not np.issubdtype(pref.dtype, np.integer):
-            raise ValueError(f"preference: expected an integer array {(m, n)}, got "
-                             f"{pref.dtype} {pref.shape}")
-        if np.any(pref < 0):
-            raise ValueError("preference: entries must be >= 0")
-    return one, two, mask, pref
+    two = None if beats_2v1 is None else _bool_table("beats_2v1", beats_2v1, (m, m, n))
+    three = None if beats_1v2 is None else _bool_table("beats_1v2", beats_1v2, (m, n, n))
+    mask = np.ones(m, dtype=bool) if active is None else _bool_table("active", active, (m,))
+    return _Tables(
+        beats_1v1=one,
+        beats_2v1=None if two is None else two | two.transpose(1, 0, 2),
+        beats_1v2=None if three is None else three | three.transpose(0, 2, 1),
+        active=mask,
+        preference=_integer_table("preference", preference, (m, n)),
+        shared_preference=_integer_table("shared_preference", shared_preference, (m, n, n)),
+    )
 
 
-def _objective_weight(candidates: np.ndarray, pref: np.ndarray | None) -> int:
-    """Weight of one assignment so that no preference total can outweigh it.
+def _objective_weight(tables: _Tables) -> int:
+    """Weight of one covered attacker so that no preference total can outweigh it.
 
-    Each attacker is assigned at most once, so any preference total is at most the sum
+    Each attacker is covered at most once, so any preference total is at most the sum
     over attackers of their largest candidate preference; one more than that makes the
-    number of assignments the strictly dominant term.
+    number of covered attackers the strictly dominant term.
     """
-    if pref is None:
-        return 1
-    best = np.where(candidates, pref, 0).max(axis=1, initial=0)
+    m = tables.beats_1v1.shape[0]
+    best = np.zeros(m, dtype=np.int64)
+    if tables.preference is not None:
+        best = np.where(tables.candidates, tables.preference, 0).max(axis=1, initial=0)
+    if tables.shared_preference is not None:
+        shared = np.where(tables.team_candidates, tables.shared_preference, 0)
+        best = np.maximum(best, shared.reshape(m, -1).max(axis=1, initial=0))
     return int(best.sum()) + 1
 
 
 def solve_assignment(beats_1v1: np.ndarray, beats_2v1: np.ndarray,
                      active: np.ndarray | None = None,
-                     preference: np.ndarray | None = None) -> Assignment:
-    """The paper's MIP (c1)-(c5), solved to optimality with CP-SAT.
+                     preference: np.ndarray | None = None,
+                     beats_1v2: np.ndarray | None = None,
+                     shared_preference: np.ndarray | None = None) -> Assignment:
+    """The paper's MIP (c1)-(c5), with defender pairs (c6)-(c9) when given ``beats_1v2``.
 
     ``beats_1v1``: bool ``(M, N)``; ``beats_2v1``: bool ``(M, M, N)``; ``active``: bool
-    ``(M,)``, attackers still in the game (default all). ``preference``: optional
-    non-negative integer ``(M, N)``; among assignments with the most captures, one with
-    the largest total preference is returned (it never lowers the number of captures).
+    ``(M,)``, attackers still in the game (default all); ``beats_1v2``: bool ``(M, N, N)``
+    or ``None`` (the paper's program). ``preference`` (``(M, N)``, for ``e``) and
+    ``shared_preference`` (``(M, N, N)``, for ``f``, read at ``j < k``): optional
+    non-negative integers; among assignments covering the most attackers, one with the
+    largest total preference is returned (it never lowers the number covered).
+
+    The program. ``e_ij = 1``: defender ``j`` takes attacker ``i`` alone (1 vs 1 or, with
+    a second attacker, 2 vs 1). ``f_ijk = 1`` (``j < k``): defenders ``j`` and ``k`` take
+    attacker ``i`` together (1 vs 2). ``I_j``, ``P_j``, ``Q_jk`` as in the module
+    docstring::
+
+        maximise   sum_ij e_ij + sum_{i, j<k} f_ijk
+        (c1)  e_ij in {0, 1}                                  for all i, j
+        (c2)  sum_i e_ij <= 2                                 for all j
+        (c3)  sum_j e_ij <= 1                                 for all i
+        (c4)  e_sj = 0                                        for all j, s in I_j
+        (c5)  e_kj + e_lj <= 1                                for all j, (k, l) in P_j
+        (c6)  f_ijk in {0, 1}                                 for all i, j < k
+        (c7)  f_sjk = 0                 for all j < k, s in Q_jk or s not in I_j & I_k
+        (c8)  sum_j e_ij + sum_{j<k} f_ijk <= 1               for all i
+        (c9)  sum_i e_ij + 2 sum_i sum_{k != j} f_i{jk} <= 2  for all j
+
+    (c7) forms a team only for an attacker that it stops and neither of its defenders
+    stops alone: where ``j`` stops ``s`` alone, ``f_sjk`` is dominated (``e_sj`` in its
+    place keeps every constraint and the objective), so leaving it out never lowers the
+    optimum and keeps the model small. (c8) covers each attacker at most once and
+    contains (c3); (c9) puts a defender in at most one team and then gives it nothing
+    else, and contains (c2). Without ``f``
+    variables (no ``beats_1v2``, or every entry true) the program is exactly (c1)-(c5).
+    (c4) and (c7) are applied by not creating the variables, as are inactive attackers.
     """
-    one, two, mask, pref = _check_inputs(beats_1v1, beats_2v1, active, preference)
-    assert two is not None
-    m, n = one.shape
-    candidates = ~one & mask[:, None]  # (c4) and inactive attackers: no variable at all
-    if not candidates.any():
+    tables = _check_inputs(beats_1v1, beats_2v1, active, preference, beats_1v2,
+                           shared_preference)
+    if tables.beats_2v1 is None:
+        raise ValueError("beats_2v1: required by the MIP")
+    m, n = tables.beats_1v1.shape
+    candidates, team_candidates = tables.candidates, tables.team_candidates
+    if not candidates.any() and not team_candidates.any():
         return Assignment.from_pairs([], n)
 
     model = _Model()
-    e = {(int(i), int(j)): model.new_bool_var(f"e_{i}_{j}") for i, j in np.argwhere(candidates)}
+    e = {(int(i), int(j)): model.new_bool_var(f"e_{i}_{j}")  # (c1), (c4)
+         for i, j in np.argwhere(candidates)}
+    f = {(int(i), int(j), int(k)): model.new_bool_var(f"f_{i}_{j}_{k}")  # (c6), (c7)
+         for i, j, k in np.argwhere(team_candidates)}
     for j in range(n):
         takers = np.nonzero(candidates[:, j])[0]
-        if len(takers) > 2:
-            model.add(cp_model.LinearExpr.sum([e[i, j] for i in takers]) <= 2)  # (c2)
-        forbidden = np.triu(two[np.ix_(takers, takers, [j])][:, :, 0], k=1)
+        teams = [var for (_, a, b), var in f.items() if j in (a, b)]
+        if len(takers) + 2 * len(teams) > 2:
+            model.add(cp_model.LinearExpr.sum([e[i, j] for i in takers])
+                      + 2 * cp_model.LinearExpr.sum(teams) <= 2)  # (c2), (c9)
+        forbidden = np.triu(tables.beats_2v1[np.ix_(takers, takers, [j])][:, :, 0], k=1)
         for a, b in np.argwhere(forbidden):
             model.add_at_most_one(e[takers[a], j], e[takers[b], j])  # (c5)
-    for i in np.nonzero(candidates.sum(axis=1) > 1)[0]:
-        model.add_at_most_one([e[i, j] for j in np.nonzero(candidates[i])[0]])  # (c3)
+    for i in range(m):
+        cover = [e[i, j] for j in np.nonzero(candidates[i])[0]] \
+            + [var for (s, _, _), var in f.items() if s == i]
+        if len(cover) > 1:
+            model.add_at_most_one(cover)  # (c3), (c8)
 
-    weight = _objective_weight(candidates, pref)
-    terms = list(e.values())
-    coefficients = [weight + (0 if pref is None else int(pref[i, j])) for i, j in e]
+    weight = _objective_weight(tables)
+    pref, shared_pref = tables.preference, tables.shared_preference
+    terms = list(e.values()) + list(f.values())
+    coefficients = [weight + (0 if pref is None else int(pref[i, j])) for i, j in e] \
+        + [weight + (0 if shared_pref is None else int(shared_pref[i, j, k])) for i, j, k in f]
     model.maximize(cp_model.LinearExpr.weighted_sum(terms, coefficients))
 
     solver = cp_model.CpSolver()
@@ -153,8 +267,9 @@ def solve_assignment(beats_1v1: np.ndarray, beats_2v1: np.ndarray,
     status = solver.solve(model)
     if status != cp_model.OPTIMAL:
         raise RuntimeError(f"assignment MIP: CP-SAT ended with {solver.status_name(status)}")
-    pairs = [(int(i), int(j)) for (i, j), var in e.items() if solver.boolean_value(var)]
-    return Assignment.from_pairs(pairs, n, solver.status_name(status))
+    pairs = [key for key, var in e.items() if solver.boolean_value(var)]
+    shared = [key for key, var in f.items() if solver.boolean_value(var)]
+    return Assignment.from_pairs(pairs, n, solver.status_name(status), shared)
 
 
 def max_matching(beats_1v1: np.ndarray, active: np.ndarray | None = None,
@@ -165,9 +280,9 @@ def max_matching(beats_1v1: np.ndarray, active: np.ndarray | None = None,
     a max flow with min cost (OR-Tools ``SimpleMinCostFlow``); ``preference`` as in
     ``solve_assignment`` breaks ties between maximum matchings.
     """
-    one, _, mask, pref = _check_inputs(beats_1v1, None, active, preference)
-    m, n = one.shape
-    candidates = ~one & mask[:, None]
+    tables = _check_inputs(beats_1v1, active=active, preference=preference)
+    m, n = tables.beats_1v1.shape
+    candidates, pref = tables.candidates, tables.preference
     if not candidates.any():
         return Assignment.from_pairs([], n)
     source, sink = m + n, m + n + 1  # attackers are nodes 0..m-1, defenders m..m+n-1
@@ -192,11 +307,12 @@ def max_matching(beats_1v1: np.ndarray, active: np.ndarray | None = None,
 class AssignmentSolver:
     """Solves the MIP (or the matching) step after step, reusing unchanged answers.
 
-    The sets ``I_j`` and ``P_j`` change rarely between time steps, so ``solve`` returns
-    the previous ``Assignment`` object when its inputs are equal to the last ones. With
-    ``keep_previous`` (default) ties between optimal answers are broken towards the pairs
-    of the previous answer, so the assignment does not flip between equally good ones.
-    ``solves`` and ``reuses`` count what happened.
+    The sets ``I_j``, ``P_j`` (and ``Q_jk``) change rarely between time steps, so
+    ``solve`` returns the previous ``Assignment`` object when what the program reads is
+    equal to the last time. With ``keep_previous`` (default) ties between optimal answers
+    are broken towards the assignments of the previous answer (alone and shared), so the
+    assignment does not flip between equally good ones. ``solves`` and ``reuses`` count
+    what happened.
     """
 
     def __init__(self, method: str = "mip", keep_previous: bool = True) -> None:
@@ -215,35 +331,59 @@ class AssignmentSolver:
         self._last = None
 
     def solve(self, beats_1v1: np.ndarray, beats_2v1: np.ndarray | None = None,
-              active: np.ndarray | None = None) -> Assignment:
-        """The optimal assignment for these tables (``beats_2v1`` unused by ``matching``)."""
-        if self.method == "mip" and beats_2v1 is None:
+              active: np.ndarray | None = None,
+              beats_1v2: np.ndarray | None = None) -> Assignment:
+        """The optimal assignment for these tables (``beats_2v1`` and ``beats_1v2`` unused
+        by ``matching``; ``beats_1v2=None`` is the paper's program)."""
+        mip = self.method == "mip"
+        if mip and beats_2v1 is None:
             raise ValueError("beats_2v1: required by the 'mip' method")
-        one, two, mask, _ = _check_inputs(beats_1v1, beats_2v1 if self.method == "mip" else None,
-                                          active, None)
-        # The answer depends only on what the program reads: which (attacker, defender)
-        # pairs are candidates, and, for the MIP, which pairs of one defender's candidates
-        # beat it together. Keying on those alone skips re-solves when only irrelevant
-        # entries flip (an attacker that already beats a defender, an inactive one).
-        candidates = ~one & mask[:, None]
-        parts = [candidates]
-        if two is not None:
-            parts.append(two & candidates[:, None, :] & candidates[None, :, :])
-        key = tuple(p.tobytes() + repr(p.shape).encode() for p in parts)
+        tables = _check_inputs(beats_1v1, beats_2v1 if mip else None, active,
+                               beats_1v2=beats_1v2 if mip else None)
+        key = _reuse_key(tables)
         if self._last is not None and key == self._key:
             self.reuses += 1
             return self._last
-        preference = None
-        if self.keep_previous and self._last is not None \
-                and len(self._last.by_defender) == one.shape[1]:
-            preference = np.zeros(one.shape, dtype=np.int64)
-            for i, j in self._last.pairs:
-                if i < one.shape[0]:
-                    preference[i, j] = 1
-        if beats_2v1 is not None and self.method == "mip":
-            result = solve_assignment(one, beats_2v1, mask, preference)
+        preference, shared_preference = self._previous_preferences(tables.beats_1v1.shape)
+        if mip:
+            result = solve_assignment(tables.beats_1v1, tables.beats_2v1, tables.active,
+                                      preference, tables.beats_1v2, shared_preference)
         else:
-            result = max_matching(one, mask, preference)
+            result = max_matching(tables.beats_1v1, tables.active, preference)
         self.solves += 1
         self._key, self._last = key, result
         return result
+
+    def _previous_preferences(self, shape: tuple[int, int]) -> tuple[np.ndarray | None,
+                                                                      np.ndarray | None]:
+        """Preference 1 on every variable the previous answer set (same defenders)."""
+        last = self._last
+        m, n = shape
+        if not self.keep_previous or last is None or len(last.by_defender) != n:
+            return None, None
+        preference = np.zeros((m, n), dtype=np.int64)
+        for i, j in last.pairs:
+            if i < m:
+                preference[i, j] = 1
+        shared_preference = np.zeros((m, n, n), dtype=np.int64)
+        for i, j, k in last.shared:
+            if i < m:
+                shared_preference[i, j, k] = 1
+        return preference, shared_preference
+
+
+def _reuse_key(tables: _Tables) -> tuple[bytes, ...]:
+    """What the program reads, and nothing else.
+
+    The answer depends only on which variables ``e`` and ``f`` exist and, for the MIP,
+    which pairs of one defender's candidates beat it together (c5). Keying on those alone
+    skips re-solves when only irrelevant entries flip (an attacker that already beats a
+    defender, an inactive one, a 2 vs 1 pair of which one attacker is out of reach).
+    """
+    candidates = tables.candidates
+    parts = [candidates]
+    if tables.beats_2v1 is not None:
+        parts.append(tables.beats_2v1 & candidates[:, None, :] & candidates[None, :, :])
+    if tables.beats_1v2 is not None:
+        parts.append(tables.team_candidates)
+    return tuple(p.tobytes() + repr(p.shape).encode() for p in parts)

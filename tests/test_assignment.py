@@ -18,6 +18,16 @@ def random_instance(rng: np.random.Generator, m: int, n: int):
     return one, two, active
 
 
+def random_team_instance(rng: np.random.Generator, m: int, n: int):
+    """``(beats_1v1, beats_2v1, beats_1v2, active)``; the 1 vs 2 table is not symmetric in
+    the defenders, and attackers beat defenders alone more often than in
+    ``random_instance`` (slow defenders: where teams matter)."""
+    one, two, active = random_instance(rng, m, n)
+    one |= rng.random((m, n)) < 0.5
+    three = rng.random((m, n, n)) < rng.uniform(0.1, 0.9)
+    return one, two, three, active
+
+
 def feasible_mip(pairs, one, two, active) -> bool:
     defenders = [j for _, j in pairs]
     attackers = [i for i, _ in pairs]
@@ -46,6 +56,52 @@ def all_assignments(m: int, n: int):
         yield [(i, j) for i, j in enumerate(choice) if j >= 0]
 
 
+def feasible_with_teams(pairs, shared, one, two, three, active) -> bool:
+    """(c1)-(c9) checked on whole pair lists, independently of the model."""
+    if not feasible_mip(pairs, one, two, active):
+        return False  # (c1)-(c5)
+    if any(three[i, j, k] or three[i, k, j] or not (one[i, j] and one[i, k])
+           or not active[i] or not j < k for i, j, k in shared):
+        return False  # (c6), (c7), inactive attackers
+    covered = [i for i, _ in pairs] + [i for i, _, _ in shared]
+    if len(set(covered)) != len(covered):
+        return False  # (c8)
+    in_teams = [d for _, j, k in shared for d in (j, k)]
+    alone = {j for _, j in pairs}
+    return len(set(in_teams)) == len(in_teams) and not alone & set(in_teams)  # (c9)
+
+
+def brute_force_with_teams(one, two, three, active, preference=None,
+                           shared_preference=None) -> tuple[int, int]:
+    """(most covered, largest preference among those): every attacker gets nothing, one
+    defender or a pair of defenders; partial assignments that break a constraint are cut
+    (every constraint is an upper bound, so no extension of them can be feasible)."""
+    m, n = one.shape
+    options = [None] + [(j,) for j in range(n)] + list(itertools.combinations(range(n), 2))
+    best = (0, 0)
+
+    def visit(i, pairs, shared):
+        nonlocal best
+        if not feasible_with_teams(pairs, shared, one, two, three, active):
+            return
+        if i == m:
+            bonus = sum(int(preference[a, j]) for a, j in pairs) if preference is not None else 0
+            if shared_preference is not None:
+                bonus += sum(int(shared_preference[a, j, k]) for a, j, k in shared)
+            best = max(best, (len(pairs) + len(shared), bonus))
+            return
+        for option in options:
+            if option is None:
+                visit(i + 1, pairs, shared)
+            elif len(option) == 1:
+                visit(i + 1, [*pairs, (i, option[0])], shared)
+            else:
+                visit(i + 1, pairs, [*shared, (i, *option)])
+
+    visit(0, [], [])
+    return best
+
+
 def brute_force(m, n, feasible, preference=None) -> tuple[int, int]:
     """(most assignments, largest preference among those) over all feasible assignments."""
     best = (0, 0)
@@ -58,7 +114,7 @@ def brute_force(m, n, feasible, preference=None) -> tuple[int, int]:
 
 def check_consistent(result: Assignment, n: int) -> None:
     assert result.status == "OPTIMAL"
-    assert result.captures == len(result.pairs)
+    assert result.captures == len(result.pairs) + len(result.shared)
     assert len(result.by_defender) == n
     assert sorted((i, j) for j, group in enumerate(result.by_defender) for i in group) \
         == list(result.pairs)
@@ -253,3 +309,154 @@ def test_solver_reuses_when_only_unread_entries_change():
     relevant[1, 2, 1] = relevant[2, 1, 1] = True
     solver.solve(beats_1v1, relevant, active)
     assert solver.solves == 3
+
+
+def check_teams(result: Assignment, n: int) -> None:
+    check_consistent(result, n)
+    assert result.captures == len(result.pairs) + len(result.shared)
+    for i, j, k in result.shared:
+        assert j < k and result.defenders_of(i) == (j, k) and result.defender_of(i) is None
+        assert result.partner_of(j) == (i, k) and result.partner_of(k) == (i, j)
+        assert result.by_defender[j] == result.by_defender[k] == ()
+    for i, j in result.pairs:
+        assert result.defenders_of(i) == (j,) and result.partner_of(j) is None
+
+
+def test_mip_with_teams_equals_brute_force_on_random_instances():
+    rng = np.random.default_rng(7)
+    used_teams = 0
+    for _ in range(300):
+        m, n = int(rng.integers(1, 6)), int(rng.integers(1, 5))
+        one, two, three, active = random_team_instance(rng, m, n)
+        result = solve_assignment(one, two, active, beats_1v2=three)
+        check_teams(result, n)
+        assert feasible_with_teams(result.pairs, result.shared, one, two, three, active)
+        assert result.captures == brute_force_with_teams(one, two, three, active)[0]
+        used_teams += bool(result.shared)
+    assert used_teams > 50  # the instances exercise the new variables
+
+
+def test_shared_preference_breaks_ties_without_lowering_captures():
+    rng = np.random.default_rng(8)
+    for _ in range(150):
+        m, n = int(rng.integers(1, 5)), int(rng.integers(1, 5))
+        one, two, three, active = random_team_instance(rng, m, n)
+        preference = rng.integers(0, 50, size=(m, n))
+        shared_preference = rng.integers(0, 50, size=(m, n, n))
+        result = solve_assignment(one, two, active, preference, three, shared_preference)
+        assert feasible_with_teams(result.pairs, result.shared, one, two, three, active)
+        got = (result.captures, sum(int(preference[i, j]) for i, j in result.pairs)
+               + sum(int(shared_preference[i, j, k]) for i, j, k in result.shared))
+        assert got == brute_force_with_teams(one, two, three, active, preference,
+                                             shared_preference)
+
+
+def test_without_team_variables_the_program_is_the_papers():
+    rng = np.random.default_rng(9)
+    for _ in range(200):
+        m, n = int(rng.integers(1, 7)), int(rng.integers(1, 5))
+        one, two, active = random_instance(rng, m, n)
+        preference = rng.integers(0, 5, size=(m, n))
+        paper = solve_assignment(one, two, active, preference)
+        no_team_wins = np.ones((m, n, n), dtype=bool)
+        assert solve_assignment(one, two, active, preference, no_team_wins) == paper
+        # Teams only of attackers out of the game: no variable either.
+        teams_of_inactive = active[:, None, None] | np.eye(n, dtype=bool)[None]
+        assert solve_assignment(one, two, active, preference, teams_of_inactive) == paper
+        assert paper.shared == ()
+
+
+def test_two_defenders_share_an_attacker_neither_stops_alone():
+    one = np.ones((1, 2), dtype=bool)  # the attacker beats each defender alone
+    two = np.zeros((1, 1, 2), dtype=bool)
+    three = np.zeros((1, 2, 2), dtype=bool)
+    result = solve_assignment(one, two, beats_1v2=three)
+    assert result.shared == ((0, 0, 1),) and result.captures == 1 and result.pairs == ()
+    assert solve_assignment(one, two).captures == 0
+    # Either order of the defenders saying "attacker wins" forbids the team.
+    three[0, 1, 0] = True
+    assert solve_assignment(one, two, beats_1v2=three).captures == 0
+    # The diagonal is no team.
+    diagonal = np.ones((1, 2, 2), dtype=bool)
+    diagonal[0, [0, 1], [0, 1]] = False
+    assert solve_assignment(one, two, beats_1v2=diagonal).captures == 0
+
+
+def test_a_defender_in_a_team_takes_nothing_else():
+    # Attacker 0 needs defenders 0 and 1 together; attackers 1 and 2 each lose to
+    # defender 0 alone and, as a pair, to defender 0 too.
+    one = np.array([[True, True], [False, True], [False, True]])
+    two = np.zeros((3, 3, 2), dtype=bool)
+    three = np.ones((3, 2, 2), dtype=bool)
+    three[0, 0, 1] = False
+    result = solve_assignment(one, two, beats_1v2=three)
+    assert result.captures == 2 and result.shared == () and result.by_defender[0] == (1, 2)
+    # Once attacker 2 is gone the team and the lone defender are worth one each: either
+    # way one attacker is covered, never defender 0 in a team and alone at once.
+    gone = np.array([True, True, False])
+    result = solve_assignment(one, two, gone, beats_1v2=three)
+    assert result.captures == 1
+    assert feasible_with_teams(result.pairs, result.shared, one, two, three, gone)
+    # Three defenders, each beaten alone, any two win together: one team, never two
+    # teams sharing a defender.
+    one = np.ones((2, 3), dtype=bool)
+    result = solve_assignment(one, np.zeros((2, 2, 3), bool), beats_1v2=np.zeros((2, 3, 3), bool))
+    assert result.captures == 1 and len(result.shared) == 1
+
+
+@pytest.mark.parametrize(("kwargs", "field"), [
+    ({"beats_1v2": np.zeros((2, 1), dtype=bool)}, "beats_1v2"),
+    ({"beats_1v2": np.zeros((2, 1, 1), dtype=int)}, "beats_1v2"),
+    ({"shared_preference": np.ones((2, 1, 1))}, "shared_preference"),
+    ({"shared_preference": -np.ones((2, 1, 1), dtype=int)}, "shared_preference"),
+])
+def test_bad_team_input_names_the_field(kwargs, field):
+    args = {"beats_1v1": np.zeros((2, 1), dtype=bool), "beats_2v1": np.zeros((2, 2, 1), bool)}
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=field):
+        solve_assignment(**args)
+
+
+def test_solver_with_teams_reuses_only_when_unread_entries_change():
+    one = np.ones((3, 3), dtype=bool)
+    one[2, 2] = False
+    two = np.zeros((3, 3, 3), dtype=bool)
+    three = np.ones((3, 3, 3), dtype=bool)
+    three[0, 0, 1] = three[0, 1, 0] = False
+    active = np.array([True, True, False])
+    solver = AssignmentSolver("mip")
+    first = solver.solve(one, two, active, three)
+    assert first.shared == ((0, 0, 1),)
+    # Unread: the diagonal, and any team against the inactive attacker 2.
+    unread = three.copy()
+    unread[1, 2, 2] = False
+    unread[2] = False
+    assert solver.solve(one, two, active, unread) is first
+    assert (solver.solves, solver.reuses) == (1, 1)
+    # Read: a new team variable against attacker 1 ...
+    read = three.copy()
+    read[1, 2, 0] = read[1, 0, 2] = False
+    assert solver.solve(one, two, active, read).captures == 1
+    assert solver.solves == 2
+    # ... and the order j > k of the team in use: either order saying "attacker wins"
+    # removes the team.
+    read = three.copy()
+    read[0, 1, 0] = True
+    assert solver.solve(one, two, active, read).captures == 0
+    assert solver.solves == 3
+    # The paper's program (no table) is a different program: solved again.
+    assert solver.solve(one, two, active).captures == 0
+    assert solver.solves == 4
+
+
+def test_solver_keeps_previous_shared_answer_when_still_optimal():
+    one = np.ones((2, 3), dtype=bool)
+    two = np.zeros((2, 2, 3), dtype=bool)
+    solver = AssignmentSolver("mip")
+    three = np.ones((2, 3, 3), dtype=bool)
+    three[0, 1, 2] = three[0, 2, 1] = False
+    assert solver.solve(one, two, beats_1v2=three).shared == ((0, 1, 2),)
+    # Now any two defenders stop attacker 0: the previous team (1, 2) is kept.
+    assert solver.solve(one, two, beats_1v2=three & (np.arange(2) != 0)[:, None, None]
+                        ).shared == ((0, 1, 2),)
+    assert solver.solves == 2

@@ -102,17 +102,22 @@ def test_missing_file_and_unknown_builtin_are_errors(tmp_path):
 
 
 def test_builtins_match_design():
-    assert builtin_names() == ["paper_1v1", "paper_2v1", "paper_6v2", "paper_8v4"]
+    assert builtin_names() == ["paper_1v1", "paper_2v1", "paper_6v2", "paper_6v4_equal",
+                               "paper_8v4"]
     sizes = {name: (builtin_scenario(name).num_attackers, builtin_scenario(name).num_defenders)
              for name in builtin_names()}
     assert sizes == {"paper_1v1": (1, 1), "paper_2v1": (2, 1), "paper_6v2": (6, 2),
-                     "paper_8v4": (8, 4)}
+                     "paper_6v4_equal": (6, 4), "paper_8v4": (8, 4)}
     game_map = builtin_map("paper")
     assert game_map.target == (Box((0.6, 0.1), (0.8, 0.3)),)
     assert game_map.obstacles == (Box((-0.1, -1.0), (0.1, -0.3)), Box((-0.1, 0.3), (0.1, 0.6)))
     paper = builtin_scenario("paper_2v1")
     assert (paper.attacker_speed, paper.defender_speed, paper.capture_radius, paper.dt) == (
         1.0, 1.5, 0.1, 0.005)
+    equal = builtin_scenario("paper_6v4_equal")
+    assert equal.map == game_map
+    assert (equal.attacker_speed, equal.defender_speed, equal.capture_radius, equal.dt) == (
+        1.0, 1.0, 0.1, 0.005)
 
 
 def test_save_load_round_trip(tmp_path):
