@@ -97,7 +97,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="print one JSON object instead of a summary")
     play.set_defaults(run=_play)
 
-    solve = commands.add_parser("solve", help="solve a 1 vs 1, 2 vs 1 or 1 vs 2 HJ reach-avoid game",
+    solve = commands.add_parser("solve",
+                                help="solve a 1 vs 1, 2 vs 1 or 1 vs 2 HJ reach-avoid game",
                                 description="Solve a scenario's 1 vs 1, 2 vs 1 or 1 vs 2 game to "
                                             "convergence (cached in $REACHAVOID_CACHE_DIR).")
     _scenario_option(solve, "paper_2v1", "a built-in scenario name or a TOML scenario file")
@@ -254,7 +255,7 @@ def _json_report(result: EpisodeResult, args: argparse.Namespace) -> dict[str, o
     order = ("scenario", "defenders", "attackers", "seed", "steps", "captured", "arrived",
              "captured_count", "arrived_count", "seconds", "game_time", "video",
              "guaranteed_captures_initial", "guaranteed_captures_final",
-             "guarantee_violations")
+             "guarantee_violations", "nominal_captures_initial")
     return {key: report[key] for key in order if key in report}
 
 

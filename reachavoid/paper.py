@@ -70,9 +70,9 @@ def reproduce(out: Path, grid1: int, grid2: int, videos: bool = True,
         rows.append(PaperRow(scenario.name, dict(scenario.paper_captures), measured))
     figure_game = scenarios[0]
     vf11, vf21 = tube_2v1(figure_game, grid1, grid2, progress)
-    defender = figure_game.defenders[0]
-    tube_figure(scenario_panels(vf11, figure_game.attackers, defender)[:1]
-                + scenario_panels(vf21, figure_game.attackers, defender), out / "tubes.png")
+    defenders = figure_game.defenders
+    tube_figure(scenario_panels(vf11, figure_game.attackers, defenders)[:1]
+                + scenario_panels(vf21, figure_game.attackers, defenders), out / "tubes.png")
     with atomic_write(out / "table.json") as handle:
         json.dump({row.scenario: {"paper": row.reported, **row.measured} for row in rows},
                   handle, indent=2)
