@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from reachavoid_env import builtin_map
-from solvers.hj import SolverSettings, load_value_function, solve_1v1, solve_1v2
+from solvers.hj import SolverSettings, load_value_function, solve_1v2
 from solvers.hj.geometry import free_distance
 from solvers.hj.plot import scenario_panels, tube_figure
 
@@ -20,8 +20,9 @@ def paper_map():
 
 
 @pytest.fixture(scope="module")
-def vf11(paper_map):
-    return solve_1v1(paper_map, grid_points=25, cache=False, progress=False)
+def vf11(coarse_tubes):
+    """The paper map's 1 vs 1 value at 25^4 (paper speeds and radius, ``conftest``)."""
+    return coarse_tubes[0]
 
 
 @pytest.fixture(scope="module")
