@@ -1,10 +1,10 @@
 """Benchmark: per-step decision latency of the defender policies (BENCHMARKS.md, "Policies").
 
-One decision is ``defenders.act(state)``: the 1 vs 1 and 2 vs 1 tube lookups at the current
-positions, the assignment (CP-SAT MIP or matching, reused when its inputs are unchanged)
-and the optimal controls. Episodes are the paper's 8 vs 4 game and seeded random 8 vs 4
-starts, played by shortest-path attackers. Reported: p50, p90, p99 and max over all
-decisions, with the share of steps that re-solved the assignment.
+One decision is ``defenders.act(state)``: the 1 vs 1 and 2 vs 1 (and, with teams, 1 vs 2)
+tube lookups at the current positions, the assignment (CP-SAT MIP or matching, reused when
+its inputs are unchanged) and the optimal controls. Episodes are the paper's 8 vs 4 game
+and seeded random 8 vs 4 starts, played by shortest-path attackers. Reported: p50, p90,
+p99 and max over all decisions, with the share of steps that re-solved the assignment.
 
     python benchmarks/policy_latency.py [--grid1 45] [--grid2 30] [--episodes 10]
 
@@ -20,7 +20,13 @@ import time
 import numpy as np
 
 import reachavoid_env
-from policies import HJDefenderPolicy, MatchingDefenderPolicy, ShortestPathAttacker
+from policies import (
+    HJDefenderPolicy,
+    HJPairsDefenderPolicy,
+    MatchingDefenderPolicy,
+    ShortestPathAttacker,
+)
+from policies.tubes import tube_1v2
 
 
 def decision_times(env, defenders, episodes: int) -> tuple[np.ndarray, int]:
@@ -52,7 +58,10 @@ def main() -> None:
 
     paper = reachavoid_env.builtin_scenario("paper_8v4")
     reference = HJDefenderPolicy.for_scenario(paper, grid1=args.grid1, grid2=args.grid2)
-    policies = {"hj (MIP)": reference, "matching": MatchingDefenderPolicy(reference.vf11)}
+    teams = HJPairsDefenderPolicy(reference.vf11, reference.vf21,
+                                  tube_1v2(paper, args.grid1, args.grid2))
+    policies = {"hj (MIP)": reference, "hj-pairs": teams,
+                "matching": MatchingDefenderPolicy(reference.vf11)}
     print(f"machine: {platform.processor() or platform.machine()}, "
           f"tubes {args.grid1}^4 and {args.grid2}^6")
     print(f"{'policy':<10} {'games':<22} {'decisions':>9} {'p50 ms':>8} {'p90 ms':>8} "

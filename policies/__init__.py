@@ -8,6 +8,7 @@ from policies.attackers import HJAttacker, RandomAttacker, ShortestPathAttacker,
 from policies.defenders import (
     GreedyDefender,
     HJDefenderPolicy,
+    HJPairsDefenderPolicy,
     IdleDefender,
     MatchingDefenderPolicy,
 )
@@ -17,6 +18,7 @@ __all__ = [
     "GreedyDefender",
     "HJAttacker",
     "HJDefenderPolicy",
+    "HJPairsDefenderPolicy",
     "IdleDefender",
     "MatchingDefenderPolicy",
     "RandomAttacker",

@@ -12,7 +12,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from policies.tubes import tube_1v1, tube_2v1
+from policies.tubes import tube_1v1, tube_1v2, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario
 from reachavoid_env.rules import unit_vectors
 from solvers.assignment import Assignment, AssignmentSolver
@@ -86,6 +86,23 @@ def triple_states(attackers: np.ndarray, pairs: np.ndarray, defenders: np.ndarra
     return np.concatenate([first, second, np.broadcast_to(defenders[None], (p, n, 2))], axis=-1)
 
 
+def team_states(attackers: np.ndarray, defenders: np.ndarray, teams: np.ndarray) -> np.ndarray:
+    """1 vs 2 states ``(T, 6)`` for ``teams (T, 3)`` rows ``(attacker, j, k)``: defenders
+    ``j`` and ``k`` against the attacker, axes ``(xD1, yD1, xD2, yD2, xA, yA)``."""
+    return np.concatenate([defenders[teams[:, 1]], defenders[teams[:, 2]],
+                           attackers[teams[:, 0]]], axis=1)
+
+
+CERTIFICATE_CELLS = 0.5
+"""Default certificate margin in grid cells of each tube: an assignment counts as
+guaranteed only where its game's value exceeds this many of the tube's largest grid
+spacing (map units). Above every margin measured so far on the paper map (the largest
+coarse value at random states where a finer tube says the attacker side wins, 2e5
+states): 1 vs 1 0.35 cells at 25^4 and 0.24 at 45^4 (against 81^4), 2 vs 1 0.29 and
+1 vs 2 0.28 cells at 13^6 (against 21^6, itself coarse). Not yet a proven bound: the
+episodes study of issue 12 item 3 decides it."""
+
+
 def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
     """``controls (K, 2)`` where non-zero, else the unit vectors along ``fallbacks``."""
     still = ~controls.any(axis=1)
@@ -97,17 +114,30 @@ def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
 class _AssignmentDefender(ABC):
     """Shared machinery of the HJ + MIP defenders and the matching baseline.
 
-    Each step it reads the 1 vs 1 tube (and the 2 vs 1 tube for the MIP) at the current
-    positions (multilinear interpolation), solves the assignment, and drives each assigned
-    defender by the optimal control of its game. ``solver`` (an ``AssignmentSolver``)
-    counts the solves and the reused answers.
+    Each step it reads the 1 vs 1 tube (and the 2 vs 1 tube for the MIP, the 1 vs 2 tube
+    with teams) at the current positions (multilinear interpolation), solves the
+    assignment, and drives each assigned defender by the optimal control of its game
+    (both defenders of a team by the 1 vs 2 controls). ``solver`` (an
+    ``AssignmentSolver``) counts the solves and the reused answers.
+
+    Two counts per step: ``nominal_captures``, the assignment's size (the paper's rule:
+    every assigned game has value > 0), and ``guaranteed_captures``, the attackers of the
+    assigned games whose value also clears the certificate margin (``margin_cells`` grid
+    cells of the game's tube).
     """
 
-    def __init__(self, vf11: ValueFunction, vf21: ValueFunction | None, method: str) -> None:
+    vf12: ValueFunction | None = None
+
+    def __init__(self, vf11: ValueFunction, vf21: ValueFunction | None, method: str,
+                 margin_cells: float = CERTIFICATE_CELLS) -> None:
+        if not margin_cells >= 0:
+            raise ValueError(f"margin_cells: expected a number >= 0, got {margin_cells}")
         self.vf11 = vf11
         self.vf21 = vf21
+        self.margin_cells = float(margin_cells)
         self.solver = AssignmentSolver(method)
         self._assignment: Assignment | None = None
+        self._certified = 0
 
     def reset(self, scenario: Scenario) -> None:
         _check_tube(self.vf11, scenario, "vf11")
@@ -123,9 +153,19 @@ class _AssignmentDefender(ABC):
 
     @property
     def guaranteed_captures(self) -> int:
-        """Attackers guaranteed never to reach the target from now on: the size of the last
-        assignment (the MIP objective; the matching size for the baseline)."""
+        """Attackers certified never to reach the target from now on: those of the last
+        assignment whose game's value clears the certificate margin."""
+        return 0 if self._assignment is None else self._certified
+
+    @property
+    def nominal_captures(self) -> int:
+        """The paper's count: the size of the last assignment (the MIP objective; the
+        matching size for the baseline)."""
         return 0 if self._assignment is None else self._assignment.captures
+
+    def margin(self, vf: ValueFunction) -> float:
+        """The certificate margin of ``vf``'s game (map units)."""
+        return self.margin_cells * float(max(vf.grid.spacing))
 
     @property
     def last_assignment(self) -> Assignment | None:
@@ -133,47 +173,66 @@ class _AssignmentDefender(ABC):
         return self._assignment
 
     def overlay(self) -> Overlay:
-        """The assignment edges, and the guaranteed captures as a text line."""
+        """The assignment edges, and the guaranteed and nominal captures as a text line."""
         if self._assignment is None:
             return Overlay()
         method = "MIP" if self.solver.method == "mip" else "matching"
-        return Overlay(edges=tuple(self.assignment),
-                       lines=(f"{method}: {self._assignment.captures} guaranteed",))
+        teams = tuple((f"defender_{d}", f"attacker_{i}") for i, j, k in self._assignment.shared
+                      for d in (j, k))
+        return Overlay(edges=tuple(self.assignment) + teams,
+                       lines=(f"{method}: {self.guaranteed_captures} guaranteed, "
+                              f"{self.nominal_captures} nominal",))
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
         """One decision: the 1 vs 1 table, the assignment, then every assigned or shadowing
-        defender's optimal control, looked up in one batch per tube."""
+        defender's optimal control, looked up in one batch per tube, and the count of
+        certified captures."""
         active = state.active_attackers
         names = state.defender_names
         actions = np.zeros((len(names), 2), dtype=np.float32)
         if not active.any():
-            self._assignment = None
+            self._assignment, self._certified = None, 0
             return dict(zip(names, actions, strict=True))
         attackers, defenders = state.attacker_positions, state.defender_positions
         values11 = self.vf11.value(pair_states(attackers, defenders))
-        self._assignment = self._assign(state, values11 <= 0.0, active)
-        singles, doubles = [], []
+        assignment = self._assign(state, values11 <= 0.0, active)
+        self._assignment = assignment
+        in_team = {d for _, j, k in assignment.shared for d in (j, k)}
+        singles, doubles, shadows = [], [], []
         for j in range(len(names)):
-            mine = self._assignment.by_defender[j]
+            mine = assignment.by_defender[j]
+            if j in in_team:
+                continue
             if len(mine) == 2:
                 doubles.append((j, *mine))
             elif len(mine) == 1:
                 singles.append((j, mine[0]))
             elif (target := self._idle_target(state, j, values11)) is not None:
-                singles.append((j, target))
-        if singles:
-            j, i = np.array(singles).T
+                shadows.append((j, target))
+        certified = sum(int(values11[i, j] > self.margin(self.vf11)) for j, i in singles)
+        if singles or shadows:
+            j, i = np.array(singles + shadows).T
             controls = self.vf11.defender_control(np.concatenate([attackers[i], defenders[j]],
                                                                  axis=1))
             actions[j] = _headings(controls, attackers[i] - defenders[j])
         if doubles:
             j, first, second = np.array(doubles).T
-            controls = self.vf21.defender_control(np.concatenate(
-                [attackers[first], attackers[second], defenders[j]], axis=1))
+            states = np.concatenate([attackers[first], attackers[second], defenders[j]], axis=1)
+            controls = self.vf21.defender_control(states)
+            certified += 2 * int(np.sum(self.vf21.value(states) > self.margin(self.vf21)))
             gaps = np.stack([attackers[first] - defenders[j], attackers[second] - defenders[j]])
             nearer = gaps[np.argmin(np.hypot(gaps[..., 0], gaps[..., 1]), axis=0),
                           np.arange(len(j))]
             actions[j] = _headings(controls, nearer)
+        if assignment.shared:
+            teams = np.array(assignment.shared)
+            states = team_states(attackers, defenders, teams)
+            for column, player in ((1, "D1"), (2, "D2")):
+                j = teams[:, column]
+                actions[j] = _headings(self.vf12.control(states, player),
+                                       attackers[teams[:, 0]] - defenders[j])
+            certified += int(np.sum(self.vf12.value(states) > self.margin(self.vf12)))
+        self._certified = certified
         return dict(zip(names, actions, strict=True))
 
     @abstractmethod
@@ -213,16 +272,18 @@ class HJDefenderPolicy(_AssignmentDefender):
     optimal control against the unassigned attacker it is best placed against (largest
     1 vs 1 value; any attacker if none is unassigned), which touches no other defender's
     guarantee; ``"stand"`` stands still, as in the paper's simulations.
-    ``guaranteed_captures`` is the MIP objective of the last step.
+    ``nominal_captures`` is the MIP objective of the last step, ``guaranteed_captures`` the
+    part of it that clears the certificate margin (``margin_cells``).
     """
 
-    def __init__(self, vf11: ValueFunction, vf21: ValueFunction, idle: str = "shadow") -> None:
+    def __init__(self, vf11: ValueFunction, vf21: ValueFunction, idle: str = "shadow",
+                 margin_cells: float = CERTIFICATE_CELLS) -> None:
         if idle not in ("shadow", "stand"):
             raise ValueError(f"idle: expected 'shadow' or 'stand', got {idle!r}")
         if vf11.game != "1v1" or vf21.game != "2v1":
             raise ValueError(f"vf11, vf21: expected a 1v1 and a 2v1 value function, got "
                              f"{vf11.game!r} and {vf21.game!r}")
-        super().__init__(vf11, vf21, "mip")
+        super().__init__(vf11, vf21, "mip", margin_cells)
         self.vf21: ValueFunction = vf21
         self.idle = idle
 
@@ -237,15 +298,18 @@ class HJDefenderPolicy(_AssignmentDefender):
         _check_tube(self.vf21, scenario, "vf21")
 
     def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
-        """The MIP on this step's tables. (c5) binds only pairs of attackers that the
-        defender beats one by one, so the 2 vs 1 tube is read for those triples alone, in
-        one lookup."""
+        return self.solver.solve(beats, self._beats_2v1(state, beats, active), active)
+
+    def _beats_2v1(self, state: GameState, beats: np.ndarray, active: np.ndarray
+                   ) -> np.ndarray:
+        """The 2 vs 1 table ``(M, M, N)``. (c5) binds only pairs of attackers that the
+        defender beats one by one, so the tube is read for those triples alone, in one
+        lookup."""
         m, n = beats.shape
         beats_2v1 = np.zeros((m, m, n), dtype=bool)
         candidates = active[:, None] & ~beats
         first, second = _attacker_pairs(m)
-        both = candidates[first] & candidates[second]            # (pairs, N)
-        pair, j = np.nonzero(both)
+        pair, j = np.nonzero(candidates[first] & candidates[second])     # (pairs, N)
         if len(j):
             one, two = first[pair], second[pair]
             attackers, defenders = state.attacker_positions, state.defender_positions
@@ -253,19 +317,67 @@ class HJDefenderPolicy(_AssignmentDefender):
                                                    defenders[j]], axis=1)) <= 0.0
             beats_2v1[one, two, j] = wins
             beats_2v1[two, one, j] = wins
-        return self.solver.solve(beats, beats_2v1, active)
+        return beats_2v1
 
     def _idle_target(self, state: GameState, j: int, values11: np.ndarray) -> int | None:
         if self.idle == "stand":
             return None
         active = state.active_attackers
         taken = np.zeros(len(active), dtype=bool)
-        for i, _ in self._assignment.pairs:
+        for i in [i for i, _ in self._assignment.pairs] + [i for i, *_ in self._assignment.shared]:
             taken[i] = True
         pool = np.flatnonzero(active & ~taken)
         if len(pool) == 0:
             pool = np.flatnonzero(active)
         return int(pool[np.argmax(values11[pool, j])])
+
+
+class HJPairsDefenderPolicy(HJDefenderPolicy):
+    """Algorithm 1 with defender teams (beyond the paper): the MIP with pairs.
+
+    As ``HJDefenderPolicy``, and each step the 1 vs 2 tube gives, for every attacker that
+    two defenders each lose to alone, whether the two together stop it (``Q_jk``); the
+    assignment (c1)-(c9) (``solvers.assignment.solve_assignment``) may then give that
+    attacker to the pair, which plays the 1 vs 2 optimal controls (both defenders' from
+    the 1 vs 2 value's gradient). A defender in a team takes nothing else.
+    """
+
+    def __init__(self, vf11: ValueFunction, vf21: ValueFunction, vf12: ValueFunction,
+                 idle: str = "shadow", margin_cells: float = CERTIFICATE_CELLS) -> None:
+        if vf12.game != "1v2":
+            raise ValueError(f"vf12: expected a 1v2 value function, got {vf12.game!r}")
+        super().__init__(vf11, vf21, idle, margin_cells)
+        self.vf12: ValueFunction = vf12
+
+    @classmethod
+    def for_scenario(cls, scenario: Scenario, grid1: int = 45, grid2: int = 30,
+                     idle: str = "shadow", progress: bool = True) -> HJPairsDefenderPolicy:
+        """Load (or solve and cache) the scenario's tubes; both 6D games on ``grid2``^6."""
+        vf11, vf21 = tube_2v1(scenario, grid1, grid2, progress)
+        return cls(vf11, vf21, tube_1v2(scenario, grid1, grid2, progress), idle=idle)
+
+    def reset(self, scenario: Scenario) -> None:
+        super().reset(scenario)
+        _check_tube(self.vf12, scenario, "vf12")
+
+    def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
+        return self.solver.solve(beats, self._beats_2v1(state, beats, active), active,
+                                 beats_1v2=self._beats_1v2(state, beats, active))
+
+    def _beats_1v2(self, state: GameState, beats: np.ndarray, active: np.ndarray
+                   ) -> np.ndarray:
+        """The 1 vs 2 table ``(M, N, N)``, looked up where a team could be formed (the
+        attacker active and beating both defenders alone); true elsewhere."""
+        m, n = beats.shape
+        table = np.ones((m, n, n), dtype=bool)
+        open_ = beats[:, :, None] & beats[:, None, :] & np.triu(np.ones((n, n), bool), 1)
+        teams = np.argwhere(open_ & active[:, None, None])
+        if len(teams):
+            wins = self.vf12.value(team_states(state.attacker_positions,
+                                               state.defender_positions, teams)) <= 0.0
+            table[teams[:, 0], teams[:, 1], teams[:, 2]] = wins
+            table[teams[:, 0], teams[:, 2], teams[:, 1]] = wins
+        return table
 
 
 class MatchingDefenderPolicy(_AssignmentDefender):

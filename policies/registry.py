@@ -15,6 +15,7 @@ from policies.attackers import HJAttacker, RandomAttacker, ShortestPathAttacker,
 from policies.defenders import (
     GreedyDefender,
     HJDefenderPolicy,
+    HJPairsDefenderPolicy,
     IdleDefender,
     MatchingDefenderPolicy,
 )
@@ -36,6 +37,10 @@ DEFENDERS: dict[str, NamedPolicy] = {
                       "re-solved every step",
                       HJDefenderPolicy.for_scenario,
                       frozenset({"grid1", "grid2", "idle", "progress"})),
+    "hj-pairs": NamedPolicy("the reference with defender teams: two defenders may share an "
+                            "attacker neither stops alone (1 vs 2 tube), re-solved every step",
+                            HJPairsDefenderPolicy.for_scenario,
+                            frozenset({"grid1", "grid2", "idle", "progress"})),
     "matching": NamedPolicy("the maximum-matching baseline (unmatched defenders stand still)",
                             MatchingDefenderPolicy.for_scenario,
                             frozenset({"grid1", "unmatched", "progress"})),

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from reachavoid_env import Scenario
-from solvers.hj import ValueFunction, solve_1v1, solve_2v1
+from solvers.hj import ValueFunction, solve_1v1, solve_1v2, solve_2v1
 
 
 def tube_1v1(scenario: Scenario, grid1: int = 45, progress: bool = True) -> ValueFunction:
@@ -18,3 +18,11 @@ def tube_2v1(scenario: Scenario, grid1: int = 45, grid2: int = 30,
     """The 1 vs 1 value on ``grid1``^4 and the 2 vs 1 value built on it, on ``grid2``^6."""
     vf11 = tube_1v1(scenario, grid1, progress)
     return vf11, solve_2v1(scenario.map, vf11, grid_points=grid2, progress=progress)
+
+
+def tube_1v2(scenario: Scenario, grid1: int = 45, grid2: int = 30,
+             progress: bool = True) -> ValueFunction:
+    """The 1 vs 2 value (one attacker, two defenders) on ``grid2``^6, built on the 1 vs 1
+    value on ``grid1``^4."""
+    return solve_1v2(scenario.map, tube_1v1(scenario, grid1, progress), grid_points=grid2,
+                     progress=progress)

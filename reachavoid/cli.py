@@ -97,14 +97,15 @@ def build_parser() -> argparse.ArgumentParser:
                       help="print one JSON object instead of a summary")
     play.set_defaults(run=_play)
 
-    solve = commands.add_parser("solve", help="solve a 1 vs 1 or 2 vs 1 HJ reach-avoid game",
-                                description="Solve a scenario's 1 vs 1 or 2 vs 1 game to "
+    solve = commands.add_parser("solve",
+                                help="solve a 1 vs 1, 2 vs 1 or 1 vs 2 HJ reach-avoid game",
+                                description="Solve a scenario's 1 vs 1, 2 vs 1 or 1 vs 2 game to "
                                             "convergence (cached in $REACHAVOID_CACHE_DIR).")
     _scenario_option(solve, "paper_2v1", "a built-in scenario name or a TOML scenario file")
     solve.add_argument("--game", choices=GAMES, default="1v1",
                        help="which game (default: %(default)s)")
     solve.add_argument("--grid", type=int, default=None, metavar="N",
-                       help="grid nodes per axis (default: 45 for 1v1, 30 for 2v1)")
+                       help="grid nodes per axis (default: 45 for 1v1, 30 for 2v1 and 1v2)")
     solve.add_argument("--out", metavar="DIR", help="also save the value function here")
     solve.add_argument("--plot", metavar="OUT.png",
                        help="draw the value's slices at the scenario's starts (paper Fig. 2)")
@@ -254,7 +255,7 @@ def _json_report(result: EpisodeResult, args: argparse.Namespace) -> dict[str, o
     order = ("scenario", "defenders", "attackers", "seed", "steps", "captured", "arrived",
              "captured_count", "arrived_count", "seconds", "game_time", "video",
              "guaranteed_captures_initial", "guaranteed_captures_final",
-             "guarantee_violations")
+             "guarantee_violations", "nominal_captures_initial")
     return {key: report[key] for key in order if key in report}
 
 

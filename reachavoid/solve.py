@@ -7,13 +7,16 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from reachavoid_env import load_scenario
-from solvers.hj import ValueFunction, solve_1v1, solve_2v1
+from solvers.hj import ValueFunction, solve_1v1, solve_1v2, solve_2v1
 from solvers.hj.plot import scenario_panels, tube_figure
 from solvers.hj.value import refuse_foreign
 
-GAMES = ("1v1", "2v1")
-DEFAULT_GRID = {"1v1": 45, "2v1": 30}
-"""The paper's grids (nodes per axis)."""
+GAMES = ("1v1", "2v1", "1v2")
+DEFAULT_GRID = {"1v1": 45, "2v1": 30, "1v2": 30}
+"""The paper's grids (nodes per axis); the 1 vs 2 game takes the 2 vs 1 game's."""
+PLAYERS = {"1v1": (1, 1), "2v1": (2, 1), "1v2": (1, 2)}
+"""Attackers and defenders of each game."""
+_SOLVE_6D = {"2v1": solve_2v1, "1v2": solve_1v2}
 
 
 @dataclass(frozen=True)
@@ -40,14 +43,15 @@ class SolveReport:
 def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
                    out: str | None = None, grid_points_1v1: int = 45,
                    plot: str | None = None, progress: bool = True) -> SolveReport:
-    """Solve a scenario's 1 vs 1 or 2 vs 1 game.
+    """Solve a scenario's 1 vs 1, 2 vs 1 or 1 vs 2 game.
 
     ``scenario`` is a built-in name or a TOML file; speeds and capture radius come from it.
-    ``grid_points`` defaults to the paper's grids (``DEFAULT_GRID``). The 2 vs 1 game uses
-    the scenario's 1 vs 1 value at ``grid_points_1v1``. The value goes to the cache, and is
-    also saved to ``out`` when given (refused before any work when ``out`` holds anything
-    but a value directory: ``OutputPathError``). ``plot``: a PNG of the value's slices at the
-    scenario's fixed starts (the paper's Fig. 2).
+    ``grid_points`` defaults to the paper's grids (``DEFAULT_GRID``). The 2 vs 1 and
+    1 vs 2 games use the scenario's 1 vs 1 value at ``grid_points_1v1``. The value goes to
+    the cache, and is also saved to ``out`` when given (refused before any work when
+    ``out`` holds anything but a value directory: ``OutputPathError``). ``plot``: a PNG of
+    the value's slices at the scenario's fixed starts (the paper's Fig. 2), which must hold
+    as many attackers and defenders as the game has (checked before the solve).
     """
     if game not in GAMES:
         raise ValueError(f"game: expected one of {', '.join(GAMES)}, got {game!r}")
@@ -57,12 +61,18 @@ def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
     if plot is not None and (sc.attackers is None or sc.defenders is None):
         raise ValueError(f"plot: scenario {sc.name!r} has random starts; the slices need "
                          "fixed ones")
+    if plot is not None:
+        attackers, defenders = PLAYERS[game]
+        if len(sc.attackers) < attackers or len(sc.defenders) < defenders:
+            raise ValueError(f"plot: the {game} slices need {attackers} attacker and "
+                             f"{defenders} defender start(s); scenario {sc.name!r} has "
+                             f"{len(sc.attackers)} and {len(sc.defenders)}")
     grid_points = grid_points or DEFAULT_GRID[game]
     started = time.perf_counter()
     vf = solve_1v1(sc.map, (sc.attacker_speed, sc.defender_speed), sc.capture_radius,
                    grid_points if game == "1v1" else grid_points_1v1, progress=progress)
-    if game == "2v1":
-        vf = solve_2v1(sc.map, vf, grid_points, progress=progress)
+    if game in _SOLVE_6D:
+        vf = _SOLVE_6D[game](sc.map, vf, grid_points, progress=progress)
     path = vf.save(out) if out is not None else _cached_location(vf)
     if plot is not None:
         tube_figure(scenario_panels(vf, sc.attackers, sc.defenders), plot)

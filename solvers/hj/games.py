@@ -1,4 +1,4 @@
-"""The paper's games (Section III B-C) as declarations, and their solves.
+"""The paper's games (Section III B-C) and the 1 vs 2 game as declarations, and their solves.
 
 "Captured", "in the target" and "in an obstacle" are the rules of
 ``reachavoid_env/rules.py`` written as level sets (``tests/test_rules_in_games.py`` checks
@@ -20,6 +20,31 @@ with ``sT`` the target's signed distance and ``sF`` the free-space signed distan
   converged 1 vs 1 value (same speeds and radius), interpolated onto the 2 vs 1 grid once.
 The attackers may be exchanged. The attacker side (at least one attacker arrives) wins
 where the value is <= 0.
+
+1 vs 2 (beyond the paper, its named next step), axes ``(xD1, yD1, xD2, yD2, xA, yA)``:
+the attacker ``A`` wins by reaching the target uncaptured by either defender. The rules
+(``reachavoid_env/rules.py``): an attacker is captured when *some* defender is within
+the capture radius (``within_capture``, ``distance <= R``), it arrives when its position
+is in the target, and a tie goes to capture (``resolve_events``). Hence
+- target ``R12``: ``A`` in the target and captured by neither defender, or one defender
+  in an obstacle while ``A`` beats the other in their 1 vs 1 game:
+  ``l = min(max(sT(a), R - |a - d1|, R - |a - d2|), max(sF(d1), V11(a, d2)),
+  max(sF(d2), V11(a, d1)))``;
+- avoid ``A12``: ``A`` captured by either defender or in an obstacle, or one defender in
+  an obstacle while the other beats ``A`` 1 vs 1: ``g = max(R - |a - d1|, R - |a - d2|,
+  -sF(a), min(-sF(d1), V11(a, d2)), min(-sF(d2), V11(a, d1)))``.
+A defender in an obstacle (a state play never reaches: players cannot enter obstacles)
+leaves the game, as in 1 vs 1, but here that does not hand the attacker the win while the
+other defender still stops it: the state is decided by the remaining 1 vs 1 game (target
+where the attacker beats the other defender, avoid where it does not; both defenders in
+obstacles: the attacker wins, as ``V11 <= 0`` where its defender is in one). Capture by
+a defender wins over everything (the avoid set takes priority in the update, and the rules
+give ties to capture), so a defender on an obstacle's edge still captures. With the
+defenders at one node the game is at least the 1 vs 1 game: either defender alone may
+play the 1 vs 1 optimal control.
+The defenders may be exchanged; they lead the axes so that the stored half holds one
+ordering of them (``layout``: the last player's plane is a row, symmetry acts across
+rows), as the attackers do in 2 vs 1.
 """
 
 from __future__ import annotations
@@ -63,11 +88,33 @@ def game_2v1(speeds: tuple[float, float], capture_radius: float) -> Game:
                 parameters={"capture_radius": capture_radius})
 
 
+def game_1v2(speeds: tuple[float, float], capture_radius: float) -> Game:
+    """Attacker ``A`` against defenders ``D1``, ``D2`` (module docstring); reads the 1 vs 1
+    value as the table ``value_1v1`` over (attacker, defender)."""
+    d1, d2, a = defender("D1", speeds[1]), defender("D2", speeds[1]), attacker("A", speeds[0])
+    gap1, gap2 = capture_radius - distance(a, d1), capture_radius - distance(a, d2)
+    target = minimum(maximum(a.target, gap1, gap2),
+                     maximum(d1.free, table("value_1v1", a, d2)),
+                     maximum(d2.free, table("value_1v1", a, d1)))
+    avoid = maximum(gap1, gap2, -a.free,
+                    minimum(-d1.free, table("value_1v1", a, d2)),
+                    minimum(-d2.free, table("value_1v1", a, d1)))
+    return Game("1v2", (d1, d2, a), target=target, avoid=avoid, symmetries=(("D1", "D2"),),
+                parameters={"capture_radius": capture_radius})
+
+
 def _checked_speeds(speeds: Sequence[float], capture_radius: float) -> tuple[float, float]:
     speeds = (float(speeds[0]), float(speeds[1]))
     if min(speeds) <= 0 or capture_radius <= 0:
         raise ValueError(f"speeds {speeds} and capture_radius {capture_radius} must be positive")
     return speeds
+
+
+def _check_lower(vf11: ValueFunction, game_map: GameMap) -> None:
+    if vf11.game != "1v1":
+        raise ValueError(f"vf11: expected a 1v1 value function, got {vf11.game}")
+    if vf11.game_map != game_map:
+        raise ValueError("vf11: solved on another map than game_map")
 
 
 def solve_1v1(game_map: GameMap, speeds: tuple[float, float] = (1.0, 1.5),
@@ -93,11 +140,23 @@ def solve_2v1(game_map: GameMap, vf11: ValueFunction, grid_points: int | Sequenc
     Speeds and capture radius are those of ``vf11`` (a 1 vs 1 solve on the same map).
     The result is memory-mapped from its file when cached.
     """
-    if vf11.game != "1v1":
-        raise ValueError(f"vf11: expected a 1v1 value function, got {vf11.game}")
-    if vf11.game_map != game_map:
-        raise ValueError("vf11: solved on another map than game_map")
+    _check_lower(vf11, game_map)
     game = game_2v1((vf11.attacker_speed, vf11.defender_speed), vf11.capture_radius)
+    grid = Grid.for_players(game_map.domain, 3, grid_points)
+    return solve_declared(game, game_map, grid, settings, cache=cache, progress=progress,
+                          lower={"value_1v1": vf11})
+
+
+def solve_1v2(game_map: GameMap, vf11: ValueFunction, grid_points: int | Sequence[int] = 30,
+              settings: SolverSettings | None = None, cache: bool = True,
+              progress: bool = True) -> ValueFunction:
+    """Solve the 1 vs 2 game on ``game_map`` with target and avoid sets built from ``vf11``.
+
+    Speeds and capture radius are those of ``vf11`` (a 1 vs 1 solve on the same map). Axes
+    ``(xD1, yD1, xD2, yD2, xA, yA)``; the stored half holds one ordering of the defenders.
+    """
+    _check_lower(vf11, game_map)
+    game = game_1v2((vf11.attacker_speed, vf11.defender_speed), vf11.capture_radius)
     grid = Grid.for_players(game_map.domain, 3, grid_points)
     return solve_declared(game, game_map, grid, settings, cache=cache, progress=progress,
                           lower={"value_1v1": vf11})

@@ -2,7 +2,8 @@
 
 A slice fixes every player but one and shades the free player's positions from which the
 attacker side wins (value <= 0). Players are named as in the game's declaration (``"A"``
-and ``"D"`` in 1 vs 1, ``"A1"``, ``"A2"`` and ``"D"`` in 2 vs 1).
+and ``"D"`` in 1 vs 1, ``"A1"``, ``"A2"`` and ``"D"`` in 2 vs 1, ``"D1"``, ``"D2"`` and
+``"A"`` in 1 vs 2).
 """
 
 from __future__ import annotations
@@ -106,7 +107,8 @@ def scenario_panels(vf: ValueFunction, attackers: Sequence[Point], defenders: Se
                     ) -> list[tuple[ValueFunction, str, dict[str, Point]]]:
     """The paper's Fig. 2 slices at given starts, for any game: the last attacker free
     (everyone else fixed) and the first defender free. 1 vs 1: A free, then D free; 2 vs 1:
-    A2 free (A1 and D fixed), then D free (both attackers fixed)."""
+    A2 free (A1 and D fixed), then D free (both attackers fixed); 1 vs 2: A free (both
+    defenders fixed), then D1 free (D2 and A fixed)."""
     names = {"attacker": [p.name for p in vf.attackers],
              "defender": [p.name for p in vf.defenders]}
     given = {"attacker": list(attackers), "defender": list(defenders)}

@@ -1,0 +1,122 @@
+"""Defender teams (``hj-pairs``): the 1 vs 2 tube in the assignment, on the equal-speed map."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import reachavoid_env
+from policies import HJAttacker, HJDefenderPolicy, HJPairsDefenderPolicy, ShortestPathAttacker
+from policies.registry import make_policy, named_policy
+from reachavoid.cli import main
+from reachavoid.rollout import run_episode
+from solvers.hj import solve_1v1, solve_1v2, solve_2v1
+
+SCENARIO = "paper_6v4_equal"
+
+
+@pytest.fixture(scope="module")
+def equal_tubes():
+    """1 vs 1 (25^4), 2 vs 1 and 1 vs 2 (13^6) at equal speeds, solved without the cache."""
+    sc = reachavoid_env.builtin_scenario(SCENARIO)
+    vf11 = solve_1v1(sc.map, (sc.attacker_speed, sc.defender_speed), sc.capture_radius, 25,
+                     cache=False, progress=False)
+    vf21 = solve_2v1(sc.map, vf11, 13, cache=False, progress=False)
+    vf12 = solve_1v2(sc.map, vf11, 13, cache=False, progress=False)
+    return vf11, vf21, vf12
+
+
+TEAM_START = (np.array([0.32, 0.19]), np.array([[0.93, 0.01], [0.38, 0.5]]))
+"""Attacker, defenders: the attacker left of the target, one defender right of it and one
+above the attacker (found by the dominance check below over random starts right of the
+obstacles, then confirmed with the tubes and by play)."""
+
+
+def _dominance_margins(attacker, defenders, game_map) -> tuple[np.ndarray, float]:
+    """Equal speeds, open ground: the attacker reaches a point uncaptured when it is closer
+    to it than every defender is to its capture disc. Per defender alone: the largest
+    lead the attacker has at a target point (> 0: it loses alone); for the pair: the
+    same lead against the nearer defender (< 0: the pair covers the target)."""
+    (x0, y0), (x1, y1) = game_map.target[0].min, game_map.target[0].max
+    gx, gy = np.meshgrid(np.linspace(x0, x1, 41), np.linspace(y0, y1, 41))
+    points = np.stack([gx.ravel(), gy.ravel()], axis=1)
+    attacker_time = np.linalg.norm(points - attacker, axis=1)
+    defender_time = np.linalg.norm(points[None] - defenders[:, None], axis=-1) - 0.1
+    alone = (defender_time - attacker_time).max(axis=1)
+    return alone, float((defender_time.min(axis=0) - attacker_time).max())
+
+
+def test_a_team_stops_an_attacker_neither_defender_stops_alone(equal_tubes):
+    vf11, vf21, vf12 = equal_tubes
+    a, defenders = TEAM_START
+    sc = reachavoid_env.builtin_scenario(SCENARIO).with_starts(a[None], defenders)
+    alone, together = _dominance_margins(a, defenders, sc.map)
+    assert np.all(alone > 0) and together < 0
+    assert np.all(vf11.value(np.concatenate([np.broadcast_to(a, (2, 2)), defenders], 1)) <= 0)
+    assert vf12.value(np.concatenate([defenders.reshape(-1), a])[None])[0] > 0.02
+    env = reachavoid_env.parallel_env(scenario=sc)
+    env.reset(seed=0)
+    state = env.unwrapped.game_state()
+    paper = HJDefenderPolicy(vf11, vf21)
+    paper.reset(sc)
+    paper.act(state)
+    assert paper.nominal_captures == 0 and paper.guaranteed_captures == 0
+    teams = HJPairsDefenderPolicy(vf11, vf21, vf12)
+    teams.reset(sc)
+    actions = teams.act(state)
+    assert teams.last_assignment.shared == ((0, 0, 1),)
+    assert teams.nominal_captures == 1 and teams.guaranteed_captures <= 1
+    for name in ("defender_0", "defender_1"):
+        assert np.isclose(np.linalg.norm(actions[name]), 1.0, atol=1e-5)
+    overlay = teams.overlay()
+    assert set(overlay.edges) == {("defender_0", "attacker_0"), ("defender_1", "attacker_0")}
+    assert "guaranteed" in overlay.lines[0] and "1 nominal" in overlay.lines[0]
+    for attacker in (ShortestPathAttacker(), HJAttacker(vf11)):
+        result = run_episode(env, attacker, HJPairsDefenderPolicy(vf11, vf21, vf12), seed=0)
+        assert result.arrived_count == 0, type(attacker).__name__
+
+
+def test_pairs_play_the_equal_speed_scenario(equal_tubes):
+    vf11, vf21, vf12 = equal_tubes
+    env = reachavoid_env.parallel_env(scenario=SCENARIO)
+    teams = HJPairsDefenderPolicy(vf11, vf21, vf12)
+    result = run_episode(env, ShortestPathAttacker(), teams, seed=0)
+    assert result.captured_count + result.arrived_count <= 6
+    assert teams.solver.solves >= 1
+    paper = run_episode(env, ShortestPathAttacker(), HJDefenderPolicy(vf11, vf21), seed=0)
+    assert result.guarantees[0] >= paper.guarantees[0]
+
+
+def test_tubes_of_another_game_are_refused(equal_tubes):
+    vf11, vf21, vf12 = equal_tubes
+    with pytest.raises(ValueError, match="vf12"):
+        HJPairsDefenderPolicy(vf11, vf21, vf21)
+    with pytest.raises(ValueError, match="margin_cells"):
+        HJPairsDefenderPolicy(vf11, vf21, vf12, margin_cells=-1.0)
+    teams = HJPairsDefenderPolicy(vf11, vf21, vf12)
+    with pytest.raises(ValueError, match="vf11"):
+        teams.reset(reachavoid_env.builtin_scenario("paper_2v1"))  # defenders 1.5x faster
+
+
+def test_registry_and_cli_offer_hj_pairs(capsys):
+    assert named_policy("defenders", "hj-pairs").build == HJPairsDefenderPolicy.for_scenario
+    sc = reachavoid_env.builtin_scenario(SCENARIO)
+    with pytest.raises(ValueError, match="unknown option"):
+        make_policy("defenders", "hj-pairs", sc, grid3=5)
+    assert main(["play", "--json", "--scenario", SCENARIO, "--defenders", "hj-pairs",
+                 "--grid1", "9", "--grid2", "7"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["defenders"] == "hj-pairs" and report["captured_count"] >= 0
+
+
+def test_solve_command_solves_the_1v2_game(tmp_path, capsys):
+    plot = tmp_path / "team.png"
+    assert main(["solve", "--scenario", SCENARIO, "--game", "1v2", "--grid", "7",
+                 "--plot", str(plot)]) == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith("1v2 value 7x7x7x7x7x7") and plot.stat().st_size > 0
+    assert main(["solve", "--scenario", "paper_2v1", "--game", "1v2", "--grid", "7",
+                 "--plot", str(tmp_path / "x.png")]) == 2
+    assert "2 defender" in capsys.readouterr().err
