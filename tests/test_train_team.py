@@ -67,3 +67,46 @@ def test_bad_arguments_exit_2(tmp_path, capsys):
         assert stopped.value.code == 2
     assert "--teams: unknown team 'learnt'" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_training_curve_counts_how_every_attacker_ended(tmp_path):
+    """The curve reads the outcomes from what SuperSuit passes on (it overwrites the last
+    step's infos with the reset infos); compare with the game's own statuses."""
+    from pettingzoo.utils import BaseParallelWrapper
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from policies.training import make_attackers_parallel_env
+    from reachavoid_env import load_scenario
+    from reachavoid_env.integrations.supersuit import sb3_vec_env
+
+    recipe = example("train_attacker_team")
+    truth = tmp_path / "statuses.txt"
+
+    class Statuses(BaseParallelWrapper):
+        """Appends the attackers' status codes to ``truth`` when a game ends (the vector
+        env works on pickled copies, so a file, not a list)."""
+
+        def step(self, actions):
+            result = self.env.step(actions)
+            if not self.env.agents:
+                with open(truth, "a") as handle:
+                    handle.write(" ".join(str(status.code) for status
+                                          in self.env.game_state().attacker_status) + "\n")
+            return result
+
+    scenario = load_scenario("paper_6v2").with_players(6, 2)
+    game = make_attackers_parallel_env(scenario, defenders="greedy", action_repeat=10,
+                                       shaping=1.0, timeout_reward=-1.0, max_cycles=300)
+    envs = VecMonitor(sb3_vec_env(Statuses(game)))
+    curve = recipe.TrainingCurve()
+    PPO("MlpPolicy", envs, n_steps=64, batch_size=64, seed=0, device="cpu").learn(
+        64 * 6 * 6, callback=curve)
+    ended = sum(row["attacker_episodes"] for row in curve.rows)
+    codes = [int(code) for code in truth.read_text().split()][:ended]
+    assert ended == len(codes) > 0
+    for key, code in (("arrived_rate", 2), ("captured_rate", 1), ("timeout_rate", 0)):
+        counted = sum(row[key] * row["attacker_episodes"] for row in curve.rows
+                      if row["attacker_episodes"])
+        assert counted == pytest.approx(codes.count(code))
+    assert {0, 1} <= set(codes)     # time-outs and captures both occur in this run
