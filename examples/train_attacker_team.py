@@ -26,7 +26,8 @@ every ``--action-repeat`` game steps, as trained; the scripted ``shortest-path``
 (the mean over episodes of the fraction of attackers that arrive) and the mean number
 captured, each with a 95% bootstrap interval over episodes (the episodes are the
 independent units; the attackers of one episode are not), and the paired difference
-learned - shortest-path over the same starts.
+learned - shortest-path over the same starts. ``--teams shortest-path,random`` without
+``--evaluate-only`` evaluates the scripted teams only, with nothing trained.
 
 Writes into ``--out``: ``model.zip``, ``curve.csv`` (one row per PPO rollout: agent
 steps, wall seconds, attacker episodes ended, their arrival/capture/time-out rates and
@@ -111,7 +112,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="video width in pixels (default: %(default)s)")
     parser.add_argument("--no-video", action="store_true", help="skip the video")
     parser.add_argument("--evaluate-only", type=Path, default=None, metavar="MODEL",
-                        help="skip training: evaluate (and record) this saved model")
+                        help="skip training: evaluate (and record) this saved model; without "
+                             "it and without 'learned' in --teams nothing is trained")
     args = parser.parse_args(argv)
     for name in ("timesteps", "copies", "n_steps", "batch_size", "action_repeat", "episodes",
                  "video_every", "video_width"):
@@ -383,10 +385,11 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         "action_repeat": args.action_repeat, "shaping": args.shaping,
         "timeout_reward": args.timeout_reward, "seed": args.seed,
     }
+    model: PPO | None = None
     if args.evaluate_only is not None:
         model = PPO.load(args.evaluate_only, device="cpu")
         report["model"] = str(args.evaluate_only)
-    else:
+    elif "learned" in args.teams:
         model, curve = train(args, scenario)
         with atomic_write(args.out / "model.zip", "wb") as handle:
             model.save(handle)
@@ -406,8 +409,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
                        f"{args.defenders}" + (f" {args.grid1}/{args.grid2}"
                                               if args.defenders == "hj" else ""))
             report["curve"] = {"csv": str(args.out / "curve.csv"), "plot": str(args.plot)}
-    teams = [team for team in args.teams if team != "learned" or model is not None]
-    results = evaluate(args, scenario, model, teams)
+    results = evaluate(args, scenario, model, args.teams)
     report["evaluation"] = {"seeds": [0, args.episodes - 1],
                             **{name: result.summary() for name, result in results.items()}}
     if {"learned", "shortest-path"} <= results.keys():
@@ -418,7 +420,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         low, high = summary["arrival_rate_ci95"]
         print(f"{name:>13}: arrival {summary['arrival_rate']:.3f} [{low:.3f}, {high:.3f}], "
               f"mean captured {summary['mean_captured']:.2f}", flush=True)
-    if not args.no_video:
+    if model is not None and not args.no_video:
         report["video"] = {"path": str(args.video), "seed": 0,
                            "frames": record(args, scenario, model, seed=0)}
     report["per_episode"] = {name: asdict(result) for name, result in results.items()}

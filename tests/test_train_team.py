@@ -58,6 +58,15 @@ def test_recipe_trains_evaluates_and_records(tmp_path):
     assert "training" not in again
 
 
+def test_scripted_teams_alone_train_nothing(tmp_path):
+    recipe = example("train_attacker_team")
+    report = recipe.main(["--defenders", "greedy", "--teams", "shortest-path",
+                          "--episodes", "2", "--out", str(tmp_path)])
+    assert list(report["evaluation"]) == ["seeds", "shortest-path"]
+    assert "training" not in report and "video" not in report
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["report.json"]
+
+
 def test_bad_arguments_exit_2(tmp_path, capsys):
     recipe = example("train_attacker_team")
     for argv in (["--evaluate-only", str(tmp_path / "missing.zip")], ["--teams", "learnt"],
