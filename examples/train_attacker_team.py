@@ -59,9 +59,11 @@ from tqdm import tqdm
 from policies.registry import make_policy
 from policies.training import (
     add_defender_arguments,
+    add_reward_arguments,
     defender_factory,
     defender_options,
     make_attackers_parallel_env,
+    reward_options,
 )
 from reachavoid.evaluation import bootstrap_interval
 from reachavoid_env import AttackerStatus, Policy, Scenario, load_scenario
@@ -87,13 +89,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="PPO rollout length per slot (default: %(default)s)")
     parser.add_argument("--batch-size", type=int, default=512,
                         help="PPO minibatch (default: %(default)s)")
-    parser.add_argument("--action-repeat", type=int, default=10,
-                        help="game steps per agent step (default: %(default)s)")
-    parser.add_argument("--shaping", type=float, default=1.0,
-                        help="weight of the progress reward (default: %(default)s)")
-    parser.add_argument("--timeout-reward", type=float, default=-1.0,
-                        help="reward for still being in play at the time limit "
-                             "(default: %(default)s)")
+    add_reward_arguments(parser)
     parser.add_argument("--episodes", type=int, default=200,
                         help="evaluation starts, seeds 0..N-1 (default: %(default)s)")
     parser.add_argument("--teams", default=",".join(TEAMS),
@@ -203,9 +199,7 @@ class TrainingCurve(BaseCallback):
 
 
 def train(args: argparse.Namespace, scenario: Scenario) -> tuple[PPO, TrainingCurve]:
-    envs = VecMonitor(sb3_vec_env(game(args, scenario, action_repeat=args.action_repeat,
-                                       shaping=args.shaping,
-                                       timeout_reward=args.timeout_reward),
+    envs = VecMonitor(sb3_vec_env(game(args, scenario, **reward_options(args)),
                                   copies=args.copies))
     model = PPO("MlpPolicy", envs, n_steps=args.n_steps, batch_size=args.batch_size,
                 seed=args.seed, device="cpu", verbose=0)
@@ -382,8 +376,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         "scenario": scenario.name, "attackers": scenario.num_attackers,
         "defenders": args.defenders,
         "grids": [args.grid1, args.grid2] if args.defenders == "hj" else None,
-        "action_repeat": args.action_repeat, "shaping": args.shaping,
-        "timeout_reward": args.timeout_reward, "seed": args.seed,
+        **reward_options(args), "seed": args.seed,
     }
     model: PPO | None = None
     if args.evaluate_only is not None:
