@@ -88,6 +88,25 @@ def defender_options(args: argparse.Namespace) -> dict[str, Any] | None:
     return {"grid1": args.grid1, "grid2": args.grid2, "progress": False}
 
 
+def add_reward_arguments(parser: argparse.ArgumentParser) -> None:
+    """The training scripts' ``--action-repeat`` (10 game steps per agent step),
+    ``--shaping`` (1) and ``--timeout-reward`` (-1: in the game only arrival wins, so hiding
+    until the time limit scores as a loss); ``reward_options`` reads them."""
+    parser.add_argument("--action-repeat", type=int, default=10,
+                        help="game steps per agent step (default: %(default)s)")
+    parser.add_argument("--shaping", type=float, default=1.0,
+                        help="weight of the progress reward (default: %(default)s)")
+    parser.add_argument("--timeout-reward", type=float, default=-1.0,
+                        help="reward for still being in play at the time limit "
+                             "(default: %(default)s)")
+
+
+def reward_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The training envs' keywords from ``add_reward_arguments``' values."""
+    return {"action_repeat": args.action_repeat, "shaping": args.shaping,
+            "timeout_reward": args.timeout_reward}
+
+
 def _source(value: Any, options: Mapping[str, Any] | None, side: str, field: str) -> Any:
     """A name becomes its factory; a policy or factory passes through."""
     if isinstance(value, str):

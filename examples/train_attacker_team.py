@@ -1,0 +1,430 @@
+"""Train a team of attackers that share one Stable-Baselines3 PPO policy (parameter
+sharing) against the HJ defenders, and compare it with the scripted and random teams on
+the same seeded starts.
+
+Needs the ``rl`` extra (torch, stable-baselines3, supersuit).
+
+    python examples/train_attacker_team.py --timesteps 1000000 --max-minutes 45 \\
+        --out runs/attacker_team
+    python examples/train_attacker_team.py --evaluate-only runs/attacker_team/model.zip
+
+The game is ``paper_6v2`` with random starts every episode. The attacker-only env
+(``policies.training.make_attackers_parallel_env``) goes through SuperSuit's chain
+(``reachavoid_env.integrations.supersuit.sb3_vec_env``): one vector slot per attacker and
+game copy, all slots one policy. As in ``train_attacker_sb3.py`` (the one-attacker
+recipe), one agent step holds the action for ``--action-repeat 10`` game steps (0.05 s),
+the reward has the potential-based progress term (``--shaping 1``) and still being in
+play at the time limit scores ``--timeout-reward -1`` like a capture. The defenders'
+HJ tubes are solved once at ``--grid1``/``--grid2`` nodes per axis (coarse by default:
+31/15) and cached on disk.
+
+**Evaluation** (``evaluate``; alone with ``--evaluate-only MODEL``): every team plays the
+``--episodes`` starts ``reset(seed=k)``, k = 0, 1, ..., of the attacker-only env against
+the same defenders, without shaping; each team decides at its own rate (the learned one
+every ``--action-repeat`` game steps, as trained; the scripted ``shortest-path`` and
+``random`` teams of ``policies.registry`` every game step). Per team: the arrival rate
+(the mean over episodes of the fraction of attackers that arrive) and the mean number
+captured, each with a 95% bootstrap interval over episodes (the episodes are the
+independent units; the attackers of one episode are not), and the paired difference
+learned - shortest-path over the same starts. ``--teams shortest-path,random`` without
+``--evaluate-only`` evaluates the scripted teams only, with nothing trained.
+
+Writes into ``--out``: ``model.zip``, ``curve.csv`` (one row per PPO rollout: agent
+steps, wall seconds, attacker episodes ended, their arrival/capture/time-out rates and
+mean return), ``report.json`` (settings, throughput, evaluation); ``--plot`` (default
+``OUT/curve.png``) and ``--video`` (default ``OUT/learned.mp4``, the learned team on the
+first evaluation start). Ctrl-C stops cleanly and leaves no half-written file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+import torch
+from matplotlib.figure import Figure
+from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.vec_env import VecMonitor
+from tqdm import tqdm
+
+from policies.registry import make_policy
+from policies.training import (
+    add_defender_arguments,
+    add_reward_arguments,
+    defender_factory,
+    defender_options,
+    make_attackers_parallel_env,
+    reward_options,
+)
+from reachavoid.evaluation import bootstrap_interval
+from reachavoid_env import AttackerStatus, Policy, Scenario, load_scenario
+from reachavoid_env.files import atomic_write
+from reachavoid_env.integrations.supersuit import sb3_vec_env
+from reachavoid_env.video import RecordEpisode
+from reachavoid_env.wrappers import AttackerParallelEnv
+
+TEAMS = ("learned", "shortest-path", "random")
+
+
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    add_defender_arguments(parser, scenario="paper_6v2")
+    parser.add_argument("--timesteps", type=int, default=1_000_000,
+                        help="PPO agent steps, one per attacker slot and env step "
+                             "(default: %(default)s)")
+    parser.add_argument("--max-minutes", type=float, default=None,
+                        help="stop training after this much wall time (default: none)")
+    parser.add_argument("--copies", type=int, default=2,
+                        help="game copies in the vector env (default: %(default)s)")
+    parser.add_argument("--n-steps", type=int, default=256,
+                        help="PPO rollout length per slot (default: %(default)s)")
+    parser.add_argument("--batch-size", type=int, default=512,
+                        help="PPO minibatch (default: %(default)s)")
+    add_reward_arguments(parser)
+    parser.add_argument("--episodes", type=int, default=200,
+                        help="evaluation starts, seeds 0..N-1 (default: %(default)s)")
+    parser.add_argument("--teams", default=",".join(TEAMS),
+                        help=f"teams to evaluate, comma-separated from {', '.join(TEAMS)} "
+                             "(default: all)")
+    parser.add_argument("--seed", type=int, default=0, help="seed (default: %(default)s)")
+    parser.add_argument("--out", type=Path, default=Path("runs/attacker_team"),
+                        help="output folder (default: %(default)s)")
+    parser.add_argument("--plot", type=Path, default=None,
+                        help="training curve PNG (default: OUT/curve.png)")
+    parser.add_argument("--video", type=Path, default=None,
+                        help="video of a learned episode (default: OUT/learned.mp4)")
+    parser.add_argument("--video-every", type=int, default=4,
+                        help="record every k-th game step (default: %(default)s)")
+    parser.add_argument("--video-width", type=int, default=320,
+                        help="video width in pixels (default: %(default)s)")
+    parser.add_argument("--no-video", action="store_true", help="skip the video")
+    parser.add_argument("--evaluate-only", type=Path, default=None, metavar="MODEL",
+                        help="skip training: evaluate (and record) this saved model; without "
+                             "it and without 'learned' in --teams nothing is trained")
+    args = parser.parse_args(argv)
+    for name in ("timesteps", "copies", "n_steps", "batch_size", "action_repeat", "episodes",
+                 "video_every", "video_width"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name.replace('_', '-')}: must be a positive integer")
+    if args.max_minutes is not None and not args.max_minutes > 0:
+        parser.error("--max-minutes: must be positive")
+    args.teams = tuple(args.teams.split(","))
+    unknown = [team for team in args.teams if team not in TEAMS]
+    if unknown:
+        parser.error(f"--teams: unknown team {unknown[0]!r} (choose from {', '.join(TEAMS)})")
+    if args.evaluate_only is not None and not args.evaluate_only.is_file():
+        parser.error(f"--evaluate-only: no such file {str(args.evaluate_only)!r}")
+    args.plot = args.plot or args.out / "curve.png"
+    args.video = args.video or args.out / "learned.mp4"
+    return args
+
+
+def team_scenario(args: argparse.Namespace) -> Scenario:
+    """The scenario's players and map, random starts every episode."""
+    scenario = load_scenario(args.scenario)
+    return scenario.with_players(scenario.num_attackers, scenario.num_defenders)
+
+
+def game(args: argparse.Namespace, scenario: Scenario, **env_kwargs: Any) -> AttackerParallelEnv:
+    return make_attackers_parallel_env(scenario, defenders=args.defenders,
+                                       defender_options=defender_options(args), **env_kwargs)
+
+
+# ---- training ---------------------------------------------------------------------------
+
+class TrainingCurve(BaseCallback):
+    """One row per PPO rollout: agent steps so far, wall seconds, and over the attacker
+    episodes (slots) that ended in the rollout, how they ended and their mean return.
+    Stops training after ``max_seconds`` of wall time."""
+
+    def __init__(self, max_seconds: float | None = None) -> None:
+        super().__init__()
+        self.max_seconds = max_seconds
+        self.rows: list[dict[str, float]] = []
+
+    def _on_training_start(self) -> None:
+        self.start = time.perf_counter()
+        self.status = np.zeros(self.training_env.num_envs, dtype=np.int64)
+        self._ended: list[int] = []
+        self._returns: list[float] = []
+
+    def _on_step(self) -> bool:
+        steps = zip(self.locals["infos"], self.locals["dones"], self.locals["rewards"],
+                    strict=True)
+        for slot, (info, done, reward) in enumerate(steps):
+            if done:
+                self._ended.append(self._final_status(slot, info, reward))
+                self._returns.append(float(info["episode"]["r"]))
+                self.status[slot] = AttackerStatus.ACTIVE.code
+            elif "status" in info:          # an attacker's last step carries its status
+                self.status[slot] = info["status"]
+        return self.max_seconds is None or self.seconds < self.max_seconds
+
+    def _final_status(self, slot: int, info: dict[str, Any], reward: float) -> int:
+        """How the attacker of ``slot`` ended, on the step that ends its game. SuperSuit's
+        vector env overwrites that step's infos with the next episode's reset infos, but
+        keeps ``TimeLimit.truncated`` for the attackers still in play: for them a time-out
+        is read from it, an arrival or a capture from the sign of the step's reward (+1 or
+        -1; the progress term of one step is far smaller)."""
+        if self.status[slot] != AttackerStatus.ACTIVE.code or "TimeLimit.truncated" not in info:
+            return int(self.status[slot])
+        if info["TimeLimit.truncated"]:
+            return AttackerStatus.ACTIVE.code
+        return (AttackerStatus.ARRIVED if reward > 0 else AttackerStatus.CAPTURED).code
+
+    @property
+    def seconds(self) -> float:
+        return time.perf_counter() - self.start
+
+    def _on_rollout_end(self) -> None:
+        ended = np.asarray(self._ended)
+        rates = {f"{status.value if status is not AttackerStatus.ACTIVE else 'timeout'}_rate":
+                 float(np.mean(ended == status.code)) if len(ended) else float("nan")
+                 for status in (AttackerStatus.ARRIVED, AttackerStatus.CAPTURED,
+                                AttackerStatus.ACTIVE)}
+        self.rows.append({"timesteps": self.num_timesteps, "seconds": round(self.seconds, 2),
+                          "attacker_episodes": len(ended), **rates,
+                          "mean_return": float(np.mean(self._returns)) if self._returns
+                          else float("nan")})
+        self._ended, self._returns = [], []
+
+
+def train(args: argparse.Namespace, scenario: Scenario) -> tuple[PPO, TrainingCurve]:
+    envs = VecMonitor(sb3_vec_env(game(args, scenario, **reward_options(args)),
+                                  copies=args.copies))
+    model = PPO("MlpPolicy", envs, n_steps=args.n_steps, batch_size=args.batch_size,
+                seed=args.seed, device="cpu", verbose=0)
+    curve = TrainingCurve(None if args.max_minutes is None else 60.0 * args.max_minutes)
+    try:
+        model.learn(args.timesteps, callback=curve, progress_bar=sys.stderr.isatty())
+    finally:
+        envs.close()
+    return model, curve
+
+
+def write_curve(rows: list[dict[str, float]], path: Path) -> None:
+    with atomic_write(path, newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def plot_curve(rows: list[dict[str, float]], path: Path, title: str) -> None:
+    """Arrival rate and mean return per rollout (dots) and over the last 10 (line)."""
+    steps = np.array([row["timesteps"] for row in rows], dtype=np.float64)
+    figure = Figure(figsize=(7, 5), layout="constrained")
+    arrival_axes, return_axes = figure.subplots(2, 1, sharex=True)
+    for axes, key, label in ((arrival_axes, "arrived_rate", "arrival rate"),
+                             (return_axes, "mean_return", "mean return")):
+        values = np.array([row[key] for row in rows], dtype=np.float64)
+        window = min(10, len(values))
+        smooth = np.convolve(np.nan_to_num(values), np.ones(window) / window, mode="valid")
+        axes.plot(steps, values, ".", alpha=0.3, label="per rollout")
+        axes.plot(steps[window - 1:], smooth, label=f"mean of {window}")
+        axes.set_ylabel(label)
+        axes.grid(alpha=0.3)
+    arrival_axes.legend()
+    arrival_axes.set_title(title)
+    return_axes.set_xlabel("agent steps (one per attacker per env step)")
+    with atomic_write(path, "wb") as handle:
+        figure.savefig(handle, format="png", dpi=100)
+
+
+# ---- evaluation -------------------------------------------------------------------------
+
+class Team(Protocol):
+    """Moves the live attackers of an ``AttackerParallelEnv``, one game step at a time."""
+
+    def reset(self, env: AttackerParallelEnv) -> None: ...
+
+    def act(self, observations: dict[str, np.ndarray],
+            env: AttackerParallelEnv) -> dict[str, np.ndarray]: ...
+
+
+class ScriptedTeam:
+    """A scripted attacker policy (``reachavoid_env.Policy``), asked every game step."""
+
+    def __init__(self, policy: Policy) -> None:
+        self.policy = policy
+
+    def reset(self, env: AttackerParallelEnv) -> None:
+        self.policy.reset(env.game.scenario)
+
+    def act(self, observations: dict[str, np.ndarray],
+            env: AttackerParallelEnv) -> dict[str, np.ndarray]:
+        chosen = self.policy.act(env.game_state())
+        return {name: chosen[name] for name in env.agents}
+
+
+class LearnedTeam:
+    """The shared policy: every live attacker decides every ``hold`` game steps from its
+    own observation, and holds its action in between (``action_repeat`` in training)."""
+
+    def __init__(self, model: PPO, hold: int) -> None:
+        self.model = model
+        self.hold = hold
+        self._held: dict[str, np.ndarray] = {}
+        self._since = hold
+
+    def reset(self, env: AttackerParallelEnv) -> None:
+        self._held, self._since = {}, self.hold
+
+    def act(self, observations: dict[str, np.ndarray],
+            env: AttackerParallelEnv) -> dict[str, np.ndarray]:
+        if self._since >= self.hold:
+            names = env.agents
+            actions, _ = self.model.predict(np.stack([observations[name] for name in names]),
+                                            deterministic=True)
+            self._held, self._since = dict(zip(names, actions, strict=True)), 0
+        self._since += 1
+        return {name: self._held[name] for name in env.agents}
+
+
+def play(env: AttackerParallelEnv, team: Team, seed: int) -> tuple[int, int]:
+    """One episode from ``reset(seed=seed)``; returns (attackers arrived, captured)."""
+    observations, _ = env.reset(seed=seed)
+    team.reset(env)
+    while env.agents:
+        observations, *_ = env.step(team.act(observations, env))
+    status = env.game_state().attacker_status
+    return status.count(AttackerStatus.ARRIVED), status.count(AttackerStatus.CAPTURED)
+
+
+@dataclass(frozen=True)
+class TeamResult:
+    """A team over the evaluation starts: per-episode counts and their summaries."""
+
+    team: str
+    arrived: tuple[int, ...]
+    captured: tuple[int, ...]
+    attackers: int
+
+    @property
+    def arrival_fractions(self) -> np.ndarray:
+        return np.asarray(self.arrived, dtype=np.float64) / self.attackers
+
+    def summary(self) -> dict[str, Any]:
+        return {"episodes": len(self.arrived),
+                "arrival_rate": float(self.arrival_fractions.mean()),
+                "arrival_rate_ci95": bootstrap_interval(self.arrival_fractions),
+                "mean_captured": float(np.mean(self.captured)),
+                "mean_captured_ci95": bootstrap_interval(np.asarray(self.captured, float)),
+                "mean_arrived": float(np.mean(self.arrived))}
+
+
+def make_team(name: str, model: PPO | None, args: argparse.Namespace,
+              scenario: Scenario) -> Team:
+    if name == "learned":
+        return LearnedTeam(model, args.action_repeat)
+    options = {"seed": args.seed} if name == "random" else {}
+    return ScriptedTeam(make_policy("attackers", name, scenario, **options))
+
+
+def evaluate(args: argparse.Namespace, scenario: Scenario, model: PPO | None,
+             teams: Sequence[str]) -> dict[str, TeamResult]:
+    """Every team in ``teams`` on the starts ``reset(seed=k)``, k < ``args.episodes``, of one
+    attacker-only env (no shaping; the defenders of ``args``)."""
+    env = game(args, scenario)
+    results = {}
+    for name in teams:
+        team = make_team(name, model, args, scenario)
+        outcomes = [play(env, team, seed) for seed in tqdm(
+            range(args.episodes), desc=name, unit="episode", disable=not sys.stderr.isatty())]
+        results[name] = TeamResult(name, *map(tuple, zip(*outcomes, strict=True)),
+                                   attackers=scenario.num_attackers)
+    env.close()
+    return results
+
+
+def paired_difference(first: TeamResult, second: TeamResult) -> dict[str, Any]:
+    """Arrival rate of ``first`` minus ``second`` over the same starts, 95% bootstrap."""
+    difference = first.arrival_fractions - second.arrival_fractions
+    return {"teams": [first.team, second.team], "arrival_rate": float(difference.mean()),
+            "arrival_rate_ci95": bootstrap_interval(difference)}
+
+
+def record(args: argparse.Namespace, scenario: Scenario, model: PPO, seed: int) -> int:
+    """The learned team on start ``seed`` to ``args.video`` in real time; returns frames."""
+    env = game(args, scenario, render_mode="rgb_array", render_width=args.video_width)
+    fps = 1.0 / (scenario.dt * args.video_every)
+    with RecordEpisode(env, args.video, fps=fps, every=args.video_every) as recorded:
+        play(recorded, LearnedTeam(model, args.action_repeat), seed)
+    return recorded.frames
+
+
+# ---- the recipe -------------------------------------------------------------------------
+
+def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
+    args = parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    torch.set_num_threads(1)    # small networks: more threads only contend for the cores
+    scenario = team_scenario(args)
+    if args.defenders == "hj":
+        print(f"loading (or solving and caching) the HJ tubes at grids {args.grid1}/"
+              f"{args.grid2} ...", flush=True)
+        defender_factory("hj", **defender_options(args))(scenario)
+    report: dict[str, Any] = {
+        "scenario": scenario.name, "attackers": scenario.num_attackers,
+        "defenders": args.defenders,
+        "grids": [args.grid1, args.grid2] if args.defenders == "hj" else None,
+        **reward_options(args), "seed": args.seed,
+    }
+    model: PPO | None = None
+    if args.evaluate_only is not None:
+        model = PPO.load(args.evaluate_only, device="cpu")
+        report["model"] = str(args.evaluate_only)
+    elif "learned" in args.teams:
+        model, curve = train(args, scenario)
+        with atomic_write(args.out / "model.zip", "wb") as handle:
+            model.save(handle)
+        game_steps = model.num_timesteps // scenario.num_attackers * args.action_repeat
+        report["training"] = {
+            "agent_steps": model.num_timesteps, "game_steps": game_steps,
+            "seconds": round(curve.seconds, 1),
+            "agent_steps_per_s": round(model.num_timesteps / curve.seconds, 1),
+            "game_steps_per_s": round(game_steps / curve.seconds, 1),
+            "copies": args.copies, "n_steps": args.n_steps, "batch_size": args.batch_size,
+            "stopped_by_time": model.num_timesteps < args.timesteps}
+        print("training: " + ", ".join(f"{k} {v}" for k, v in report["training"].items()),
+              flush=True)
+        if curve.rows:
+            write_curve(curve.rows, args.out / "curve.csv")
+            plot_curve(curve.rows, args.plot, f"{args.scenario}, shared PPO attackers vs "
+                       f"{args.defenders}" + (f" {args.grid1}/{args.grid2}"
+                                              if args.defenders == "hj" else ""))
+            report["curve"] = {"csv": str(args.out / "curve.csv"), "plot": str(args.plot)}
+    results = evaluate(args, scenario, model, args.teams)
+    report["evaluation"] = {"seeds": [0, args.episodes - 1],
+                            **{name: result.summary() for name, result in results.items()}}
+    if {"learned", "shortest-path"} <= results.keys():
+        report["evaluation"]["learned_minus_shortest_path"] = paired_difference(
+            results["learned"], results["shortest-path"])
+    for name, result in results.items():
+        summary = result.summary()
+        low, high = summary["arrival_rate_ci95"]
+        print(f"{name:>13}: arrival {summary['arrival_rate']:.3f} [{low:.3f}, {high:.3f}], "
+              f"mean captured {summary['mean_captured']:.2f}", flush=True)
+    if model is not None and not args.no_video:
+        report["video"] = {"path": str(args.video), "seed": 0,
+                           "frames": record(args, scenario, model, seed=0)}
+    report["per_episode"] = {name: asdict(result) for name, result in results.items()}
+    with atomic_write(args.out / "report.json") as handle:
+        json.dump(report, handle, indent=2)
+    print(f"wrote {args.out / 'report.json'}", flush=True)
+    return report
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except KeyboardInterrupt:
+        sys.exit(130)

@@ -1,0 +1,121 @@
+"""The shared-policy attacker team recipe (examples/train_attacker_team.py), end to end on a
+tiny budget: it trains, writes every output, evaluates three teams on the same starts, and
+``--evaluate-only`` reproduces the evaluation of the saved model."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import pytest
+
+pytest.importorskip("stable_baselines3")
+pytest.importorskip("supersuit")
+
+from checks import example  # noqa: E402
+
+TINY = ["--grid1", "11", "--grid2", "7", "--timesteps", "192", "--copies", "1",
+        "--n-steps", "16", "--batch-size", "48", "--episodes", "3", "--video-every", "20"]
+
+
+def test_recipe_trains_evaluates_and_records(tmp_path):
+    recipe = example("train_attacker_team")
+    report = recipe.main([*TINY, "--out", str(tmp_path)])
+
+    assert report["defenders"] == "hj" and report["grids"] == [11, 7]
+    assert report["training"]["agent_steps"] >= 192
+    assert report["training"]["game_steps"] == (
+        report["training"]["agent_steps"] // 6 * report["action_repeat"])
+    evaluation = report["evaluation"]
+    for team in ("learned", "shortest-path", "random"):
+        summary = evaluation[team]
+        assert summary["episodes"] == 3
+        assert 0.0 <= summary["arrival_rate"] <= 1.0
+        low, high = summary["arrival_rate_ci95"]
+        assert 0.0 <= low <= summary["arrival_rate"] <= high <= 1.0
+        assert 0.0 <= summary["mean_captured"] <= 6.0
+        assert summary["mean_arrived"] + summary["mean_captured"] <= 6.0
+    difference = evaluation["learned_minus_shortest_path"]
+    assert difference["arrival_rate"] == pytest.approx(
+        evaluation["learned"]["arrival_rate"] - evaluation["shortest-path"]["arrival_rate"])
+
+    assert json.loads((tmp_path / "report.json").read_text()) == json.loads(
+        json.dumps(report))
+    with open(tmp_path / "curve.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [int(row["timesteps"]) for row in rows] == [96, 192]
+    for row in rows:
+        if int(row["attacker_episodes"]):
+            rates = [float(row[key]) for key in ("arrived_rate", "captured_rate",
+                                                 "timeout_rate")]
+            assert sum(rates) == pytest.approx(1.0)
+    assert (tmp_path / "curve.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert report["video"]["frames"] > 1 and (tmp_path / "learned.mp4").stat().st_size > 0
+
+    again = recipe.main([*TINY, "--out", str(tmp_path / "again"), "--teams", "learned",
+                         "--no-video", "--evaluate-only", str(tmp_path / "model.zip")])
+    assert again["evaluation"]["learned"] == evaluation["learned"]
+    assert "training" not in again
+
+
+def test_scripted_teams_alone_train_nothing(tmp_path):
+    recipe = example("train_attacker_team")
+    report = recipe.main(["--defenders", "greedy", "--teams", "shortest-path",
+                          "--episodes", "2", "--out", str(tmp_path)])
+    assert list(report["evaluation"]) == ["seeds", "shortest-path"]
+    assert "training" not in report and "video" not in report
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["report.json"]
+
+
+def test_bad_arguments_exit_2(tmp_path, capsys):
+    recipe = example("train_attacker_team")
+    for argv in (["--evaluate-only", str(tmp_path / "missing.zip")], ["--teams", "learnt"],
+                 ["--episodes", "0"]):
+        with pytest.raises(SystemExit) as stopped:
+            recipe.main([*argv, "--out", str(tmp_path)])
+        assert stopped.value.code == 2
+    assert "--teams: unknown team 'learnt'" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_training_curve_counts_how_every_attacker_ended(tmp_path):
+    """The curve reads the outcomes from what SuperSuit passes on (it overwrites the last
+    step's infos with the reset infos); compare with the game's own statuses."""
+    from pettingzoo.utils import BaseParallelWrapper
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from policies.training import make_attackers_parallel_env
+    from reachavoid_env import load_scenario
+    from reachavoid_env.integrations.supersuit import sb3_vec_env
+
+    recipe = example("train_attacker_team")
+    truth = tmp_path / "statuses.txt"
+
+    class Statuses(BaseParallelWrapper):
+        """Appends the attackers' status codes to ``truth`` when a game ends (the vector
+        env works on pickled copies, so a file, not a list)."""
+
+        def step(self, actions):
+            result = self.env.step(actions)
+            if not self.env.agents:
+                with open(truth, "a") as handle:
+                    handle.write(" ".join(str(status.code) for status
+                                          in self.env.game_state().attacker_status) + "\n")
+            return result
+
+    scenario = load_scenario("paper_6v2").with_players(6, 2)
+    game = make_attackers_parallel_env(scenario, defenders="greedy", action_repeat=10,
+                                       shaping=1.0, timeout_reward=-1.0, max_cycles=300)
+    envs = VecMonitor(sb3_vec_env(Statuses(game)))
+    curve = recipe.TrainingCurve()
+    PPO("MlpPolicy", envs, n_steps=64, batch_size=64, seed=0, device="cpu").learn(
+        64 * 6 * 6, callback=curve)
+    ended = sum(row["attacker_episodes"] for row in curve.rows)
+    codes = [int(code) for code in truth.read_text().split()][:ended]
+    assert ended == len(codes) > 0
+    for key, code in (("arrived_rate", 2), ("captured_rate", 1), ("timeout_rate", 0)):
+        counted = sum(row[key] * row["attacker_episodes"] for row in curve.rows
+                      if row["attacker_episodes"])
+        assert counted == pytest.approx(codes.count(code))
+    assert {0, 1} <= set(codes)     # time-outs and captures both occur in this run
