@@ -22,7 +22,7 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.logger import KVWriter, Logger
 from stable_baselines3.common.vec_env import VecMonitor
 
-from policies.training import add_defender_arguments, defender_options, make_attackers_parallel_env
+from policies.training import add_defender_arguments, add_reward_arguments, attackers_from_args
 from reachavoid_env.integrations.supersuit import sb3_vec_env
 
 
@@ -43,18 +43,14 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--copies", type=int, default=2, help="game copies in the vector env")
     parser.add_argument("--timesteps", type=int, default=100_000, help="agent steps")
     parser.add_argument("--n-steps", type=int, default=256, help="PPO rollout per slot")
-    parser.add_argument("--action-repeat", type=int, default=10)
-    parser.add_argument("--shaping", type=float, default=1.0)
+    add_reward_arguments(parser)
     parser.add_argument("--seed", type=int, default=0)
     return parser.parse_args(argv)
 
 
 def make_vec_env(args: argparse.Namespace) -> VecMonitor:
     """The vector env, with SB3's episode statistics (one episode per slot and game)."""
-    options = defender_options(args)
-    game = make_attackers_parallel_env(args.scenario, defenders=args.defenders,
-                                       defender_options=options,
-                                       action_repeat=args.action_repeat, shaping=args.shaping)
+    game = attackers_from_args(args)
     return VecMonitor(sb3_vec_env(game, copies=args.copies))
 
 

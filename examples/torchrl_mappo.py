@@ -28,7 +28,7 @@ from torchrl.envs import EnvBase
 from torchrl.modules import MultiAgentMLP, ProbabilisticActor, TanhNormal
 from torchrl.objectives import ClipPPOLoss, ValueEstimators
 
-from policies.training import add_defender_arguments, defender_options, make_attackers_parallel_env
+from policies.training import add_defender_arguments, add_reward_arguments, attackers_from_args
 from reachavoid_env import AttackerStatus
 from reachavoid_env.integrations.torchrl import torchrl_env
 
@@ -44,17 +44,13 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--epochs", type=int, default=4)
     parser.add_argument("--minibatch", type=int, default=500)
     parser.add_argument("--lr", type=float, default=3e-4)
-    parser.add_argument("--action-repeat", type=int, default=10)
-    parser.add_argument("--shaping", type=float, default=1.0)
+    add_reward_arguments(parser)
     parser.add_argument("--seed", type=int, default=0)
     return parser.parse_args(argv)
 
 
 def make_env(args: argparse.Namespace) -> EnvBase:
-    options = defender_options(args)
-    game = make_attackers_parallel_env(args.scenario, defenders=args.defenders,
-                                       defender_options=options,
-                                       action_repeat=args.action_repeat, shaping=args.shaping)
+    game = attackers_from_args(args)
     return torchrl_env(game, seed=args.seed)
 
 

@@ -38,10 +38,12 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from policies.training import (
     add_defender_arguments,
+    add_reward_arguments,
     attacker_factory,
     defender_factory,
     defender_options,
     make_attacker_env,
+    reward_options,
 )
 from reachavoid_env import AttackerStatus, Scenario, load_scenario
 from reachavoid_env.video import VideoWriter
@@ -64,13 +66,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="parallel training envs (default: %(default)s)")
     parser.add_argument("--subprocess", action="store_true",
                         help="run the training envs in subprocesses (SubprocVecEnv)")
-    parser.add_argument("--action-repeat", type=int, default=10,
-                        help="game steps per agent step (default: %(default)s)")
-    parser.add_argument("--shaping", type=float, default=1.0,
-                        help="weight of the progress reward (default: %(default)s)")
-    parser.add_argument("--timeout-reward", type=float, default=-1.0,
-                        help="reward for still being in play at the time limit; -1 scores "
-                             "it as a loss, as in the game (default: %(default)s)")
+    add_reward_arguments(parser)
     parser.add_argument("--episodes", type=int, default=100,
                         help="evaluation episodes per attacker (default: %(default)s)")
     parser.add_argument("--seed", type=int, default=0, help="seed (default: %(default)s)")
@@ -93,9 +89,7 @@ def training_scenario(args: argparse.Namespace) -> Scenario:
 
 def env_kwargs(args: argparse.Namespace, scenario: Scenario) -> dict[str, Any]:
     return {"scenario": scenario, "defenders": args.defenders,
-            "defender_options": defender_options(args),
-            "action_repeat": args.action_repeat, "shaping": args.shaping,
-            "timeout_reward": args.timeout_reward}
+            "defender_options": defender_options(args), **reward_options(args)}
 
 
 def evaluate(kwargs: dict[str, Any], act: Act, episodes: int) -> dict[str, float]:

@@ -107,6 +107,13 @@ def reward_options(args: argparse.Namespace) -> dict[str, Any]:
             "timeout_reward": args.timeout_reward}
 
 
+def attackers_from_args(args: argparse.Namespace) -> AttackerParallelEnv:
+    """The attacker-only env of ``add_defender_arguments`` and ``add_reward_arguments``."""
+    return make_attackers_parallel_env(args.scenario, defenders=args.defenders,
+                                       defender_options=defender_options(args),
+                                       **reward_options(args))
+
+
 def _source(value: Any, options: Mapping[str, Any] | None, side: str, field: str) -> Any:
     """A name becomes its factory; a policy or factory passes through."""
     if isinstance(value, str):

@@ -108,10 +108,12 @@ def test_readable_infos_are_refused():
 def test_mappo_example_trains_with_finite_losses():
     mappo = example("torchrl_mappo")
     history = mappo.main(["--defenders", "idle", "--iterations", "2", "--frames", "300",
-                          "--minibatch", "150", "--epochs", "2", "--shaping", "0"])
+                          "--minibatch", "150", "--epochs", "2", "--shaping", "0",
+                          "--timeout-reward", "0"])
     assert [record["frames"] for record in history] == [300, 300]
     for record in history:
         assert all(math.isfinite(record[key]) for key in mappo.LOSSES)
-        # Without shaping the live agents' rewards are arrivals minus captures.
+        # Without shaping or time-out reward the live agents' rewards are arrivals minus
+        # captures.
         assert record["reward_sum"] == record["arrived"] - record["captured"]
         assert record["captured"] == 0       # idle defenders capture nobody
