@@ -1,12 +1,11 @@
 """A PettingZoo ``ParallelEnv`` of the game as a seeded Stable-Baselines3 ``VecEnv``, through
 SuperSuit (``rl`` extra).
 
-    from stable_baselines3 import PPO
-    from policies.training import make_attackers_parallel_env
-    from reachavoid_env.integrations.supersuit import sb3_vec_env
-
-    envs = sb3_vec_env(make_attackers_parallel_env("paper_6v2", defenders="hj"), copies=4)
-    PPO("MlpPolicy", envs, seed=0).learn(100_000)
+    >>> from stable_baselines3 import PPO
+    >>> from policies.training import make_attackers_parallel_env    # (the user's code)
+    >>> from reachavoid_env.integrations.supersuit import sb3_vec_env
+    >>> envs = sb3_vec_env(make_attackers_parallel_env("paper_6v2"), copies=4)
+    >>> PPO("MlpPolicy", envs, seed=0).learn(100_000)
 
 The chain is SuperSuit's ``black_death_v3`` (an agent that has left gets a zero
 observation and reward 0 until the game ends, so the number of slots stays fixed),
