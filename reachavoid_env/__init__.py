@@ -2,9 +2,8 @@
 
 Importing the package registers the env with PettingZoo as ``reachavoid/ReachAvoid-v0``
 (both ``pettingzoo.make("parallel", ...)`` and ``pettingzoo.make("aec", ...)``).
-Note that ``reachavoid_env.env`` is the AEC constructor, which shadows the ``env``
-submodule as a package attribute; import from the submodule with
-``from reachavoid_env.environment import ...``.
+``reachavoid_env.env`` is the AEC constructor; the env class lives in
+``reachavoid_env.environment``.
 """
 
 import pettingzoo

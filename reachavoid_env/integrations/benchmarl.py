@@ -26,7 +26,7 @@ from benchmarl.environments.common import Task
 from benchmarl.environments.pettingzoo.common import PettingZooClass
 from torchrl.envs import EnvBase
 
-from reachavoid_env.env import ReachAvoidEnv
+from reachavoid_env.environment import ReachAvoidEnv
 from reachavoid_env.integrations.torchrl import torchrl_env
 
 
