@@ -1,88 +1,79 @@
-"""Benchmark: how often Algorithm 1's guarantee breaks, by tube resolution (BENCHMARKS.md).
+"""Benchmark: how often Algorithm 1's guarantee breaks (BENCHMARKS.md "Guarantee").
 
-For random 4v2, 6v2 and 8v4 starts on the paper map, against shortest-path, random and
-HJ attackers, the HJ + MIP defenders report ``guaranteed_captures`` every step. An episode
-violates the guarantee when captured-so-far plus guaranteed-from-now falls, or when more
-attackers arrive than the guarantee allowed (``EpisodeResult.guarantee_violations``).
-Run at the CI grids and at the paper's:
+Seeded random starts of 4v2, 6v2 and 8v4 on the paper map and of 6v4 on the equal-speed
+scenario (``paper_6v4_equal``), against shortest-path, random and HJ attackers; the
+defenders (``--defenders``, default the reference ``hj``; ``hj-pairs`` also plays the
+equal-speed scenario) report their certified ``guaranteed_captures`` every step. An
+episode *violates* the guarantee when captured-so-far plus guaranteed-from-now falls
+(``EpisodeResult.guarantee_falls``: the certificate gave a game up) or when more attackers
+arrive than a guarantee allowed (``arrivals_beyond_promise``, the broken promise itself).
+``--margin-cells 0`` reads the tubes as the paper does (the "before"); the default is the
+policy's certificate. Every method plays the same starts (``reachavoid.compare_defenders``):
 
-    python benchmarks/guarantee.py --grid1 25 --grid2 13 --episodes 20
-    python benchmarks/guarantee.py --grid1 45 --grid2 30 --episodes 20
-
-"clear" counts only episodes whose first assigned states lie at least ``--margin`` (in
-value units) inside the defenders' winning sets, the paper's condition for the guarantee
-to hold numerically.
+    python benchmarks/guarantee.py --episodes 84 --backend process            # 1,008 episodes
+    python benchmarks/guarantee.py --episodes 84 --backend process --margin-cells 0
 """
 
 from __future__ import annotations
 
 import argparse
-
-import numpy as np
+import time
 
 import reachavoid_env
-from policies import HJAttacker, HJDefenderPolicy, RandomAttacker, ShortestPathAttacker
-from policies.defenders import pair_states, triple_states
-from reachavoid.rollout import run_episode
+from policies.defenders import CERTIFICATE_CELLS
+from reachavoid import compare_defenders
+from reachavoid.sweep import BACKENDS
 
-
-def assigned_margin(policy: HJDefenderPolicy, env) -> float:
-    """Smallest value over the first step's assigned 1 vs 1 / 2 vs 1 states (> 0: clear)."""
-    state = env.unwrapped.game_state()
-    policy.act(state)
-    margins = [np.inf]
-    attackers, defenders = state.attacker_positions, state.defender_positions
-    for j, mine in enumerate(policy.last_assignment.by_defender):
-        if len(mine) == 1:
-            margins.append(policy.vf11.value(pair_states(attackers[list(mine)],
-                                                         defenders[[j]]))[0, 0])
-        elif len(mine) == 2:
-            margins.append(policy.vf21.value(triple_states(attackers, np.array([mine]),
-                                                           defenders[[j]]))[0, 0])
-    return float(min(margins))
+CONFIGS = (("paper_2v1", 4, 2), ("paper_2v1", 6, 2), ("paper_2v1", 8, 4),
+           ("paper_6v4_equal", 6, 4))
+ATTACKERS = ("shortest-path", "random", "hj")
+PAIRS_ON = "paper_6v4_equal"
+"""``hj-pairs`` (when asked for) plays the scenario where teams matter."""
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--grid1", type=int, default=45)
     parser.add_argument("--grid2", type=int, default=30)
-    parser.add_argument("--episodes", type=int, default=20, help="per configuration and attacker")
-    parser.add_argument("--margin", type=float, default=0.01)
+    parser.add_argument("--episodes", type=int, default=20,
+                        help="per configuration and attacker (seeds 0..N-1)")
+    parser.add_argument("--defenders", default="hj,hj-pairs",
+                        help="comma-separated methods (hj-pairs on the equal-speed scenario)")
+    parser.add_argument("--margin-cells", type=float, default=CERTIFICATE_CELLS)
+    parser.add_argument("--backend", choices=BACKENDS, default="serial")
+    parser.add_argument("--workers", type=int, default=None)
     args = parser.parse_args()
+    methods = [m.strip() for m in args.defenders.split(",") if m.strip()]
 
-    base = reachavoid_env.builtin_scenario("paper_2v1")
-    defenders = HJDefenderPolicy.for_scenario(base, grid1=args.grid1, grid2=args.grid2)
-    attackers = {"shortest-path": ShortestPathAttacker(), "random": RandomAttacker(0),
-                 "hj": HJAttacker(defenders.vf11)}
-    print(f"tubes {args.grid1}^4 / {args.grid2}^6, {args.episodes} episodes per cell, "
-          f"clear = assigned values >= {args.margin:g}")
-    print(f"{'config':<7} {'attackers':<14} {'violated':>9} {'clear: violated':>16} "
-          f"{'guaranteed':>10} {'stopped':>8} {'captured':>9}")
-    totals = np.zeros(4, dtype=int)
-    for m, n in ((4, 2), (6, 2), (8, 4)):
-        env = reachavoid_env.parallel_env(scenario=base.with_players(m, n))
-        for label, attacker in attackers.items():
-            violated = clear = clear_violated = 0
-            guaranteed, stopped, captured = [], [], []
-            for seed in range(args.episodes):
-                env.reset(seed=seed)
-                defenders.reset(env.unwrapped.scenario)
-                is_clear = assigned_margin(defenders, env) >= args.margin
-                result = run_episode(env, attacker, defenders, seed=seed)
-                bad = result.guarantee_violations > 0
-                violated += bad
-                clear += is_clear
-                clear_violated += bad and is_clear
-                guaranteed.append(result.guarantees[0])
-                stopped.append(result.stopped_count)
-                captured.append(result.captured_count)
-            totals += (violated, args.episodes, clear_violated, clear)
-            print(f"{m}v{n:<5} {label:<14} {violated:>4}/{args.episodes:<4} "
-                  f"{clear_violated:>8}/{clear:<7} {np.mean(guaranteed):>10.2f} "
-                  f"{np.mean(stopped):>8.2f} {np.mean(captured):>9.2f}")
-    print(f"all: violated in {totals[0]}/{totals[1]} episodes ({totals[0] / totals[1]:.1%}); "
-          f"clear starts: {totals[2]}/{totals[3]}"
-          f" ({totals[2] / max(totals[3], 1):.1%})")
+    print(f"tubes {args.grid1}^4 / {args.grid2}^6, margin {args.margin_cells:g} cells, "
+          f"{args.episodes} episodes per configuration and attacker (seeds 0.."
+          f"{args.episodes - 1}), backend {args.backend}")
+    print("| config | attackers | defenders | violated | arrived beyond promise | "
+          "guaranteed at start | nominal at start | stopped | captured |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    totals: dict[str, list[int]] = {m: [0, 0, 0] for m in methods}
+    started = time.perf_counter()
+    for name, m, n in CONFIGS:
+        scenario = reachavoid_env.builtin_scenario(name).with_players(m, n)
+        here = [x for x in methods if x != "hj-pairs" or name == PAIRS_ON]
+        for attackers in ATTACKERS:
+            comparison = compare_defenders(scenario, here, attackers, args.episodes,
+                                           backend=args.backend, workers=args.workers,
+                                           grid1=args.grid1, grid2=args.grid2,
+                                           margin_cells=args.margin_cells)
+            for s in comparison.summaries:
+                totals[s.label] = [a + b for a, b in zip(
+                    totals[s.label], (s.guarantee_violations, s.arrivals_beyond_promise,
+                                      s.episodes), strict=True)]
+                print(f"| {m}v{n}{' equal' if name == PAIRS_ON else ''} | {attackers} | "
+                      f"{s.label} | {s.guarantee_violations} / {s.episodes} | "
+                      f"{s.arrivals_beyond_promise} | {s.guaranteed_initial:.2f} | "
+                      f"{s.nominal_initial:.2f} | {m - s.mean_arrived:.2f} | "
+                      f"{s.mean_captured:.2f} |", flush=True)
+    for method, (violated, beyond, episodes) in totals.items():
+        print(f"{method}: violated in {violated} / {episodes} episodes "
+              f"({violated / max(episodes, 1):.1%}), arrivals beyond the promise in {beyond}")
+    print(f"wall time {time.perf_counter() - started:.0f} s")
 
 
 if __name__ == "__main__":

@@ -94,13 +94,13 @@ def team_states(attackers: np.ndarray, defenders: np.ndarray, teams: np.ndarray)
 
 
 CERTIFICATE_CELLS = 0.5
-"""Default certificate margin in grid cells of each tube: an assignment counts as
-guaranteed only where its game's value exceeds this many of the tube's largest grid
-spacing (map units). Above every margin measured so far on the paper map (the largest
-coarse value at random states where a finer tube says the attacker side wins, 2e5
-states): 1 vs 1 0.35 cells at 25^4 and 0.24 at 45^4 (against 81^4), 2 vs 1 0.29 and
-1 vs 2 0.28 cells at 13^6 (against 21^6, itself coarse). Not yet a proven bound: the
-episodes study of issue 12 item 3 decides it."""
+"""Default certificate margin in grid cells of each tube: a game is taken as a certified
+defender win only where its value exceeds this many of the tube's largest grid spacing
+(map units). Above every error margin measured on the paper map (the largest coarse value
+at random states where a finer tube says the attacker side wins; BENCHMARKS.md "Guarantee:
+the cause of every violation"): 1 vs 1 0.27 cells at 25^4, 0.33 at 31^4 and 0.23 at 45^4
+(against 81^4), 2 vs 1 0.18-0.24 cells at 13^6-20^6 (against 30^6), 1 vs 2 0.28 cells at
+13^6 (against 21^6)."""
 
 
 def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
@@ -109,6 +109,14 @@ def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
     controls = controls.copy()
     controls[still] = unit_vectors(fallbacks[still])
     return controls.astype(np.float32)
+
+
+def _kept_rows(triples: np.ndarray, kept: list[tuple[int, int, int]]) -> np.ndarray:
+    """Which rows of ``triples (K, 3)`` equal one of the ``kept`` triples."""
+    rows = np.zeros(len(triples), dtype=bool)
+    for triple in kept:
+        rows |= (triples == triple).all(axis=1)
+    return rows
 
 
 class _AssignmentDefender(ABC):
@@ -120,10 +128,16 @@ class _AssignmentDefender(ABC):
     (both defenders of a team by the 1 vs 2 controls). ``solver`` (an
     ``AssignmentSolver``) counts the solves and the reused answers.
 
-    Two counts per step: ``nominal_captures``, the assignment's size (the paper's rule:
-    every assigned game has value > 0), and ``guaranteed_captures``, the attackers of the
-    assigned games whose value also clears the certificate margin (``margin_cells`` grid
-    cells of the game's tube).
+    **The certificate.** A tube's value is a numerical solution: near the decision
+    boundary its sign can be wrong (tube error), and along a played trajectory it drifts.
+    So the assignment the defenders play is read from *certified* tables: a game is a
+    defender win where its value exceeds the tube's margin (``margin_cells`` of its grid
+    spacing, above the measured error), or, for a game of the previous decision, where its
+    value is still > 0 (hysteresis: a game taken with a clear margin is not dropped for
+    drifting into the band). Every game of that assignment is certified, so
+    ``guaranteed_captures`` is its size. ``nominal_captures`` is the paper's rule: the size
+    of the assignment read with every value > 0 counting (solved on demand, on its own
+    solver). ``margin_cells=0`` is the paper's Algorithm 1 exactly (both counts equal).
     """
 
     vf12: ValueFunction | None = None
@@ -136,13 +150,17 @@ class _AssignmentDefender(ABC):
         self.vf21 = vf21
         self.margin_cells = float(margin_cells)
         self.solver = AssignmentSolver(method)
+        self._nominal_solver = AssignmentSolver(method)
         self._assignment: Assignment | None = None
-        self._certified = 0
+        self._kept: Assignment | None = None
+        self._step: tuple[GameState, np.ndarray] | None = None
+        self._nominal: int | None = None
 
     def reset(self, scenario: Scenario) -> None:
         _check_tube(self.vf11, scenario, "vf11")
         self.solver.reset()
-        self._assignment = None
+        self._nominal_solver.reset()
+        self._assignment = self._kept = self._step = self._nominal = None
 
     @property
     def assignment(self) -> list[tuple[str, str]]:
@@ -153,19 +171,30 @@ class _AssignmentDefender(ABC):
 
     @property
     def guaranteed_captures(self) -> int:
-        """Attackers certified never to reach the target from now on: those of the last
-        assignment whose game's value clears the certificate margin."""
-        return 0 if self._assignment is None else self._certified
+        """Attackers certified never to reach the target from now on: the size of the
+        assignment played, read from the certified tables."""
+        return 0 if self._assignment is None else self._assignment.captures
 
     @property
     def nominal_captures(self) -> int:
-        """The paper's count: the size of the last assignment (the MIP objective; the
-        matching size for the baseline)."""
-        return 0 if self._assignment is None else self._assignment.captures
+        """The paper's count at this step: the size of the assignment (the MIP objective; the
+        matching size for the baseline) read with every value > 0 a defender win."""
+        if self._assignment is None:
+            return 0
+        if self.margin_cells == 0.0:
+            return self._assignment.captures
+        if self._nominal is None:
+            state, values11 = self._step
+            self._nominal = self._assign(state, values11, certified=False).captures
+        return self._nominal
 
     def margin(self, vf: ValueFunction) -> float:
         """The certificate margin of ``vf``'s game (map units)."""
         return self.margin_cells * float(max(vf.grid.spacing))
+
+    def _threshold(self, vf: ValueFunction, certified: bool) -> float:
+        """The value a game of ``vf`` must exceed to count as a defender win."""
+        return self.margin(vf) if certified else 0.0
 
     @property
     def last_assignment(self) -> Assignment | None:
@@ -184,18 +213,19 @@ class _AssignmentDefender(ABC):
                               f"{self.nominal_captures} nominal",))
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
-        """One decision: the 1 vs 1 table, the assignment, then every assigned or shadowing
-        defender's optimal control, looked up in one batch per tube, and the count of
-        certified captures."""
+        """One decision: the 1 vs 1 table, the certified assignment, then every assigned or
+        shadowing defender's optimal control, looked up in one batch per tube."""
         active = state.active_attackers
         names = state.defender_names
         actions = np.zeros((len(names), 2), dtype=np.float32)
+        self._kept, self._nominal = self._assignment, None
         if not active.any():
-            self._assignment, self._certified = None, 0
+            self._assignment = self._step = None
             return dict(zip(names, actions, strict=True))
         attackers, defenders = state.attacker_positions, state.defender_positions
         values11 = self.vf11.value(pair_states(attackers, defenders))
-        assignment = self._assign(state, values11 <= 0.0, active)
+        self._step = (state, values11)
+        assignment = self._assign(state, values11, certified=True)
         self._assignment = assignment
         in_team = {d for _, j, k in assignment.shared for d in (j, k)}
         singles, doubles, shadows = [], [], []
@@ -209,7 +239,6 @@ class _AssignmentDefender(ABC):
                 singles.append((j, mine[0]))
             elif (target := self._idle_target(state, j, values11)) is not None:
                 shadows.append((j, target))
-        certified = sum(int(values11[i, j] > self.margin(self.vf11)) for j, i in singles)
         if singles or shadows:
             j, i = np.array(singles + shadows).T
             controls = self.vf11.defender_control(np.concatenate([attackers[i], defenders[j]],
@@ -219,7 +248,6 @@ class _AssignmentDefender(ABC):
             j, first, second = np.array(doubles).T
             states = np.concatenate([attackers[first], attackers[second], defenders[j]], axis=1)
             controls = self.vf21.defender_control(states)
-            certified += 2 * int(np.sum(self.vf21.value(states) > self.margin(self.vf21)))
             gaps = np.stack([attackers[first] - defenders[j], attackers[second] - defenders[j]])
             nearer = gaps[np.argmin(np.hypot(gaps[..., 0], gaps[..., 1]), axis=0),
                           np.arange(len(j))]
@@ -231,13 +259,24 @@ class _AssignmentDefender(ABC):
                 j = teams[:, column]
                 actions[j] = _headings(self.vf12.control(states, player),
                                        attackers[teams[:, 0]] - defenders[j])
-            certified += int(np.sum(self.vf12.value(states) > self.margin(self.vf12)))
-        self._certified = certified
         return dict(zip(names, actions, strict=True))
 
+    def _assign(self, state: GameState, values11: np.ndarray, certified: bool) -> Assignment:
+        """The assignment for this step from the 1 vs 1 values ``values11 (M, N)``: the
+        certified one (played) or the paper's rule (``certified=False``, the nominal count)."""
+        threshold = np.full(values11.shape, self._threshold(self.vf11, certified))
+        if certified and self._kept is not None:
+            for j, mine in enumerate(self._kept.by_defender):
+                threshold[list(mine), j] = 0.0
+        beats = values11 <= threshold
+        solver = self.solver if certified else self._nominal_solver
+        return self._solve(solver, state, beats, certified)
+
     @abstractmethod
-    def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
-        """The assignment for this step from the 1 vs 1 table ``beats (M, N)``."""
+    def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
+               certified: bool) -> Assignment:
+        """The assignment for this step from the 1 vs 1 table ``beats (M, N)`` (attacker
+        ``i`` beats defender ``j``), reading the higher games' tubes the same way."""
 
     @abstractmethod
     def _idle_target(self, state: GameState, j: int, values11: np.ndarray) -> int | None:
@@ -272,8 +311,10 @@ class HJDefenderPolicy(_AssignmentDefender):
     optimal control against the unassigned attacker it is best placed against (largest
     1 vs 1 value; any attacker if none is unassigned), which touches no other defender's
     guarantee; ``"stand"`` stands still, as in the paper's simulations.
-    ``nominal_captures`` is the MIP objective of the last step, ``guaranteed_captures`` the
-    part of it that clears the certificate margin (``margin_cells``).
+    The MIP played reads the certified tables (``margin_cells``, see the base class):
+    ``guaranteed_captures`` is its objective, ``nominal_captures`` the objective of the
+    paper's tables (every value > 0 a defender win); ``margin_cells=0`` is the paper's
+    method exactly.
     """
 
     def __init__(self, vf11: ValueFunction, vf21: ValueFunction, idle: str = "shadow",
@@ -289,32 +330,41 @@ class HJDefenderPolicy(_AssignmentDefender):
 
     @classmethod
     def for_scenario(cls, scenario: Scenario, grid1: int = 45, grid2: int = 30,
-                     idle: str = "shadow", progress: bool = True) -> HJDefenderPolicy:
+                     idle: str = "shadow", margin_cells: float = CERTIFICATE_CELLS,
+                     progress: bool = True) -> HJDefenderPolicy:
         """Load (or solve, with a progress bar, and cache) the scenario's tubes."""
-        return cls(*tube_2v1(scenario, grid1, grid2, progress), idle=idle)
+        return cls(*tube_2v1(scenario, grid1, grid2, progress), idle=idle,
+                   margin_cells=margin_cells)
 
     def reset(self, scenario: Scenario) -> None:
         super().reset(scenario)
         _check_tube(self.vf21, scenario, "vf21")
 
-    def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
-        return self.solver.solve(beats, self._beats_2v1(state, beats, active), active)
+    def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
+               certified: bool) -> Assignment:
+        active = state.active_attackers
+        return solver.solve(beats, self._beats_2v1(state, beats, certified), active)
 
-    def _beats_2v1(self, state: GameState, beats: np.ndarray, active: np.ndarray
-                   ) -> np.ndarray:
+    def _beats_2v1(self, state: GameState, beats: np.ndarray, certified: bool) -> np.ndarray:
         """The 2 vs 1 table ``(M, M, N)``. (c5) binds only pairs of attackers that the
         defender beats one by one, so the tube is read for those triples alone, in one
-        lookup."""
+        lookup; a pair kept from the previous decision counts while its value is > 0."""
         m, n = beats.shape
         beats_2v1 = np.zeros((m, m, n), dtype=bool)
-        candidates = active[:, None] & ~beats
+        candidates = state.active_attackers[:, None] & ~beats
         first, second = _attacker_pairs(m)
         pair, j = np.nonzero(candidates[first] & candidates[second])     # (pairs, N)
         if len(j):
             one, two = first[pair], second[pair]
             attackers, defenders = state.attacker_positions, state.defender_positions
-            wins = self.vf21.value(np.concatenate([attackers[one], attackers[two],
-                                                   defenders[j]], axis=1)) <= 0.0
+            values = self.vf21.value(np.concatenate([attackers[one], attackers[two],
+                                                     defenders[j]], axis=1))
+            threshold = np.full(len(j), self._threshold(self.vf21, certified))
+            if certified and self._kept is not None:
+                kept = [(*mine, d) for d, mine in enumerate(self._kept.by_defender)
+                        if len(mine) == 2]
+                threshold[_kept_rows(np.stack([one, two, j], axis=1), kept)] = 0.0
+            wins = values <= threshold
             beats_2v1[one, two, j] = wins
             beats_2v1[two, one, j] = wins
         return beats_2v1
@@ -351,30 +401,38 @@ class HJPairsDefenderPolicy(HJDefenderPolicy):
 
     @classmethod
     def for_scenario(cls, scenario: Scenario, grid1: int = 45, grid2: int = 30,
-                     idle: str = "shadow", progress: bool = True) -> HJPairsDefenderPolicy:
+                     idle: str = "shadow", margin_cells: float = CERTIFICATE_CELLS,
+                     progress: bool = True) -> HJPairsDefenderPolicy:
         """Load (or solve and cache) the scenario's tubes; both 6D games on ``grid2``^6."""
         vf11, vf21 = tube_2v1(scenario, grid1, grid2, progress)
-        return cls(vf11, vf21, tube_1v2(scenario, grid1, grid2, progress), idle=idle)
+        return cls(vf11, vf21, tube_1v2(scenario, grid1, grid2, progress), idle=idle,
+                   margin_cells=margin_cells)
 
     def reset(self, scenario: Scenario) -> None:
         super().reset(scenario)
         _check_tube(self.vf12, scenario, "vf12")
 
-    def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
-        return self.solver.solve(beats, self._beats_2v1(state, beats, active), active,
-                                 beats_1v2=self._beats_1v2(state, beats, active))
+    def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
+               certified: bool) -> Assignment:
+        active = state.active_attackers
+        return solver.solve(beats, self._beats_2v1(state, beats, certified), active,
+                            beats_1v2=self._beats_1v2(state, beats, certified))
 
-    def _beats_1v2(self, state: GameState, beats: np.ndarray, active: np.ndarray
-                   ) -> np.ndarray:
+    def _beats_1v2(self, state: GameState, beats: np.ndarray, certified: bool) -> np.ndarray:
         """The 1 vs 2 table ``(M, N, N)``, looked up where a team could be formed (the
-        attacker active and beating both defenders alone); true elsewhere."""
+        attacker active and beating both defenders alone); true elsewhere. A team kept from
+        the previous decision counts while its value is > 0."""
         m, n = beats.shape
         table = np.ones((m, n, n), dtype=bool)
         open_ = beats[:, :, None] & beats[:, None, :] & np.triu(np.ones((n, n), bool), 1)
-        teams = np.argwhere(open_ & active[:, None, None])
+        teams = np.argwhere(open_ & state.active_attackers[:, None, None])
         if len(teams):
-            wins = self.vf12.value(team_states(state.attacker_positions,
-                                               state.defender_positions, teams)) <= 0.0
+            values = self.vf12.value(team_states(state.attacker_positions,
+                                                 state.defender_positions, teams))
+            threshold = np.full(len(teams), self._threshold(self.vf12, certified))
+            if certified and self._kept is not None:
+                threshold[_kept_rows(teams, list(self._kept.shared))] = 0.0
+            wins = values <= threshold
             table[teams[:, 0], teams[:, 1], teams[:, 2]] = wins
             table[teams[:, 0], teams[:, 2], teams[:, 1]] = wins
         return table
@@ -387,25 +445,30 @@ class MatchingDefenderPolicy(_AssignmentDefender):
     cardinality matching) and plays the 1 vs 1 optimal control against it. Unmatched
     defenders stand still (``unmatched="stand"``, the paper) or pursue the nearest active
     attacker with the 1 vs 1 optimal control (``unmatched="pursue"``; straight at it where
-    that control vanishes).
+    that control vanishes). The matching played reads the certified 1 vs 1 table
+    (``margin_cells``, see the base class); ``margin_cells=0`` is the paper's baseline.
     """
 
-    def __init__(self, vf11: ValueFunction, unmatched: str = "stand") -> None:
+    def __init__(self, vf11: ValueFunction, unmatched: str = "stand",
+                 margin_cells: float = CERTIFICATE_CELLS) -> None:
         if unmatched not in ("stand", "pursue"):
             raise ValueError(f"unmatched: expected 'stand' or 'pursue', got {unmatched!r}")
         if vf11.game != "1v1":
             raise ValueError(f"vf11: expected a 1v1 value function, got {vf11.game!r}")
-        super().__init__(vf11, None, "matching")
+        super().__init__(vf11, None, "matching", margin_cells)
         self.unmatched = unmatched
 
     @classmethod
     def for_scenario(cls, scenario: Scenario, grid1: int = 45, unmatched: str = "stand",
+                     margin_cells: float = CERTIFICATE_CELLS,
                      progress: bool = True) -> MatchingDefenderPolicy:
         """Load (or solve and cache) the scenario's 1 vs 1 tube."""
-        return cls(tube_1v1(scenario, grid1, progress), unmatched=unmatched)
+        return cls(tube_1v1(scenario, grid1, progress), unmatched=unmatched,
+                   margin_cells=margin_cells)
 
-    def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
-        return self.solver.solve(beats, None, active)
+    def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
+               certified: bool) -> Assignment:
+        return solver.solve(beats, None, state.active_attackers)
 
     def _idle_target(self, state: GameState, j: int, values11: np.ndarray) -> int | None:
         if self.unmatched == "stand":

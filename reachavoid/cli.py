@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 import reachavoid_env
+from policies.defenders import CERTIFICATE_CELLS
 from policies.registry import ATTACKERS, DEFENDERS, NamedPolicy, accepted_options, make_policy
 from reachavoid import paper as paper_table
 from reachavoid.evaluation import compare_defenders, write_csv
@@ -35,6 +36,8 @@ MAX_SEED = 2**63 - 1
 GRID_RANGE = {"grid1": (5, 201), "grid2": (5, 101)}
 """Nodes per axis accepted for the 1 vs 1 and 2 vs 1 tubes (the memory guard still
 refuses what this machine cannot hold)."""
+MAX_MARGIN_CELLS = 10.0
+"""The largest certificate margin accepted (grid cells)."""
 
 
 class UsageError(ValueError):
@@ -66,6 +69,14 @@ def _grid_options(parser: argparse.ArgumentParser) -> None:
                         help="2 vs 1 tube nodes per axis (default: %(default)s, the paper's)")
 
 
+def _margin_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--margin-cells", type=float, default=CERTIFICATE_CELLS, metavar="C",
+                        help="certificate margin of the hj, hj-pairs and matching defenders in "
+                             "grid cells of each tube: a game counts as a defender win where "
+                             "its value exceeds C cells, or stays > 0 once taken (default: "
+                             "%(default)s; 0 reads the tubes as the paper does)")
+
+
 def _seed_option(parser: argparse.ArgumentParser, help_text: str) -> None:
     parser.add_argument("--seed", type=int, default=0, help=f"{help_text} (default: %(default)s)")
 
@@ -83,6 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--defenders", choices=DEFENDERS, default="hj",
                       help=f"defender policy (default: %(default)s). {_choices_help(DEFENDERS)}")
     _grid_options(play)
+    _margin_option(play)
     _seed_option(play, "seed of the env (random starts) and random policies")
     play.add_argument("--video", metavar="OUT.mp4|OUT.gif",
                       help="write the episode to an MP4 (H.264) or GIF video")
@@ -114,7 +126,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = commands.add_parser(
         "bench", help="play many seeded random starts and compare capture rates",
         description="Play seeded random starts on a scenario's map with each defender method "
-                    "and print capture rates with 95%% confidence intervals.")
+                    "and print capture rates with 95% confidence intervals.")
     _scenario_option(bench, "paper_2v1", "the map, speeds and settings to use")
     bench.add_argument("--config", default="6v2", metavar="MvN",
                        help="attackers v defenders, drawn at random each episode "
@@ -139,6 +151,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--json", action="store_true",
                        help="print one JSON object instead of a table")
     _grid_options(bench)
+    _margin_option(bench)
     bench.set_defaults(run=_bench)
 
     paper = commands.add_parser(
@@ -170,6 +183,8 @@ def _check_common(args: argparse.Namespace) -> None:
             _check(checks.integer, getattr(args, name), f"--{name}", *GRID_RANGE[name])
     if hasattr(args, "seed"):
         _check(checks.integer, args.seed, "--seed", 0, MAX_SEED)
+    if hasattr(args, "margin_cells"):
+        _check(checks.real, args.margin_cells, "--margin-cells", 0.0, MAX_MARGIN_CELLS)
     location = cache_dir()
     if location.exists() and not location.is_dir():
         raise UsageError(f"cache: {str(location)!r} ($REACHAVOID_CACHE_DIR) is not a folder")
@@ -212,7 +227,7 @@ def _load(source: str) -> Scenario:
 def _policy(side: str, name: str, scenario: Scenario, args: argparse.Namespace) -> Any:
     """The named policy, given whichever of --seed, --grid1, --grid2 it takes."""
     options = accepted_options(side, name, seed=args.seed, grid1=args.grid1, grid2=args.grid2,
-                               progress=args.progress)
+                               margin_cells=args.margin_cells, progress=args.progress)
     return make_policy(side, name, scenario, **options)
 
 
@@ -255,7 +270,8 @@ def _json_report(result: EpisodeResult, args: argparse.Namespace) -> dict[str, o
     order = ("scenario", "defenders", "attackers", "seed", "steps", "captured", "arrived",
              "captured_count", "arrived_count", "seconds", "game_time", "video",
              "guaranteed_captures_initial", "guaranteed_captures_final",
-             "guarantee_violations", "nominal_captures_initial")
+             "guarantee_violations", "guarantee_falls", "arrivals_beyond_promise",
+             "nominal_captures_initial")
     return {key: report[key] for key in order if key in report}
 
 
@@ -313,7 +329,8 @@ def _bench(args: argparse.Namespace) -> int:
     comparison = compare_defenders(scenario, methods, args.attackers, args.episodes,
                                    seed=args.seed, backend=args.backend, workers=args.workers,
                                    address=args.address, progress=args.progress,
-                                   grid1=args.grid1, grid2=args.grid2)
+                                   grid1=args.grid1, grid2=args.grid2,
+                                   margin_cells=args.margin_cells)
     if args.csv:
         write_csv(args.csv, [{k: (";".join(v) if isinstance(v, list) else v)
                               for k, v in row.items()} for row in comparison.rows])
@@ -326,13 +343,14 @@ def _bench(args: argparse.Namespace) -> int:
     print(f"{scenario.name}: {args.episodes} seeded random starts (seeds {args.seed}.."
           f"{args.seed + args.episodes - 1}), {args.attackers} attackers")
     print(f"  {'defenders':<10} {'capture rate [95% CI]':<26} {'all captured [95% CI]':<26}"
-          f" {'guaranteed':>10} {'violations':>10}")
+          f" {'guaranteed':>10} {'nominal':>8} {'violations':>10}")
     for s in comparison.summaries:
-        guaranteed = "-" if s.guaranteed_initial is None else f"{s.guaranteed_initial:.2f}"
+        guaranteed, nominal = ("-" if x is None else f"{x:.2f}"
+                               for x in (s.guaranteed_initial, s.nominal_initial))
         print(f"  {s.label:<10} {s.capture_rate:6.1%} [{s.capture_rate_ci[0]:.1%}, "
               f"{s.capture_rate_ci[1]:.1%}]{'':<4} {s.all_captured_rate:6.1%} "
               f"[{s.all_captured_ci[0]:.1%}, {s.all_captured_ci[1]:.1%}]{'':<4}"
-              f" {guaranteed:>10} {s.guarantee_violations:>10}")
+              f" {guaranteed:>10} {nominal:>8} {s.guarantee_violations:>10}")
     if args.csv:
         print(f"  per-episode rows: {args.csv}")
     return 0

@@ -74,8 +74,11 @@ class CaptureSummary:
     ``capture_rate``: the mean over episodes of the fraction of attackers captured, with a
     95% bootstrap interval (episodes are the independent units). ``all_captured_rate``:
     the fraction of episodes in which every attacker was captured, with a 95% Wilson
-    interval. ``guaranteed_initial``: mean guaranteed captures at the first decision
-    (defenders that report it). ``guarantee_violations``: episodes with any violation.
+    interval. ``guaranteed_initial``: mean guaranteed (certified) captures at the first
+    decision, ``nominal_initial`` the same with the paper's rule (defenders that report
+    them). ``guarantee_violations``: episodes with any violation; ``arrivals_beyond_promise``:
+    episodes where more attackers arrived than a guarantee allowed (the rest of the
+    violations are falls of the count, ``EpisodeResult.guarantee_falls``).
     """
 
     label: str
@@ -88,7 +91,9 @@ class CaptureSummary:
     mean_captured: float
     mean_arrived: float
     guaranteed_initial: float | None
+    nominal_initial: float | None
     guarantee_violations: int
+    arrivals_beyond_promise: int
 
     def to_dict(self) -> dict[str, Any]:
         return {key: (list(value) if isinstance(value, tuple) else value)
@@ -102,6 +107,7 @@ def summarize(label: str, results: Sequence[EpisodeResult], attackers: int) -> C
     fractions = [r.captured_count / attackers for r in results]
     everyone = sum(r.captured_count == attackers for r in results)
     guaranteed = [r.guarantees[0] for r in results if r.guarantees]
+    nominal = [r.nominal_guarantees[0] for r in results if r.nominal_guarantees]
     return CaptureSummary(
         label=label,
         episodes=len(results),
@@ -113,7 +119,9 @@ def summarize(label: str, results: Sequence[EpisodeResult], attackers: int) -> C
         mean_captured=float(np.mean([r.captured_count for r in results])),
         mean_arrived=float(np.mean([r.arrived_count for r in results])),
         guaranteed_initial=float(np.mean(guaranteed)) if guaranteed else None,
+        nominal_initial=float(np.mean(nominal)) if nominal else None,
         guarantee_violations=sum(r.guarantee_violations > 0 for r in results),
+        arrivals_beyond_promise=sum(r.arrivals_beyond_promise > 0 for r in results),
     )
 
 

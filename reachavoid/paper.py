@@ -3,8 +3,10 @@
 The games are the built-ins that carry a ``[paper]`` table (what the paper reports for
 them: ``captured = {method = count}``, methods named as in ``policies.registry``). Every
 method plays its game once against the paper's shortest-path attackers, with unassigned or
-unmatched defenders standing still as in the paper's simulations. The figure slices the
-tubes at the starts of the smallest such game (``paper_2v1``: one defender, two attackers).
+unmatched defenders standing still as in the paper's simulations, and the tubes read as
+the paper reads them (``margin_cells=0``: every value > 0 a defender win). The figure
+slices the tubes at the starts of the smallest such game (``paper_2v1``: one defender, two
+attackers).
 """
 
 from __future__ import annotations
@@ -49,7 +51,7 @@ def reproduce(out: Path, grid1: int, grid2: int, videos: bool = True,
     METHOD.mp4``), ``out/tubes.png`` and ``out/table.json``; return the rows."""
     scenarios = paper_scenarios()
     options = {"grid1": grid1, "grid2": grid2, "idle": "stand", "unmatched": "stand",
-               "progress": progress}
+               "margin_cells": 0.0, "progress": progress}
     rows = []
     for scenario in scenarios:
         measured = {}

@@ -81,10 +81,20 @@ class EpisodeResult:
         """Decisions whose guarantee was broken: it fell below an earlier one, or more
         attackers arrived than it allowed."""
         trace = np.asarray(self.guarantees, dtype=np.int64)
-        if len(trace) == 0:
-            return 0
-        fell = int(np.sum(trace < np.maximum.accumulate(trace)))
-        return fell + int(np.sum(trace > self.stopped_count))
+        return self.guarantee_falls + int(np.sum(trace > self.stopped_count))
+
+    @property
+    def guarantee_falls(self) -> int:
+        """Decisions whose guarantee fell below an earlier one (a certified game was given
+        up: the certificate flickered, whether or not an attacker then arrived)."""
+        trace = np.asarray(self.guarantees, dtype=np.int64)
+        return int(np.sum(trace < np.maximum.accumulate(trace))) if len(trace) else 0
+
+    @property
+    def arrivals_beyond_promise(self) -> int:
+        """Attackers that arrived although a guarantee had promised they would not: the
+        largest guarantee minus the attackers stopped, if positive."""
+        return max(0, max(self.guarantees, default=0) - self.stopped_count)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready fields (design.md section 6, without the policy names)."""
@@ -101,7 +111,10 @@ class EpisodeResult:
             "seconds": self.seconds,
         } | ({"guaranteed_captures_initial": self.guarantees[0],
               "guaranteed_captures_final": self.guarantees[-1],
-              "guarantee_violations": self.guarantee_violations} if self.guarantees else {}
+              "guarantee_violations": self.guarantee_violations,
+              "guarantee_falls": self.guarantee_falls,
+              "arrivals_beyond_promise": self.arrivals_beyond_promise} if self.guarantees
+             else {}
              ) | ({"nominal_captures_initial": self.nominal_guarantees[0]}
                   if self.nominal_guarantees else {})
 

@@ -63,18 +63,25 @@ def test_a_team_stops_an_attacker_neither_defender_stops_alone(equal_tubes):
     paper.reset(sc)
     paper.act(state)
     assert paper.nominal_captures == 0 and paper.guaranteed_captures == 0
-    teams = HJPairsDefenderPolicy(vf11, vf21, vf12)
+    certified = HJPairsDefenderPolicy(vf11, vf21, vf12)
+    certified.reset(sc)
+    certified.act(state)
+    assert certified.nominal_captures == 1
+    if vf12.value(np.concatenate([defenders.reshape(-1), a])) <= certified.margin(vf12):
+        assert certified.last_assignment.shared == () and certified.guaranteed_captures == 0
+    teams = HJPairsDefenderPolicy(vf11, vf21, vf12, margin_cells=0.0)
     teams.reset(sc)
     actions = teams.act(state)
     assert teams.last_assignment.shared == ((0, 0, 1),)
-    assert teams.nominal_captures == 1 and teams.guaranteed_captures <= 1
+    assert teams.nominal_captures == 1 == teams.guaranteed_captures
     for name in ("defender_0", "defender_1"):
         assert np.isclose(np.linalg.norm(actions[name]), 1.0, atol=1e-5)
     overlay = teams.overlay()
     assert set(overlay.edges) == {("defender_0", "attacker_0"), ("defender_1", "attacker_0")}
     assert "guaranteed" in overlay.lines[0] and "1 nominal" in overlay.lines[0]
     for attacker in (ShortestPathAttacker(), HJAttacker(vf11)):
-        result = run_episode(env, attacker, HJPairsDefenderPolicy(vf11, vf21, vf12), seed=0)
+        result = run_episode(env, attacker, HJPairsDefenderPolicy(vf11, vf21, vf12,
+                                                                  margin_cells=0.0), seed=0)
         assert result.arrived_count == 0, type(attacker).__name__
 
 
