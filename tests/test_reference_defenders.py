@@ -147,12 +147,12 @@ def test_hj_attacker_heads_away_from_its_defender(coarse_tubes):
 
 
 def test_guarantee_over_random_starts(coarse_tubes, record_property):
-    """Algorithm 1's promise: captures reach the first guarantee, and captured-so-far plus
-    guaranteed-from-now never falls. At these coarse CI grids (25^4, 13^6) numerical error
-    breaks it in some episodes: count and report them (BENCHMARKS.md has the rates at both
-    resolutions); a policy with a wrong sign or a broken MIP breaks it in most. The
-    certified count (margins of half a cell) promises little at these grids; the nominal
-    one (the paper's rule) shows the MIP at work."""
+    """Algorithm 1's promise with the certificate: no attacker arrives that a guarantee
+    ruled out, and captured-so-far plus guaranteed-from-now never falls. Even at these
+    coarse CI grids (25^4, 13^6), where the paper's reading (``margin_cells=0``) breaks in
+    about one episode in seven (BENCHMARKS.md), the certified count holds on these 18
+    starts; one fall is tolerated (the control chatter at a kink measured at these grids),
+    no broken promise is. The nominal count (the paper's rule) shows the MIP at work."""
     vf11, vf21 = coarse_tubes
     base = reachavoid_env.builtin_scenario("paper_2v1")
     attackers = {"shortest-path": ShortestPathAttacker, "random": lambda: RandomAttacker(0),
@@ -166,9 +166,10 @@ def test_guarantee_over_random_starts(coarse_tubes, record_property):
                 episodes += 1
                 violations += result.guarantee_violations > 0
                 promised += result.nominal_guarantees[0]
+                assert result.arrivals_beyond_promise == 0, (m, n, seed)
                 assert result.guarantees[0] <= result.nominal_guarantees[0]
                 assert result.captured_count + result.arrived_count <= m
     record_property("guarantee_violation_episodes", f"{violations}/{episodes}")
     print(f"guarantee violated in {violations} of {episodes} episodes at 25^4 / 13^6")
     assert promised >= episodes, "the MIP promised almost nothing: the test would be vacuous"
-    assert violations <= episodes // 6
+    assert violations <= 1
