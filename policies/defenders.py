@@ -12,6 +12,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
+from policies.certificate import Game, Tubes, games_of, joined, restrict, still_winning
 from policies.tubes import tube_1v1, tube_1v2, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario
 from reachavoid_env.rules import unit_vectors
@@ -94,13 +95,13 @@ def team_states(attackers: np.ndarray, defenders: np.ndarray, teams: np.ndarray)
 
 
 CERTIFICATE_CELLS = 0.5
-"""Default certificate margin in grid cells of each tube: a game is taken as a certified
-defender win only where its value exceeds this many of the tube's largest grid spacing
-(map units). Above every error margin measured on the paper map (the largest coarse value
-at random states where a finer tube says the attacker side wins; BENCHMARKS.md "Guarantee:
-the cause of every violation"): 1 vs 1 0.27 cells at 25^4, 0.33 at 31^4 and 0.23 at 45^4
-(against 81^4), 2 vs 1 0.18-0.24 cells at 13^6-20^6 (against 30^6), 1 vs 2 0.28 cells at
-13^6 (against 21^6)."""
+"""Default certificate margin in grid cells of each tube: a game becomes certified where
+its value exceeds this many of the tube's largest grid spacing (map units). Above every
+error margin measured on the paper map (the largest coarse value at random states where
+a finer tube says the attacker side wins; BENCHMARKS.md "Guarantee: the cause of every
+violation"): 1 vs 1 0.27 cells at 25^4, 0.33 at 31^4 and 0.23 at 45^4 (against 81^4),
+2 vs 1 0.18-0.24 cells at 13^6-20^6 (against 30^6), 1 vs 2 0.28 cells at 13^6 (against
+21^6)."""
 
 
 def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
@@ -109,14 +110,6 @@ def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
     controls = controls.copy()
     controls[still] = unit_vectors(fallbacks[still])
     return controls.astype(np.float32)
-
-
-def _kept_rows(triples: np.ndarray, kept: list[tuple[int, int, int]]) -> np.ndarray:
-    """Which rows of ``triples (K, 3)`` equal one of the ``kept`` triples."""
-    rows = np.zeros(len(triples), dtype=bool)
-    for triple in kept:
-        rows |= (triples == triple).all(axis=1)
-    return rows
 
 
 class _AssignmentDefender(ABC):
@@ -128,16 +121,16 @@ class _AssignmentDefender(ABC):
     (both defenders of a team by the 1 vs 2 controls). ``solver`` (an
     ``AssignmentSolver``) counts the solves and the reused answers.
 
-    **The certificate.** A tube's value is a numerical solution: near the decision
-    boundary its sign can be wrong (tube error), and along a played trajectory it drifts.
-    So the assignment the defenders play is read from *certified* tables: a game is a
-    defender win where its value exceeds the tube's margin (``margin_cells`` of its grid
-    spacing, above the measured error), or, for a game of the previous decision, where its
-    value is still > 0 (hysteresis: a game taken with a clear margin is not dropped for
-    drifting into the band). Every game of that assignment is certified, so
-    ``guaranteed_captures`` is its size. ``nominal_captures`` is the paper's rule: the size
-    of the assignment read with every value > 0 counting (solved on demand, on its own
-    solver). ``margin_cells=0`` is the paper's Algorithm 1 exactly (both counts equal).
+    **The certificate** (``policies.certificate``). The assignment played is the paper's
+    (every value > 0 a defender win), except that the games already certified are kept:
+    a game becomes certified when its value clears its tube's margin (``margin_cells`` of
+    the tube's grid spacing, above the measured tube error) and stays certified, and
+    played, while its value is > 0; the rest of the defenders and attackers are assigned
+    by the paper's program. ``guaranteed_captures`` counts the attackers of the certified
+    games; ``nominal_captures`` is the paper's count, the objective of the program with
+    nothing kept (solved on demand on a second solver, so the training envs, which never
+    read it, never pay for it). ``margin_cells=0`` is the paper's Algorithm 1 exactly:
+    nothing is kept, and both counts are the program's objective.
     """
 
     vf12: ValueFunction | None = None
@@ -152,15 +145,16 @@ class _AssignmentDefender(ABC):
         self.solver = AssignmentSolver(method)
         self._nominal_solver = AssignmentSolver(method)
         self._assignment: Assignment | None = None
-        self._kept: Assignment | None = None
-        self._step: tuple[GameState, np.ndarray] | None = None
+        self._certified: list[Game] = []
+        self._step: tuple[GameState, np.ndarray, bool] | None = None
         self._nominal: int | None = None
 
     def reset(self, scenario: Scenario) -> None:
         _check_tube(self.vf11, scenario, "vf11")
         self.solver.reset()
         self._nominal_solver.reset()
-        self._assignment = self._kept = self._step = self._nominal = None
+        self._assignment = self._step = self._nominal = None
+        self._certified = []
 
     @property
     def assignment(self) -> list[tuple[str, str]]:
@@ -170,31 +164,39 @@ class _AssignmentDefender(ABC):
         return [(f"defender_{j}", f"attacker_{i}") for i, j in self._assignment.pairs]
 
     @property
+    def certified_games(self) -> list[Game]:
+        """The games of the last decision that are certified (``policies.certificate``)."""
+        return list(self._certified)
+
+    @property
     def guaranteed_captures(self) -> int:
-        """Attackers certified never to reach the target from now on: the size of the
-        assignment played, read from the certified tables."""
-        return 0 if self._assignment is None else self._assignment.captures
+        """Attackers certified never to reach the target from now on: those of the
+        certified games of the last decision."""
+        return sum(len(game.attackers) for game in self._certified)
 
     @property
     def nominal_captures(self) -> int:
         """The paper's count at this step: the size of the assignment (the MIP objective; the
-        matching size for the baseline) read with every value > 0 a defender win."""
+        matching size for the baseline) with every value > 0 a defender win."""
         if self._assignment is None:
             return 0
-        if self.margin_cells == 0.0:
+        state, values11, fixed_any = self._step
+        if not fixed_any:
             return self._assignment.captures
         if self._nominal is None:
-            state, values11 = self._step
-            self._nominal = self._assign(state, values11, certified=False).captures
+            self._nominal = self._assign(self._nominal_solver, state, values11, []).captures
         return self._nominal
 
     def margin(self, vf: ValueFunction) -> float:
         """The certificate margin of ``vf``'s game (map units)."""
         return self.margin_cells * float(max(vf.grid.spacing))
 
-    def _threshold(self, vf: ValueFunction, certified: bool) -> float:
-        """The value a game of ``vf`` must exceed to count as a defender win."""
-        return self.margin(vf) if certified else 0.0
+    @property
+    def tubes(self) -> Tubes:
+        """The tubes and margins the certificate reads."""
+        return Tubes(self.vf11, self.vf21, self.vf12,
+                     tuple(0.0 if vf is None else self.margin(vf)
+                           for vf in (self.vf11, self.vf21, self.vf12)))
 
     @property
     def last_assignment(self) -> Assignment | None:
@@ -213,20 +215,29 @@ class _AssignmentDefender(ABC):
                               f"{self.nominal_captures} nominal",))
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
-        """One decision: the 1 vs 1 table, the certified assignment, then every assigned or
-        shadowing defender's optimal control, looked up in one batch per tube."""
+        """One decision: the 1 vs 1 table, the assignment keeping the certified games, the
+        certificate, then every assigned or shadowing defender's optimal control, looked up
+        in one batch per tube."""
         active = state.active_attackers
         names = state.defender_names
         actions = np.zeros((len(names), 2), dtype=np.float32)
-        self._kept, self._nominal = self._assignment, None
+        self._nominal = None
         if not active.any():
             self._assignment = self._step = None
+            self._certified = []
             return dict(zip(names, actions, strict=True))
         attackers, defenders = state.attacker_positions, state.defender_positions
         values11 = self.vf11.value(pair_states(attackers, defenders))
-        self._step = (state, values11)
-        assignment = self._assign(state, values11, certified=True)
-        self._assignment = assignment
+        certify = self.margin_cells > 0.0
+        tubes = self.tubes
+        kept = still_winning(self._certified, state, values11, tubes) if certify else []
+        assignment = self._assign(self.solver, state, values11, kept)
+        self._assignment, self._step = assignment, (state, values11, bool(kept))
+        fresh = [game for game in games_of(assignment) if game not in kept]
+        if certify:
+            clear = tubes.slack(fresh, state, values11) > 0.0
+            fresh = [game for game, on in zip(fresh, clear, strict=True) if on]
+        self._certified = kept + fresh
         in_team = {d for _, j, k in assignment.shared for d in (j, k)}
         singles, doubles, shadows = [], [], []
         for j in range(len(names)):
@@ -261,22 +272,21 @@ class _AssignmentDefender(ABC):
                                        attackers[teams[:, 0]] - defenders[j])
         return dict(zip(names, actions, strict=True))
 
-    def _assign(self, state: GameState, values11: np.ndarray, certified: bool) -> Assignment:
-        """The assignment for this step from the 1 vs 1 values ``values11 (M, N)``: the
-        certified one (played) or the paper's rule (``certified=False``, the nominal count)."""
-        threshold = np.full(values11.shape, self._threshold(self.vf11, certified))
-        if certified and self._kept is not None:
-            for j, mine in enumerate(self._kept.by_defender):
-                threshold[list(mine), j] = 0.0
-        beats = values11 <= threshold
-        solver = self.solver if certified else self._nominal_solver
-        return self._solve(solver, state, beats, certified)
+    def _assign(self, solver: AssignmentSolver, state: GameState, values11: np.ndarray,
+                fixed: list[Game]) -> Assignment:
+        """The paper's program on this step's tables (``values11 (M, N)`` and the higher
+        games' tubes, every value > 0 a defender win) for the players outside the
+        ``fixed`` games, which are then put back."""
+        beats, active, busy = restrict(values11 <= 0.0, state.active_attackers, fixed)
+        rest = self._solve(solver, state, beats, active, busy)
+        return joined(rest, fixed, len(state.defender_names)) if fixed else rest
 
     @abstractmethod
     def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               certified: bool) -> Assignment:
-        """The assignment for this step from the 1 vs 1 table ``beats (M, N)`` (attacker
-        ``i`` beats defender ``j``), reading the higher games' tubes the same way."""
+               active: np.ndarray, busy: np.ndarray) -> Assignment:
+        """The assignment of the ``active`` attackers from the 1 vs 1 table ``beats (M, N)``
+        (attacker ``i`` beats defender ``j``), reading the higher games' tubes where they
+        bind; ``busy`` defenders take nothing."""
 
     @abstractmethod
     def _idle_target(self, state: GameState, j: int, values11: np.ndarray) -> int | None:
@@ -311,10 +321,9 @@ class HJDefenderPolicy(_AssignmentDefender):
     optimal control against the unassigned attacker it is best placed against (largest
     1 vs 1 value; any attacker if none is unassigned), which touches no other defender's
     guarantee; ``"stand"`` stands still, as in the paper's simulations.
-    The MIP played reads the certified tables (``margin_cells``, see the base class):
-    ``guaranteed_captures`` is its objective, ``nominal_captures`` the objective of the
-    paper's tables (every value > 0 a defender win); ``margin_cells=0`` is the paper's
-    method exactly.
+    Certified games are kept (``margin_cells``, see the base class):
+    ``guaranteed_captures`` counts them, ``nominal_captures`` is the MIP objective of the
+    paper's rule; ``margin_cells=0`` is the paper's method exactly.
     """
 
     def __init__(self, vf11: ValueFunction, vf21: ValueFunction, idle: str = "shadow",
@@ -341,30 +350,24 @@ class HJDefenderPolicy(_AssignmentDefender):
         _check_tube(self.vf21, scenario, "vf21")
 
     def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               certified: bool) -> Assignment:
-        active = state.active_attackers
-        return solver.solve(beats, self._beats_2v1(state, beats, certified), active)
+               active: np.ndarray, busy: np.ndarray) -> Assignment:
+        return solver.solve(beats, self._beats_2v1(state, beats, active), active)
 
-    def _beats_2v1(self, state: GameState, beats: np.ndarray, certified: bool) -> np.ndarray:
+    def _beats_2v1(self, state: GameState, beats: np.ndarray, active: np.ndarray
+                   ) -> np.ndarray:
         """The 2 vs 1 table ``(M, M, N)``. (c5) binds only pairs of attackers that the
         defender beats one by one, so the tube is read for those triples alone, in one
-        lookup; a pair kept from the previous decision counts while its value is > 0."""
+        lookup."""
         m, n = beats.shape
         beats_2v1 = np.zeros((m, m, n), dtype=bool)
-        candidates = state.active_attackers[:, None] & ~beats
+        candidates = active[:, None] & ~beats
         first, second = _attacker_pairs(m)
         pair, j = np.nonzero(candidates[first] & candidates[second])     # (pairs, N)
         if len(j):
             one, two = first[pair], second[pair]
             attackers, defenders = state.attacker_positions, state.defender_positions
-            values = self.vf21.value(np.concatenate([attackers[one], attackers[two],
-                                                     defenders[j]], axis=1))
-            threshold = np.full(len(j), self._threshold(self.vf21, certified))
-            if certified and self._kept is not None:
-                kept = [(*mine, d) for d, mine in enumerate(self._kept.by_defender)
-                        if len(mine) == 2]
-                threshold[_kept_rows(np.stack([one, two, j], axis=1), kept)] = 0.0
-            wins = values <= threshold
+            wins = self.vf21.value(np.concatenate([attackers[one], attackers[two],
+                                                   defenders[j]], axis=1)) <= 0.0
             beats_2v1[one, two, j] = wins
             beats_2v1[two, one, j] = wins
         return beats_2v1
@@ -413,26 +416,24 @@ class HJPairsDefenderPolicy(HJDefenderPolicy):
         _check_tube(self.vf12, scenario, "vf12")
 
     def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               certified: bool) -> Assignment:
-        active = state.active_attackers
-        return solver.solve(beats, self._beats_2v1(state, beats, certified), active,
-                            beats_1v2=self._beats_1v2(state, beats, certified))
+               active: np.ndarray, busy: np.ndarray) -> Assignment:
+        return solver.solve(beats, self._beats_2v1(state, beats, active), active,
+                            beats_1v2=self._beats_1v2(state, beats, active, busy))
 
-    def _beats_1v2(self, state: GameState, beats: np.ndarray, certified: bool) -> np.ndarray:
+    def _beats_1v2(self, state: GameState, beats: np.ndarray, active: np.ndarray,
+                   busy: np.ndarray) -> np.ndarray:
         """The 1 vs 2 table ``(M, N, N)``, looked up where a team could be formed (the
-        attacker active and beating both defenders alone); true elsewhere. A team kept from
-        the previous decision counts while its value is > 0."""
+        attacker active and beating both defenders alone, neither defender ``busy``); true
+        elsewhere."""
         m, n = beats.shape
         table = np.ones((m, n, n), dtype=bool)
-        open_ = beats[:, :, None] & beats[:, None, :] & np.triu(np.ones((n, n), bool), 1)
-        teams = np.argwhere(open_ & state.active_attackers[:, None, None])
+        free = ~busy
+        open_ = (beats[:, :, None] & beats[:, None, :] & np.triu(np.ones((n, n), bool), 1)
+                 & (free[:, None] & free[None, :])[None])
+        teams = np.argwhere(open_ & active[:, None, None])
         if len(teams):
-            values = self.vf12.value(team_states(state.attacker_positions,
-                                                 state.defender_positions, teams))
-            threshold = np.full(len(teams), self._threshold(self.vf12, certified))
-            if certified and self._kept is not None:
-                threshold[_kept_rows(teams, list(self._kept.shared))] = 0.0
-            wins = values <= threshold
+            wins = self.vf12.value(team_states(state.attacker_positions,
+                                               state.defender_positions, teams)) <= 0.0
             table[teams[:, 0], teams[:, 1], teams[:, 2]] = wins
             table[teams[:, 0], teams[:, 2], teams[:, 1]] = wins
         return table
@@ -445,8 +446,8 @@ class MatchingDefenderPolicy(_AssignmentDefender):
     cardinality matching) and plays the 1 vs 1 optimal control against it. Unmatched
     defenders stand still (``unmatched="stand"``, the paper) or pursue the nearest active
     attacker with the 1 vs 1 optimal control (``unmatched="pursue"``; straight at it where
-    that control vanishes). The matching played reads the certified 1 vs 1 table
-    (``margin_cells``, see the base class); ``margin_cells=0`` is the paper's baseline.
+    that control vanishes). Certified pairs are kept (``margin_cells``, see the base class);
+    ``margin_cells=0`` is the paper's baseline exactly.
     """
 
     def __init__(self, vf11: ValueFunction, unmatched: str = "stand",
@@ -467,8 +468,8 @@ class MatchingDefenderPolicy(_AssignmentDefender):
                    margin_cells=margin_cells)
 
     def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               certified: bool) -> Assignment:
-        return solver.solve(beats, None, state.active_attackers)
+               active: np.ndarray, busy: np.ndarray) -> Assignment:
+        return solver.solve(beats, None, active)
 
     def _idle_target(self, state: GameState, j: int, values11: np.ndarray) -> int | None:
         if self.unmatched == "stand":

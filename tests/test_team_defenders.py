@@ -67,8 +67,9 @@ def test_a_team_stops_an_attacker_neither_defender_stops_alone(equal_tubes):
     certified.reset(sc)
     certified.act(state)
     assert certified.nominal_captures == 1
-    if vf12.value(np.concatenate([defenders.reshape(-1), a])) <= certified.margin(vf12):
-        assert certified.last_assignment.shared == () and certified.guaranteed_captures == 0
+    assert certified.last_assignment.shared == ((0, 0, 1),)
+    clears = vf12.value(np.concatenate([defenders.reshape(-1), a])) > certified.margin(vf12)
+    assert certified.guaranteed_captures == int(clears)
     teams = HJPairsDefenderPolicy(vf11, vf21, vf12, margin_cells=0.0)
     teams.reset(sc)
     actions = teams.act(state)

@@ -1,0 +1,118 @@
+"""The certificate of the assignment defenders: which assigned games are guaranteed wins.
+
+A tube's value is a numerical solution: near the decision boundary its sign can be wrong
+(tube error), and along a played trajectory it drifts. A game of the assignment becomes
+*certified* when its value clears the tube's margin (``margin`` per tube, above the
+measured error), and stays certified while its value is > 0 (hysteresis: a game taken
+with a clear margin is not given up for drifting into the band). The defenders keep
+every certified game (``restrict`` takes its players out of the next program and
+``joined`` puts the game back), so the certified count falls only when a game's value
+reaches 0.
+
+A game's value is what the program reads: ``V11`` for one defender against one attacker;
+the smallest of ``V21`` and both ``V11`` for one defender against a pair (constraints c4
+and c5); ``V12`` for a team of two defenders against one attacker.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from reachavoid_env import GameState
+from solvers.assignment import Assignment
+from solvers.hj import ValueFunction
+
+
+@dataclass(frozen=True)
+class Game:
+    """One assigned game: ``defenders`` (one, or a team ``j < k``) against ``attackers``
+    (one, or a pair ``i < k`` taken by one defender), as indices."""
+
+    defenders: tuple[int, ...]
+    attackers: tuple[int, ...]
+
+
+def games_of(assignment: Assignment) -> list[Game]:
+    """The games of ``assignment``: every defender's own attackers, then every team."""
+    alone = [Game((j,), mine) for j, mine in enumerate(assignment.by_defender) if mine]
+    return alone + [Game((j, k), (i,)) for i, j, k in assignment.shared]
+
+
+@dataclass(frozen=True)
+class Tubes:
+    """The tubes a game's value is read from (``vf21`` / ``vf12`` ``None`` where the policy
+    plays no such game) and the margin each must clear (map units)."""
+
+    vf11: ValueFunction
+    vf21: ValueFunction | None
+    vf12: ValueFunction | None
+    margins: tuple[float, float, float]
+
+    def slack(self, games: list[Game], state: GameState, values11: np.ndarray,
+              margins: tuple[float, float, float] | None = None) -> np.ndarray:
+        """``(len(games),)``: the smallest ``value - margin`` over what makes each game a
+        defender win (``margins`` default: the tubes'; zeros for "still winning"); one
+        lookup per 6D tube."""
+        m11, m21, m12 = self.margins if margins is None else margins
+        slack = np.full(len(games), np.inf)
+        pairs, teams = [], []
+        for g, game in enumerate(games):
+            if len(game.defenders) == 2:
+                teams.append(g)
+                continue
+            slack[g] = min(values11[i, game.defenders[0]] for i in game.attackers) - m11
+            if len(game.attackers) == 2:
+                pairs.append(g)
+        attackers, defenders = state.attacker_positions, state.defender_positions
+        if pairs:
+            states = np.array([np.concatenate([attackers[games[g].attackers[0]],
+                                               attackers[games[g].attackers[1]],
+                                               defenders[games[g].defenders[0]]])
+                               for g in pairs])
+            slack[pairs] = np.minimum(slack[pairs], self.vf21.value(states) - m21)
+        if teams:
+            states = np.array([np.concatenate([defenders[games[g].defenders[0]],
+                                               defenders[games[g].defenders[1]],
+                                               attackers[games[g].attackers[0]]])
+                               for g in teams])
+            slack[teams] = self.vf12.value(states) - m12
+        return slack
+
+
+def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
+                  tubes: Tubes) -> list[Game]:
+    """The certified games of the last decision that are still on: attackers that left
+    (captured) are dropped from their game, and a game stays while its value is > 0."""
+    active = state.active_attackers
+    games = []
+    for game in certified:
+        left = tuple(i for i in game.attackers if active[i])
+        if left:
+            games.append(Game(game.defenders, left))
+    keep = tubes.slack(games, state, values11, margins=(0.0, 0.0, 0.0)) > 0.0
+    return [game for game, on in zip(games, keep, strict=True) if on]
+
+
+def restrict(beats: np.ndarray, active: np.ndarray, fixed: list[Game]
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The program without the ``fixed`` games' players: their attackers inactive, their
+    defenders beaten by everyone (so they take nothing); returns ``beats``, ``active`` and
+    ``busy`` (the fixed defenders, which no team may use)."""
+    beats, active = beats.copy(), active.copy()
+    busy = np.zeros(beats.shape[1], dtype=bool)
+    for game in fixed:
+        active[list(game.attackers)] = False
+        busy[list(game.defenders)] = True
+    beats[:, busy] = True
+    return beats, active, busy
+
+
+def joined(rest: Assignment, fixed: list[Game], num_defenders: int) -> Assignment:
+    """``rest`` (an answer of the restricted program) with the ``fixed`` games put back."""
+    pairs = list(rest.pairs) + [(i, game.defenders[0]) for game in fixed
+                                if len(game.defenders) == 1 for i in game.attackers]
+    teams = list(rest.shared) + [(game.attackers[0], *game.defenders) for game in fixed
+                                 if len(game.defenders) == 2]
+    return Assignment.from_pairs(pairs, num_defenders, teams)
