@@ -110,11 +110,22 @@ class ValueFunction:
     @property
     def stored_of(self) -> np.ndarray:
         """Stored row of every row (``layout``); one row when the array is held whole."""
-        return self.layout.stored_of if self.symmetries else np.zeros(1, dtype=np.int64)
+        return self._rows[1]
 
     def stored_values(self) -> np.ndarray:
         """The values as stored rows ``(rows, m)`` (one row when held whole)."""
         return self.values if self.symmetries else self.values.reshape(1, -1)
+
+    @cached_property
+    def _rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """``stored_values()`` as a plain array (a view, also of a memory map) and
+        ``stored_of``: what the interpolation kernels read, made once."""
+        stored_of = self.layout.stored_of if self.symmetries else np.zeros(1, dtype=np.int64)
+        return np.asarray(self.stored_values()), stored_of
+
+    @cached_property
+    def _player_index(self) -> dict[str, int]:
+        return {p.name: k for k, p in enumerate(self.players)}
 
     def full_values(self) -> np.ndarray:
         """The value on every node, ``grid.shape`` (expands stored rows: small grids)."""
@@ -130,13 +141,23 @@ class ValueFunction:
     def value(self, states: np.ndarray) -> np.ndarray:
         """Interpolated value ``(...)`` of ``states (..., ndim)``; <= 0: attackers win."""
         flat, lead = self._states(states)
-        return self.grid.interpolate(self.stored_values(), flat, self.stored_of).reshape(lead)
+        rows, stored_of = self._rows
+        return self.grid.interpolate(rows, flat, stored_of).reshape(lead)
 
     def gradient(self, states: np.ndarray) -> np.ndarray:
         """Interpolated gradient ``(..., ndim)`` of the value (per map unit)."""
         flat, lead = self._states(states)
-        gradient = self.grid.interpolate_gradient(self.stored_values(), flat, self.stored_of)
+        rows, stored_of = self._rows
+        gradient = self.grid.interpolate_gradient(rows, flat, stored_of)
         return gradient.reshape(*lead, self.grid.ndim)
+
+    def value_and_gradient(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``value`` and ``gradient`` of ``states (..., ndim)`` in one lookup: ``(...)``
+        and ``(..., ndim)``, equal to the two calls' results."""
+        flat, lead = self._states(states)
+        rows, stored_of = self._rows
+        value, gradient = self.grid.interpolate_with_gradient(rows, flat, stored_of)
+        return value.reshape(lead), gradient.reshape(*lead, self.grid.ndim)
 
     def attacker_wins(self, states: np.ndarray) -> np.ndarray:
         """Whether the attacker side wins from ``states`` (value <= 0)."""
@@ -146,11 +167,22 @@ class ValueFunction:
         """The optimal heading ``(..., 2)`` of ``player``, a unit vector (times the speed for
         a velocity): ``-p / |p|`` for an attacker (minimiser), ``p / |p|`` for a defender,
         with ``p`` the value's gradient along the player's axes; zero where ``p`` vanishes."""
-        names = [p.name for p in self.players]
-        if player not in names:
-            raise ValueError(f"player: expected one of {names}, got {player!r}")
-        k = names.index(player)
-        heading = unit_vectors(self.gradient(states)[..., 2 * k:2 * k + 2], _GRADIENT_FLOOR)
+        return self._heading(self.gradient(states), player)
+
+    def value_and_control(self, states: np.ndarray, player: str
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """``value`` ``(...)`` and ``control`` ``(..., 2)`` of ``player`` at ``states
+        (..., ndim)`` in one lookup, equal to the two calls' results."""
+        value, gradient = self.value_and_gradient(states)
+        return value, self._heading(gradient, player)
+
+    def _heading(self, gradient: np.ndarray, player: str) -> np.ndarray:
+        """``player``'s optimal heading from the value's ``gradient (..., ndim)``."""
+        k = self._player_index.get(player)
+        if k is None:
+            raise ValueError(f"player: expected one of {list(self._player_index)}, got "
+                             f"{player!r}")
+        heading = unit_vectors(gradient[..., 2 * k:2 * k + 2], _GRADIENT_FLOOR)
         return -heading if self.players[k].role == "attacker" else heading
 
     def attacker_control(self, states: np.ndarray, attacker: int = 0) -> np.ndarray:
