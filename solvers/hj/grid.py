@@ -108,22 +108,40 @@ class Grid:
         return kernels.interpolate(rows, stored_of, *self.kernel_arrays, self._points(points))
 
     def interpolate_gradient(self, values: np.ndarray, points: np.ndarray,
-                             stored_of: np.ndarray | None = None) -> np.ndarray:
+                             stored_of: np.ndarray | None = None,
+                             axes: np.ndarray | None = None) -> np.ndarray:
         """Gradient at ``points (K, ndim)`` -> ``(K, ndim)``: nodal central differences
         (one-sided on the grid's edges), interpolated multilinearly. Units: value per map unit.
+        With ``axes`` (int64 axis numbers) only those components, ``(K, len(axes))``.
         """
         rows, stored_of = self._values(values, stored_of)
         return kernels.interpolate_gradient(rows, stored_of, *self.kernel_arrays,
-                                            self._points(points))
+                                            self._points(points), self._axes(axes))
 
     def interpolate_with_gradient(self, values: np.ndarray, points: np.ndarray,
-                                  stored_of: np.ndarray | None = None
+                                  stored_of: np.ndarray | None = None,
+                                  axes: np.ndarray | None = None
                                   ) -> tuple[np.ndarray, np.ndarray]:
         """``interpolate`` and ``interpolate_gradient`` at once, in one pass over each
-        point's cell: ``((K,), (K, ndim))``, equal to the two calls' results."""
+        point's cell: ``((K,), (K, ndim))`` (or ``(K, len(axes))``), equal to the two
+        calls' results."""
         rows, stored_of = self._values(values, stored_of)
         return kernels.interpolate_with_gradient(rows, stored_of, *self.kernel_arrays,
-                                                 self._points(points))
+                                                 self._points(points), self._axes(axes))
+
+    @cached_property
+    def _all_axes(self) -> np.ndarray:
+        return np.arange(self.ndim, dtype=np.int64)
+
+    def _axes(self, axes: np.ndarray | None) -> np.ndarray:
+        if axes is None:
+            return self._all_axes
+        axes = np.asarray(axes)
+        if (axes.ndim != 1 or axes.dtype != np.int64 or axes.size == 0
+                or axes.min() < 0 or axes.max() >= self.ndim):
+            raise ValueError(f"axes: expected int64 axis numbers in 0..{self.ndim - 1}, got "
+                             f"{axes!r}")
+        return axes
 
     @cached_property
     def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

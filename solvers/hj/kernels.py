@@ -367,17 +367,18 @@ def _value_at(values, stored_of, row, col, corner_rows, corner_cols, weights):
 
 @njit(cache=True)
 def _gradient_at(values, stored_of, row, col, shape, spacing, row_stride, col_stride,
-                 corner_rows, corner_cols, lower, weights, out):
-    ndim = shape.size
-    for k in range(ndim):
-        out[k] = 0.0
+                 corner_rows, corner_cols, lower, weights, axes, out):
+    """The gradient's components along ``axes`` into ``out`` (one per axis)."""
+    for a in range(axes.size):
+        out[a] = 0.0
     for corner in range(weights.size):
         weight = weights[corner]
         if weight == 0.0:
             continue
         r = row + corner_rows[corner]
         c = col + corner_cols[corner]
-        for k in range(ndim):
+        for a in range(axes.size):
+            k = axes[a]
             node = lower[k] + ((corner >> k) & 1)
             up_r, up_c, down_r, down_c = r, c, r, c
             span = 0
@@ -390,7 +391,7 @@ def _gradient_at(values, stored_of, row, col, shape, spacing, row_stride, col_st
                 down_c -= col_stride[k]
                 span += 1
             difference = values[stored_of[up_r], up_c] - values[stored_of[down_r], down_c]
-            out[k] += weight * difference / (span * spacing[k])
+            out[a] += weight * difference / (span * spacing[k])
 
 
 _PARALLEL_FROM = 4096
@@ -426,18 +427,18 @@ def _interpolate_parallel(values, stored_of, shape, lo, spacing, points):
 
 
 @njit(cache=True)
-def _gradient_serial(values, stored_of, shape, lo, spacing, points, with_value):
+def _gradient_serial(values, stored_of, shape, lo, spacing, points, axes, with_value):
     row_stride, col_stride = _row_strides(shape, values.shape[1])
     corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
     lower = np.empty(shape.size, dtype=np.int64)
     weights = np.empty(1 << shape.size, dtype=np.float64)
-    gradient = np.empty((points.shape[0], shape.size), dtype=np.float64)
+    gradient = np.empty((points.shape[0], axes.size), dtype=np.float64)
     value = np.empty(points.shape[0] if with_value else 0, dtype=np.float64)
     for q in range(points.shape[0]):
         row, col = _locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
                                 weights)
         _gradient_at(values, stored_of, row, col, shape, spacing, row_stride, col_stride,
-                     corner_rows, corner_cols, lower, weights, gradient[q])
+                     corner_rows, corner_cols, lower, weights, axes, gradient[q])
         if with_value:
             value[q] = _value_at(values, stored_of, row, col, corner_rows, corner_cols,
                                  weights)
@@ -445,10 +446,10 @@ def _gradient_serial(values, stored_of, shape, lo, spacing, points, with_value):
 
 
 @njit(cache=True, parallel=True)
-def _gradient_parallel(values, stored_of, shape, lo, spacing, points, with_value):
+def _gradient_parallel(values, stored_of, shape, lo, spacing, points, axes, with_value):
     row_stride, col_stride = _row_strides(shape, values.shape[1])
     corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
-    gradient = np.empty((points.shape[0], shape.size), dtype=np.float64)
+    gradient = np.empty((points.shape[0], axes.size), dtype=np.float64)
     value = np.empty(points.shape[0] if with_value else 0, dtype=np.float64)
     for q in prange(points.shape[0]):
         lower = np.empty(shape.size, dtype=np.int64)
@@ -456,7 +457,7 @@ def _gradient_parallel(values, stored_of, shape, lo, spacing, points, with_value
         row, col = _locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
                                 weights)
         _gradient_at(values, stored_of, row, col, shape, spacing, row_stride, col_stride,
-                     corner_rows, corner_cols, lower, weights, gradient[q])
+                     corner_rows, corner_cols, lower, weights, axes, gradient[q])
         if with_value:
             value[q] = _value_at(values, stored_of, row, col, corner_rows, corner_cols,
                                  weights)
@@ -475,17 +476,19 @@ def interpolate(values: np.ndarray, stored_of: np.ndarray, shape: np.ndarray, lo
 
 
 def interpolate_gradient(values: np.ndarray, stored_of: np.ndarray, shape: np.ndarray,
-                         lo: np.ndarray, spacing: np.ndarray, points: np.ndarray) -> np.ndarray:
+                         lo: np.ndarray, spacing: np.ndarray, points: np.ndarray,
+                         axes: np.ndarray) -> np.ndarray:
     """Nodal central differences (one-sided on the edges), interpolated multilinearly
-    (``values`` and ``stored_of`` as in ``interpolate``)."""
+    (``values`` and ``stored_of`` as in ``interpolate``): ``(K, len(axes))``, the
+    components along the int64 ``axes``."""
     kernel = _gradient_parallel if len(points) >= _PARALLEL_FROM else _gradient_serial
-    return kernel(values, stored_of, shape, lo, spacing, points, False)[1]
+    return kernel(values, stored_of, shape, lo, spacing, points, axes, False)[1]
 
 
 def interpolate_with_gradient(values: np.ndarray, stored_of: np.ndarray, shape: np.ndarray,
-                              lo: np.ndarray, spacing: np.ndarray,
-                              points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                              lo: np.ndarray, spacing: np.ndarray, points: np.ndarray,
+                              axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``interpolate`` and ``interpolate_gradient`` in one pass over each point's cell:
-    ``(values (K,), gradients (K, ndim))``, equal to the two calls'."""
+    ``(values (K,), gradients (K, len(axes)))``, equal to the two calls'."""
     kernel = _gradient_parallel if len(points) >= _PARALLEL_FROM else _gradient_serial
-    return kernel(values, stored_of, shape, lo, spacing, points, True)
+    return kernel(values, stored_of, shape, lo, spacing, points, axes, True)

@@ -83,11 +83,11 @@ class ValueFunction:
     def axes(self) -> tuple[str, ...]:
         return tuple(a for p in self.players for a in p.axes)
 
-    @property
+    @cached_property
     def attackers(self) -> tuple[Player, ...]:
         return tuple(p for p in self.players if p.role == "attacker")
 
-    @property
+    @cached_property
     def defenders(self) -> tuple[Player, ...]:
         return tuple(p for p in self.players if p.role == "defender")
 
@@ -122,10 +122,6 @@ class ValueFunction:
         ``stored_of``: what the interpolation kernels read, made once."""
         stored_of = self.layout.stored_of if self.symmetries else np.zeros(1, dtype=np.int64)
         return np.asarray(self.stored_values()), stored_of
-
-    @cached_property
-    def _player_index(self) -> dict[str, int]:
-        return {p.name: k for k, p in enumerate(self.players)}
 
     def full_values(self) -> np.ndarray:
         """The value on every node, ``grid.shape`` (expands stored rows: small grids)."""
@@ -166,23 +162,41 @@ class ValueFunction:
     def control(self, states: np.ndarray, player: str) -> np.ndarray:
         """The optimal heading ``(..., 2)`` of ``player``, a unit vector (times the speed for
         a velocity): ``-p / |p|`` for an attacker (minimiser), ``p / |p|`` for a defender,
-        with ``p`` the value's gradient along the player's axes; zero where ``p`` vanishes."""
-        return self._heading(self.gradient(states), player)
+        with ``p`` the value's gradient along the player's axes; zero where ``p`` vanishes.
+        Only those two components of the gradient are computed."""
+        k, axes = self._player_axes(player)
+        flat, lead = self._states(states)
+        rows, stored_of = self._rows
+        gradient = self.grid.interpolate_gradient(rows, flat, stored_of, axes)
+        return self._heading(gradient.reshape(*lead, 2), k)
 
     def value_and_control(self, states: np.ndarray, player: str
                           ) -> tuple[np.ndarray, np.ndarray]:
         """``value`` ``(...)`` and ``control`` ``(..., 2)`` of ``player`` at ``states
         (..., ndim)`` in one lookup, equal to the two calls' results."""
-        value, gradient = self.value_and_gradient(states)
-        return value, self._heading(gradient, player)
+        k, axes = self._player_axes(player)
+        flat, lead = self._states(states)
+        rows, stored_of = self._rows
+        value, gradient = self.grid.interpolate_with_gradient(rows, flat, stored_of, axes)
+        return value.reshape(lead), self._heading(gradient.reshape(*lead, 2), k)
 
-    def _heading(self, gradient: np.ndarray, player: str) -> np.ndarray:
-        """``player``'s optimal heading from the value's ``gradient (..., ndim)``."""
-        k = self._player_index.get(player)
-        if k is None:
-            raise ValueError(f"player: expected one of {list(self._player_index)}, got "
+    def _player_axes(self, player: str) -> tuple[int, np.ndarray]:
+        """``player``'s index and its two axes (int64)."""
+        found = self._player_axis_table.get(player)
+        if found is None:
+            raise ValueError(f"player: expected one of {list(self._player_axis_table)}, got "
                              f"{player!r}")
-        heading = unit_vectors(gradient[..., 2 * k:2 * k + 2], _GRADIENT_FLOOR)
+        return found
+
+    @cached_property
+    def _player_axis_table(self) -> dict[str, tuple[int, np.ndarray]]:
+        return {p.name: (k, np.array([2 * k, 2 * k + 1], dtype=np.int64))
+                for k, p in enumerate(self.players)}
+
+    def _heading(self, gradient: np.ndarray, k: int) -> np.ndarray:
+        """Player ``k``'s optimal heading from the value's gradient along its axes
+        ``(..., 2)``."""
+        heading = unit_vectors(gradient, _GRADIENT_FLOOR)
         return -heading if self.players[k].role == "attacker" else heading
 
     def attacker_control(self, states: np.ndarray, attacker: int = 0) -> np.ndarray:
