@@ -31,6 +31,7 @@ single-worker solver.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from ortools.graph.python import min_cost_flow
@@ -303,14 +304,20 @@ def max_matching(beats_1v1: np.ndarray, active: np.ndarray | None = None,
 
 
 class AssignmentSolver:
-    """Solves the MIP (or the matching) step after step, reusing unchanged answers.
+    """Solves the MIP (or the matching) step after step, reusing answers still optimal.
 
     The sets ``I_j``, ``P_j`` (and ``Q_jk``) change rarely between time steps, so
-    ``solve`` returns the previous ``Assignment`` object when what the program reads is
-    equal to the last time. With ``keep_previous`` (default) ties between optimal answers
-    are broken towards the assignments of the previous answer (alone and shared), so the
-    assignment does not flip between equally good ones. ``solves`` and ``reuses`` count
-    what happened.
+    ``solve`` returns the previous ``Assignment`` object when what the program reads
+    (``_Program``) is equal to the last time. With ``keep_previous`` (default) ties
+    between optimal answers are broken towards the assignments of the previous answer
+    (alone and shared), so the assignment does not flip between equally good ones; and
+    the previous answer is also returned without a solve when it is still feasible and
+    provably still optimal: the new program's feasible assignments are all feasible in the
+    program it was solved for, or it reaches a cheap upper bound on the optimum
+    (``_Program.upper_bound``). A full solve would return the same object's assignment
+    then: it covers the most attackers and, among those, is the only one with the largest
+    preference (every one of its own variables). ``solves``, ``reuses`` (unchanged
+    program) and ``kept`` (proven still optimal) count what happened.
     """
 
     def __init__(self, method: str = "mip", keep_previous: bool = True) -> None:
@@ -320,12 +327,14 @@ class AssignmentSolver:
         self.keep_previous = keep_previous
         self.solves = 0
         self.reuses = 0
-        self._key: tuple[bytes, ...] | None = None
+        self.kept = 0
+        self._program: _Program | None = None
+        self._solved: _Program | None = None
         self._last: Assignment | None = None
 
     def reset(self) -> None:
         """Forget the previous answer (start of an episode)."""
-        self._key = None
+        self._program = self._solved = None
         self._last = None
 
     def solve(self, beats_1v1: np.ndarray, beats_2v1: np.ndarray | None = None,
@@ -338,10 +347,20 @@ class AssignmentSolver:
             raise ValueError("beats_2v1: required by the 'mip' method")
         tables = _check_inputs(beats_1v1, beats_2v1 if mip else None, active,
                                beats_1v2=beats_1v2 if mip else None)
-        key = _reuse_key(tables)
-        if self._last is not None and key == self._key:
+        program = _Program.of(tables)
+        last = self._last
+        if last is not None and self._program is not None and program.key == self._program.key:
             self.reuses += 1
-            return self._last
+            return last
+        if last is not None and self.keep_previous and self._solved is not None \
+                and program.shape == self._solved.shape:
+            kept = self._still_optimal(program, last, 2 if mip else 1)
+            if kept is not None:
+                self.kept += 1
+                self._program = program
+                if kept is not last:
+                    self._solved, self._last = program, kept
+                return kept
         preference, shared_preference = self._previous_preferences(tables.beats_1v1.shape)
         if mip:
             result = solve_assignment(tables.beats_1v1, tables.beats_2v1, tables.active,
@@ -349,8 +368,27 @@ class AssignmentSolver:
         else:
             result = max_matching(tables.beats_1v1, tables.active, preference)
         self.solves += 1
-        self._key, self._last = key, result
+        self._program = self._solved = program
+        self._last = result
         return result
+
+    def _still_optimal(self, program: _Program, last: Assignment,
+                       per_defender: int) -> Assignment | None:
+        """The answer a full solve would give, when a cheap argument proves it, else
+        ``None``: ``last`` where it is still feasible and either nothing new became
+        feasible since its solve or it reaches ``program.upper_bound``; ``last`` less its
+        vanished variables where that is feasible and reaches the bound (where the
+        optimum is that size, the full solve keeps every previous variable it can)."""
+        if program.admits(last):
+            if program.within(self._solved) or last.captures >= program.upper_bound(
+                    per_defender):
+                return last
+            return None
+        survivors = program.surviving(last)
+        if program.admits(survivors) and survivors.captures >= program.upper_bound(
+                per_defender):
+            return survivors
+        return None
 
     def _previous_preferences(self, shape: tuple[int, int]) -> tuple[np.ndarray | None,
                                                                       np.ndarray | None]:
@@ -370,18 +408,95 @@ class AssignmentSolver:
         return preference, shared_preference
 
 
-def _reuse_key(tables: _Tables) -> tuple[bytes, ...]:
-    """What the program reads, and nothing else.
+@dataclass(frozen=True, eq=False)
+class _Program:
+    """What the program reads of the tables, and nothing else.
 
-    The answer depends only on which variables ``e`` and ``f`` exist and, for the MIP,
-    which pairs of one defender's candidates beat it together (c5). Keying on those alone
-    skips re-solves when only irrelevant entries flip (an attacker that already beats a
-    defender, an inactive one, a 2 vs 1 pair of which one attacker is out of reach).
+    ``candidates`` ``(M, N)``: the variables ``e`` that exist; ``forbidden`` ``(M, M, N)``
+    (``None`` for the matching): which pairs of a defender's candidates beat it together
+    (c5), symmetric; ``team_candidates`` ``(M, N, N)`` (``None`` for the paper's program
+    and the matching): the variables ``f``. Entries outside these (an attacker that
+    already beats a defender, an inactive one, a 2 vs 1 pair of which one attacker is out
+    of reach) never change the answer.
     """
-    candidates = tables.candidates
-    parts = [candidates]
-    if tables.beats_2v1 is not None:
-        parts.append(tables.beats_2v1 & candidates[:, None, :] & candidates[None, :, :])
-    if tables.beats_1v2 is not None:
-        parts.append(tables.team_candidates)
-    return tuple(p.tobytes() + repr(p.shape).encode() for p in parts)
+
+    candidates: np.ndarray
+    forbidden: np.ndarray | None
+    team_candidates: np.ndarray | None
+
+    @classmethod
+    def of(cls, tables: _Tables) -> _Program:
+        candidates = tables.candidates
+        forbidden = None
+        if tables.beats_2v1 is not None:
+            forbidden = tables.beats_2v1 & candidates[:, None, :] & candidates[None, :, :]
+        teams = None if tables.beats_1v2 is None else tables.team_candidates
+        return cls(candidates, forbidden, teams)
+
+    @property
+    def shape(self) -> tuple[int, int, bool, bool]:
+        """``(M, N)`` and which tables the program reads."""
+        return (*self.candidates.shape, self.forbidden is not None,
+                self.team_candidates is not None)
+
+    @cached_property
+    def key(self) -> tuple[tuple[int, int, bool, bool], bytes]:
+        """Equal for two programs exactly when they read the same (then they have the
+        same answer)."""
+        parts = (self.candidates, self.forbidden, self.team_candidates)
+        return self.shape, b"".join(p.tobytes() for p in parts if p is not None)
+
+    def within(self, other: _Program) -> bool:
+        """Whether every assignment feasible here is feasible in ``other`` (same
+        ``shape``): no new variable, and no pair forbidden there that is allowed here."""
+        if (self.candidates & ~other.candidates).any():
+            return False
+        if self.team_candidates is not None and (
+                self.team_candidates & ~other.team_candidates).any():
+            return False
+        if self.forbidden is None:
+            return True
+        both = self.candidates[:, None, :] & self.candidates[None, :, :]
+        return not (other.forbidden & both & ~self.forbidden).any()
+
+    def admits(self, assignment: Assignment) -> bool:
+        """Whether ``assignment`` (of the same attackers and defenders) is feasible here:
+        its variables exist and no defender's two attackers beat it together (c5)."""
+        if any(not self.candidates[i, j] for i, j in assignment.pairs):
+            return False
+        if self.forbidden is not None and any(
+                self.forbidden[mine[0], mine[1], j]
+                for j, mine in enumerate(assignment.by_defender) if len(mine) == 2):
+            return False
+        return all(self.team_candidates is not None and self.team_candidates[i, j, k]
+                   for i, j, k in assignment.shared)
+
+    def surviving(self, assignment: Assignment) -> Assignment:
+        """``assignment`` without its variables that no longer exist here."""
+        pairs = [(i, j) for i, j in assignment.pairs if self.candidates[i, j]]
+        shared = [(i, j, k) for i, j, k in assignment.shared
+                  if self.team_candidates is not None and self.team_candidates[i, j, k]]
+        return Assignment.from_pairs(pairs, self.candidates.shape[1], shared)
+
+    def upper_bound(self, per_defender: int) -> int:
+        """An upper bound on the number of covered attackers, cheap to compute: the
+        attackers that have a variable, and the defenders' capacity, ``per_defender``
+        attackers each (2 for the MIP, 1 for the matching), no more than its candidates,
+        one where every pair of its candidates beats it (c5), and one half for a defender
+        with team variables only (a team covers one attacker with two defenders)."""
+        candidates = self.candidates
+        coverable = candidates.any(axis=1)
+        takers = candidates.sum(axis=0)
+        capacity = np.minimum(takers, per_defender)
+        if self.forbidden is not None:
+            pairs = takers * (takers - 1) // 2
+            forbidden_pairs = (self.forbidden.sum(axis=(0, 1))
+                               - np.einsum("iij->j", self.forbidden)) // 2
+            capacity = np.where(forbidden_pairs >= pairs, np.minimum(capacity, 1), capacity)
+        halves = 2 * capacity
+        if self.team_candidates is not None:
+            teams = self.team_candidates
+            coverable = coverable | teams.any(axis=(1, 2))
+            in_team = teams.any(axis=(0, 2)) | teams.any(axis=(0, 1))
+            halves = np.where((takers == 0) & in_team, 1, halves)
+        return int(min(coverable.sum(), halves.sum() // 2))

@@ -230,7 +230,7 @@ def test_bad_input_names_the_field(kwargs, field):
 def test_solver_reuses_unchanged_answers():
     rng = np.random.default_rng(4)
     one, two, active = random_instance(rng, 6, 2)
-    solver = AssignmentSolver()
+    solver = AssignmentSolver(keep_previous=False)  # no proofs: every changed program solved
     first = solver.solve(one, two, active)
     assert solver.solve(one.copy(), two.copy(), active.copy()) is first
     assert (solver.solves, solver.reuses) == (1, 1)
@@ -290,7 +290,7 @@ def test_solver_reuses_when_only_unread_entries_change():
     beats_1v1 = np.array([[True, False], [False, False], [False, False]])
     beats_2v1 = np.zeros((3, 3, 2), dtype=bool)
     active = np.array([True, True, True])
-    solver = AssignmentSolver("mip")
+    solver = AssignmentSolver("mip", keep_previous=False)
     first = solver.solve(beats_1v1, beats_2v1, active)
     # Attacker 0 beats defender 0 alone, so no pair with it is ever read for defender 0.
     flipped = beats_2v1.copy()
@@ -423,7 +423,7 @@ def test_solver_with_teams_reuses_only_when_unread_entries_change():
     three = np.ones((3, 3, 3), dtype=bool)
     three[0, 0, 1] = three[0, 1, 0] = False
     active = np.array([True, True, False])
-    solver = AssignmentSolver("mip")
+    solver = AssignmentSolver("mip", keep_previous=False)
     first = solver.solve(one, two, active, three)
     assert first.shared == ((0, 0, 1),)
     # Unread: the diagonal, and any team against the inactive attacker 2.
@@ -458,4 +458,58 @@ def test_solver_keeps_previous_shared_answer_when_still_optimal():
     # Now any two defenders stop attacker 0: the previous team (1, 2) is kept.
     assert solver.solve(one, two, beats_1v2=three & (np.arange(2) != 0)[:, None, None]
                         ).shared == ((0, 1, 2),)
-    assert solver.solves == 2
+    # ... without a solve: attacker 0 is the only one with a variable, and it is covered.
+    assert (solver.solves, solver.kept) == (1, 1)
+
+
+def previous_preferences(previous: Assignment, m: int, n: int):
+    """Preference 1 on every variable of ``previous`` (what ``keep_previous`` solves with)."""
+    preference = np.zeros((m, n), dtype=np.int64)
+    shared_preference = np.zeros((m, n, n), dtype=np.int64)
+    for i, j in previous.pairs:
+        preference[i, j] = 1
+    for i, j, k in previous.shared:
+        shared_preference[i, j, k] = 1
+    return preference, shared_preference
+
+
+@pytest.mark.parametrize("program", ["paper", "teams", "matching"])
+def test_answers_kept_without_a_solve_equal_full_solves(program):
+    """Random walks of the tables, one entry flipped per step as during a game (attackers
+    leaving, coming back, sets I_j, P_j, Q_jk changing): every answer, solved or proven
+    still optimal, is the one a full solve tie-broken towards the previous answer gives,
+    and covers as many attackers as brute force."""
+    rng = np.random.default_rng({"paper": 10, "teams": 11, "matching": 12}[program])
+    solver = AssignmentSolver("matching" if program == "matching" else "mip")
+    kept = 0
+    for _ in range(12):
+        m, n = int(rng.integers(2, 6)), int(rng.integers(1, 4))
+        one, two, three, active = random_team_instance(rng, m, n)
+        solver.reset()
+        previous = None
+        for _ in range(40):
+            tables = [one, two, three, active]
+            which = int(rng.integers(0, 4 if program == "teams" else 3))
+            which = 3 if which == 2 and program != "teams" else which
+            tables[which] = tables[which].copy()
+            tables[which][tuple(rng.integers(0, s) for s in tables[which].shape)] ^= True
+            one, two, three, active = tables
+            before = solver.kept
+            result = solver.solve(one, two, active, three if program == "teams" else None)
+            kept += solver.kept - before
+            preference, shared_preference = (previous_preferences(previous, m, n)
+                                             if previous is not None else (None, None))
+            if program == "matching":
+                fresh = max_matching(one, active, preference)
+                best, _ = brute_force(m, n, lambda p: feasible_matching(p, one, active))  # noqa: B023
+            elif program == "paper":
+                fresh = solve_assignment(one, two, active, preference)
+                best, _ = brute_force(m, n, lambda p: feasible_mip(p, one, two, active))  # noqa: B023
+            else:
+                fresh = solve_assignment(one, two, active, preference, three, shared_preference)
+                best = brute_force_with_teams(one, two, three, active)[0]
+            assert result == fresh
+            assert result.captures == best
+            previous = result
+    assert kept > 40  # the proofs are exercised
+    assert solver.solves > 20  # and so are the solves

@@ -197,6 +197,27 @@ def test_interpolation_matches_reference(shape, count):
                                atol=1e-5)
     nodes = grid.mesh().reshape(-1, len(shape))
     np.testing.assert_allclose(grid.interpolate(values, nodes), values.reshape(-1), atol=1e-6)
+    value, gradient = grid.interpolate_with_gradient(values, points)
+    np.testing.assert_array_equal(value, grid.interpolate(values, points))
+    np.testing.assert_array_equal(gradient, grid.interpolate_gradient(values, points))
+
+
+@pytest.mark.parametrize("count", [200, 5000])  # serial and parallel kernels
+def test_interpolation_of_stored_rows_equals_the_whole_array(count):
+    """Values held as the stored rows of a symmetric layout read as the whole array."""
+    grid = Grid.for_players((-1, 1, -1, 1), 3, (3, 4, 3, 4, 5, 6))
+    layout = layout_of(grid, ((0, 1),))
+    rng = np.random.default_rng(count)
+    stored = rng.normal(size=layout.stored_shape).astype(np.float32)
+    whole = layout.full(stored)
+    points = rng.uniform(-1.2, 1.2, (count, 6))
+    np.testing.assert_array_equal(grid.interpolate(stored, points, layout.stored_of),
+                                  grid.interpolate(whole, points))
+    np.testing.assert_array_equal(grid.interpolate_gradient(stored, points, layout.stored_of),
+                                  grid.interpolate_gradient(whole, points))
+    value, gradient = grid.interpolate_with_gradient(stored, points, layout.stored_of)
+    np.testing.assert_array_equal(value, grid.interpolate(whole, points))
+    np.testing.assert_array_equal(gradient, grid.interpolate_gradient(whole, points))
 
 
 def test_interpolation_is_exact_for_linear_functions():
@@ -227,3 +248,10 @@ def test_grid_indices_and_coordinates():
         Grid.for_players((-1, 1, -1, 1), 2, (5, 5))
     with pytest.raises(ValueError, match="C-contiguous float32"):
         grid.interpolate(np.zeros(grid.shape), points)
+
+
+def test_rows_that_split_an_axis_are_refused():
+    grid = Grid((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (3, 4, 5))
+    rows = np.zeros((6, 10), dtype=np.float32)  # 10 elements: not whole trailing axes
+    with pytest.raises(ValueError, match="trailing axes"):
+        grid.interpolate(rows, np.zeros((1, 3)), np.arange(6, dtype=np.int64))

@@ -44,6 +44,19 @@ def small_vf():
                      progress=False)
 
 
+def test_fused_lookups_equal_the_separate_ones(small_vf):
+    states = np.random.default_rng(0).uniform(-1.0, 1.0, (3, 5, 4))
+    value, gradient = small_vf.value_and_gradient(states)
+    np.testing.assert_array_equal(value, small_vf.value(states))
+    np.testing.assert_array_equal(gradient, small_vf.gradient(states))
+    for player in ("A", "D"):
+        value, control = small_vf.value_and_control(states, player)
+        np.testing.assert_array_equal(value, small_vf.value(states))
+        np.testing.assert_array_equal(control, small_vf.control(states, player))
+    with pytest.raises(ValueError, match="player"):
+        small_vf.value_and_control(states, "B")
+
+
 def test_save_load_round_trip(small_vf, tmp_path):
     path = small_vf.save(tmp_path / "one.vf")
     loaded = load_value_function(path, game_map=builtin_map("paper"))

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -64,7 +65,7 @@ class Grid:
         """Number of nodes."""
         return int(np.prod(self.shape, dtype=np.int64))
 
-    @property
+    @cached_property
     def spacing(self) -> tuple[float, ...]:
         """Distance between neighbouring nodes on each axis (map units)."""
         return tuple((b - a) / (n - 1) for a, b, n in zip(self.lo, self.hi, self.shape,
@@ -104,18 +105,48 @@ class Grid:
         shape, or with ``stored_of`` is stored as rows (``layout.Layout``).
         """
         rows, stored_of = self._values(values, stored_of)
-        return kernels.interpolate(rows, stored_of, *self._arrays(), self._points(points))
+        return kernels.interpolate(rows, stored_of, *self.kernel_arrays, self._points(points))
 
     def interpolate_gradient(self, values: np.ndarray, points: np.ndarray,
-                             stored_of: np.ndarray | None = None) -> np.ndarray:
+                             stored_of: np.ndarray | None = None,
+                             axes: np.ndarray | None = None) -> np.ndarray:
         """Gradient at ``points (K, ndim)`` -> ``(K, ndim)``: nodal central differences
         (one-sided on the grid's edges), interpolated multilinearly. Units: value per map unit.
+        With ``axes`` (int64 axis numbers) only those components, ``(K, len(axes))``.
         """
         rows, stored_of = self._values(values, stored_of)
-        return kernels.interpolate_gradient(rows, stored_of, *self._arrays(),
-                                            self._points(points))
+        return kernels.interpolate_gradient(rows, stored_of, *self.kernel_arrays,
+                                            self._points(points), self._axes(axes))
 
-    def _arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def interpolate_with_gradient(self, values: np.ndarray, points: np.ndarray,
+                                  stored_of: np.ndarray | None = None,
+                                  axes: np.ndarray | None = None
+                                  ) -> tuple[np.ndarray, np.ndarray]:
+        """``interpolate`` and ``interpolate_gradient`` at once, in one pass over each
+        point's cell: ``((K,), (K, ndim))`` (or ``(K, len(axes))``), equal to the two
+        calls' results."""
+        rows, stored_of = self._values(values, stored_of)
+        return kernels.interpolate_with_gradient(rows, stored_of, *self.kernel_arrays,
+                                                 self._points(points), self._axes(axes))
+
+    @cached_property
+    def _all_axes(self) -> np.ndarray:
+        return np.arange(self.ndim, dtype=np.int64)
+
+    def _axes(self, axes: np.ndarray | None) -> np.ndarray:
+        if axes is None:
+            return self._all_axes
+        axes = np.asarray(axes)
+        if (axes.ndim != 1 or axes.dtype != np.int64 or axes.size == 0
+                or axes.min() < 0 or axes.max() >= self.ndim):
+            raise ValueError(f"axes: expected int64 axis numbers in 0..{self.ndim - 1}, got "
+                             f"{axes!r}")
+        return axes
+
+    @cached_property
+    def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``shape`` (int64), ``lo`` and ``spacing`` (float64) as the kernels take them
+        (made once; not to be written to)."""
         return (np.asarray(self.shape, dtype=np.int64), np.asarray(self.lo, dtype=np.float64),
                 np.asarray(self.spacing, dtype=np.float64))
 
@@ -134,6 +165,6 @@ class Grid:
         points = np.ascontiguousarray(points, dtype=np.float64)
         if points.ndim != 2 or points.shape[1] != self.ndim:
             raise ValueError(f"points: expected shape (K, {self.ndim}), got {points.shape}")
-        if not np.all(np.isfinite(points)):
+        if not np.isfinite(points).all():
             raise ValueError("points: contain NaN or inf")
         return points

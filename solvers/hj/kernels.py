@@ -282,29 +282,6 @@ def _cell(x, lo, h, n):
 
 
 @njit(cache=True)
-def _strides(shape):
-    ndim = shape.size
-    strides = np.empty(ndim, dtype=np.int64)
-    s = 1
-    for k in range(ndim - 1, -1, -1):
-        strides[k] = s
-        s *= shape[k]
-    return strides
-
-
-@njit(cache=True)
-def _locate(point, shape, lo, spacing, strides, frac, lower):
-    """Flat index of the cell's lowest corner; fills ``frac`` and ``lower`` per axis."""
-    base = 0
-    for k in range(shape.size):
-        i, t = _cell(point[k], lo[k], spacing[k], shape[k])
-        base += i * strides[k]
-        frac[k] = t
-        lower[k] = i
-    return base
-
-
-@njit(cache=True)
 def _corner(corner, base, frac, strides):
     """Weight and flat index of one corner (bit ``k`` of ``corner``: upper node on axis k)."""
     weight = 1.0
@@ -319,38 +296,102 @@ def _corner(corner, base, frac, strides):
 
 
 @njit(cache=True)
-def _read(values, stored_of, flat):
-    m = values.shape[1]
-    return values[stored_of[flat // m], flat % m]
+def _row_strides(shape, m):
+    """Strides of each axis in rows and in a row's elements (the other one zero) when the
+    trailing axes that make up a row hold ``m`` elements, C order."""
+    ndim = shape.size
+    row_stride = np.zeros(ndim, dtype=np.int64)
+    col_stride = np.zeros(ndim, dtype=np.int64)
+    s = 1
+    for k in range(ndim - 1, -1, -1):
+        if s < m:
+            col_stride[k] = s
+        else:
+            row_stride[k] = s // m
+        s *= shape[k]
+        if s > m and s // shape[k] < m:
+            raise ValueError("values: the rows do not hold whole trailing axes of the grid")
+    if s < m:
+        raise ValueError("values: the rows do not hold whole trailing axes of the grid")
+    return row_stride, col_stride
 
 
 @njit(cache=True)
-def _value_at(values, stored_of, point, shape, lo, spacing, strides, frac, lower):
-    base = _locate(point, shape, lo, spacing, strides, frac, lower)
+def _corner_offsets(row_stride, col_stride):
+    """Row and element offsets of every cell corner from its lowest corner (bit ``k`` of
+    the corner number: the upper node on axis ``k``)."""
+    ndim = row_stride.size
+    rows = np.zeros(1 << ndim, dtype=np.int64)
+    cols = np.zeros(1 << ndim, dtype=np.int64)
+    for corner in range(1 << ndim):
+        for k in range(ndim):
+            if (corner >> k) & 1:
+                rows[corner] += row_stride[k]
+                cols[corner] += col_stride[k]
+    return rows, cols
+
+
+@njit(cache=True)
+def _locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower, weights):
+    """Lowest corner ``(row, element)`` of ``point``'s cell, clamped into the grid; fills
+    ``lower`` (node index per axis) and ``weights`` (the multilinear weight of every
+    corner, the products over axes 0, 1, ... in that order)."""
+    row = 0
+    col = 0
+    weights[0] = 1.0
+    count = 1
+    for k in range(shape.size):
+        i, t = _cell(point[k], lo[k], spacing[k], shape[k])
+        lower[k] = i
+        row += i * row_stride[k]
+        col += i * col_stride[k]
+        below = 1.0 - t
+        for c in range(count):
+            prefix = weights[c]
+            weights[c] = prefix * below
+            weights[c + count] = prefix * t
+        count *= 2
+    return row, col
+
+
+@njit(cache=True)
+def _value_at(values, stored_of, row, col, corner_rows, corner_cols, weights):
     total = 0.0
-    for corner in range(1 << shape.size):
-        weight, offset = _corner(corner, base, frac, strides)
+    for corner in range(weights.size):
+        weight = weights[corner]
         if weight != 0.0:
-            total += weight * _read(values, stored_of, offset)
+            total += weight * values[stored_of[row + corner_rows[corner]],
+                                     col + corner_cols[corner]]
     return total
 
 
 @njit(cache=True)
-def _gradient_at(values, stored_of, point, shape, lo, spacing, strides, frac, lower, out):
-    base = _locate(point, shape, lo, spacing, strides, frac, lower)
-    for k in range(shape.size):
-        out[k] = 0.0
-    for corner in range(1 << shape.size):
-        weight, offset = _corner(corner, base, frac, strides)
+def _gradient_at(values, stored_of, row, col, shape, spacing, row_stride, col_stride,
+                 corner_rows, corner_cols, lower, weights, axes, out):
+    """The gradient's components along ``axes`` into ``out`` (one per axis)."""
+    for a in range(axes.size):
+        out[a] = 0.0
+    for corner in range(weights.size):
+        weight = weights[corner]
         if weight == 0.0:
             continue
-        for k in range(shape.size):
+        r = row + corner_rows[corner]
+        c = col + corner_cols[corner]
+        for a in range(axes.size):
+            k = axes[a]
             node = lower[k] + ((corner >> k) & 1)
-            up = offset + strides[k] if node < shape[k] - 1 else offset
-            down = offset - strides[k] if node > 0 else offset
-            span = (up - down) // strides[k]
-            difference = _read(values, stored_of, up) - _read(values, stored_of, down)
-            out[k] += weight * difference / (span * spacing[k])
+            up_r, up_c, down_r, down_c = r, c, r, c
+            span = 0
+            if node < shape[k] - 1:
+                up_r += row_stride[k]
+                up_c += col_stride[k]
+                span += 1
+            if node > 0:
+                down_r -= row_stride[k]
+                down_c -= col_stride[k]
+                span += 1
+            difference = values[stored_of[up_r], up_c] - values[stored_of[down_r], down_c]
+            out[a] += weight * difference / (span * spacing[k])
 
 
 _PARALLEL_FROM = 4096
@@ -359,50 +400,68 @@ _PARALLEL_FROM = 4096
 
 @njit(cache=True)
 def _interpolate_serial(values, stored_of, shape, lo, spacing, points):
-    strides = _strides(shape)
-    frac = np.empty(shape.size, dtype=np.float64)
+    row_stride, col_stride = _row_strides(shape, values.shape[1])
+    corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
     lower = np.empty(shape.size, dtype=np.int64)
+    weights = np.empty(1 << shape.size, dtype=np.float64)
     result = np.empty(points.shape[0], dtype=np.float64)
     for q in range(points.shape[0]):
-        result[q] = _value_at(values, stored_of, points[q], shape, lo, spacing, strides, frac,
-                              lower)
+        row, col = _locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
+                                weights)
+        result[q] = _value_at(values, stored_of, row, col, corner_rows, corner_cols, weights)
     return result
 
 
 @njit(cache=True, parallel=True)
 def _interpolate_parallel(values, stored_of, shape, lo, spacing, points):
-    strides = _strides(shape)
+    row_stride, col_stride = _row_strides(shape, values.shape[1])
+    corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
     result = np.empty(points.shape[0], dtype=np.float64)
     for q in prange(points.shape[0]):
-        frac = np.empty(shape.size, dtype=np.float64)
         lower = np.empty(shape.size, dtype=np.int64)
-        result[q] = _value_at(values, stored_of, points[q], shape, lo, spacing, strides, frac,
-                              lower)
+        weights = np.empty(1 << shape.size, dtype=np.float64)
+        row, col = _locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
+                                weights)
+        result[q] = _value_at(values, stored_of, row, col, corner_rows, corner_cols, weights)
     return result
 
 
 @njit(cache=True)
-def _gradient_serial(values, stored_of, shape, lo, spacing, points):
-    strides = _strides(shape)
-    frac = np.empty(shape.size, dtype=np.float64)
+def _gradient_serial(values, stored_of, shape, lo, spacing, points, axes, with_value):
+    row_stride, col_stride = _row_strides(shape, values.shape[1])
+    corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
     lower = np.empty(shape.size, dtype=np.int64)
-    result = np.empty((points.shape[0], shape.size), dtype=np.float64)
+    weights = np.empty(1 << shape.size, dtype=np.float64)
+    gradient = np.empty((points.shape[0], axes.size), dtype=np.float64)
+    value = np.empty(points.shape[0] if with_value else 0, dtype=np.float64)
     for q in range(points.shape[0]):
-        _gradient_at(values, stored_of, points[q], shape, lo, spacing, strides, frac, lower,
-                     result[q])
-    return result
+        row, col = _locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
+                                weights)
+        _gradient_at(values, stored_of, row, col, shape, spacing, row_stride, col_stride,
+                     corner_rows, corner_cols, lower, weights, axes, gradient[q])
+        if with_value:
+            value[q] = _value_at(values, stored_of, row, col, corner_rows, corner_cols,
+                                 weights)
+    return value, gradient
 
 
 @njit(cache=True, parallel=True)
-def _gradient_parallel(values, stored_of, shape, lo, spacing, points):
-    strides = _strides(shape)
-    result = np.empty((points.shape[0], shape.size), dtype=np.float64)
+def _gradient_parallel(values, stored_of, shape, lo, spacing, points, axes, with_value):
+    row_stride, col_stride = _row_strides(shape, values.shape[1])
+    corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
+    gradient = np.empty((points.shape[0], axes.size), dtype=np.float64)
+    value = np.empty(points.shape[0] if with_value else 0, dtype=np.float64)
     for q in prange(points.shape[0]):
-        frac = np.empty(shape.size, dtype=np.float64)
         lower = np.empty(shape.size, dtype=np.int64)
-        _gradient_at(values, stored_of, points[q], shape, lo, spacing, strides, frac, lower,
-                     result[q])
-    return result
+        weights = np.empty(1 << shape.size, dtype=np.float64)
+        row, col = _locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
+                                weights)
+        _gradient_at(values, stored_of, row, col, shape, spacing, row_stride, col_stride,
+                     corner_rows, corner_cols, lower, weights, axes, gradient[q])
+        if with_value:
+            value[q] = _value_at(values, stored_of, row, col, corner_rows, corner_cols,
+                                 weights)
+    return value, gradient
 
 
 def interpolate(values: np.ndarray, stored_of: np.ndarray, shape: np.ndarray, lo: np.ndarray,
@@ -417,8 +476,19 @@ def interpolate(values: np.ndarray, stored_of: np.ndarray, shape: np.ndarray, lo
 
 
 def interpolate_gradient(values: np.ndarray, stored_of: np.ndarray, shape: np.ndarray,
-                         lo: np.ndarray, spacing: np.ndarray, points: np.ndarray) -> np.ndarray:
+                         lo: np.ndarray, spacing: np.ndarray, points: np.ndarray,
+                         axes: np.ndarray) -> np.ndarray:
     """Nodal central differences (one-sided on the edges), interpolated multilinearly
-    (``values`` and ``stored_of`` as in ``interpolate``)."""
+    (``values`` and ``stored_of`` as in ``interpolate``): ``(K, len(axes))``, the
+    components along the int64 ``axes``."""
     kernel = _gradient_parallel if len(points) >= _PARALLEL_FROM else _gradient_serial
-    return kernel(values, stored_of, shape, lo, spacing, points)
+    return kernel(values, stored_of, shape, lo, spacing, points, axes, False)[1]
+
+
+def interpolate_with_gradient(values: np.ndarray, stored_of: np.ndarray, shape: np.ndarray,
+                              lo: np.ndarray, spacing: np.ndarray, points: np.ndarray,
+                              axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``interpolate`` and ``interpolate_gradient`` in one pass over each point's cell:
+    ``(values (K,), gradients (K, len(axes)))``, equal to the two calls'."""
+    kernel = _gradient_parallel if len(points) >= _PARALLEL_FROM else _gradient_serial
+    return kernel(values, stored_of, shape, lo, spacing, points, axes, True)

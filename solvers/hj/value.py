@@ -83,11 +83,11 @@ class ValueFunction:
     def axes(self) -> tuple[str, ...]:
         return tuple(a for p in self.players for a in p.axes)
 
-    @property
+    @cached_property
     def attackers(self) -> tuple[Player, ...]:
         return tuple(p for p in self.players if p.role == "attacker")
 
-    @property
+    @cached_property
     def defenders(self) -> tuple[Player, ...]:
         return tuple(p for p in self.players if p.role == "defender")
 
@@ -110,11 +110,18 @@ class ValueFunction:
     @property
     def stored_of(self) -> np.ndarray:
         """Stored row of every row (``layout``); one row when the array is held whole."""
-        return self.layout.stored_of if self.symmetries else np.zeros(1, dtype=np.int64)
+        return self._rows[1]
 
     def stored_values(self) -> np.ndarray:
         """The values as stored rows ``(rows, m)`` (one row when held whole)."""
         return self.values if self.symmetries else self.values.reshape(1, -1)
+
+    @cached_property
+    def _rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """``stored_values()`` as a plain array (a view, also of a memory map) and
+        ``stored_of``: what the interpolation kernels read, made once."""
+        stored_of = self.layout.stored_of if self.symmetries else np.zeros(1, dtype=np.int64)
+        return np.asarray(self.stored_values()), stored_of
 
     def full_values(self) -> np.ndarray:
         """The value on every node, ``grid.shape`` (expands stored rows: small grids)."""
@@ -130,13 +137,23 @@ class ValueFunction:
     def value(self, states: np.ndarray) -> np.ndarray:
         """Interpolated value ``(...)`` of ``states (..., ndim)``; <= 0: attackers win."""
         flat, lead = self._states(states)
-        return self.grid.interpolate(self.stored_values(), flat, self.stored_of).reshape(lead)
+        rows, stored_of = self._rows
+        return self.grid.interpolate(rows, flat, stored_of).reshape(lead)
 
     def gradient(self, states: np.ndarray) -> np.ndarray:
         """Interpolated gradient ``(..., ndim)`` of the value (per map unit)."""
         flat, lead = self._states(states)
-        gradient = self.grid.interpolate_gradient(self.stored_values(), flat, self.stored_of)
+        rows, stored_of = self._rows
+        gradient = self.grid.interpolate_gradient(rows, flat, stored_of)
         return gradient.reshape(*lead, self.grid.ndim)
+
+    def value_and_gradient(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``value`` and ``gradient`` of ``states (..., ndim)`` in one lookup: ``(...)``
+        and ``(..., ndim)``, equal to the two calls' results."""
+        flat, lead = self._states(states)
+        rows, stored_of = self._rows
+        value, gradient = self.grid.interpolate_with_gradient(rows, flat, stored_of)
+        return value.reshape(lead), gradient.reshape(*lead, self.grid.ndim)
 
     def attacker_wins(self, states: np.ndarray) -> np.ndarray:
         """Whether the attacker side wins from ``states`` (value <= 0)."""
@@ -145,12 +162,41 @@ class ValueFunction:
     def control(self, states: np.ndarray, player: str) -> np.ndarray:
         """The optimal heading ``(..., 2)`` of ``player``, a unit vector (times the speed for
         a velocity): ``-p / |p|`` for an attacker (minimiser), ``p / |p|`` for a defender,
-        with ``p`` the value's gradient along the player's axes; zero where ``p`` vanishes."""
-        names = [p.name for p in self.players]
-        if player not in names:
-            raise ValueError(f"player: expected one of {names}, got {player!r}")
-        k = names.index(player)
-        heading = unit_vectors(self.gradient(states)[..., 2 * k:2 * k + 2], _GRADIENT_FLOOR)
+        with ``p`` the value's gradient along the player's axes; zero where ``p`` vanishes.
+        Only those two components of the gradient are computed."""
+        k, axes = self._player_axes(player)
+        flat, lead = self._states(states)
+        rows, stored_of = self._rows
+        gradient = self.grid.interpolate_gradient(rows, flat, stored_of, axes)
+        return self._heading(gradient.reshape(*lead, 2), k)
+
+    def value_and_control(self, states: np.ndarray, player: str
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """``value`` ``(...)`` and ``control`` ``(..., 2)`` of ``player`` at ``states
+        (..., ndim)`` in one lookup, equal to the two calls' results."""
+        k, axes = self._player_axes(player)
+        flat, lead = self._states(states)
+        rows, stored_of = self._rows
+        value, gradient = self.grid.interpolate_with_gradient(rows, flat, stored_of, axes)
+        return value.reshape(lead), self._heading(gradient.reshape(*lead, 2), k)
+
+    def _player_axes(self, player: str) -> tuple[int, np.ndarray]:
+        """``player``'s index and its two axes (int64)."""
+        found = self._player_axis_table.get(player)
+        if found is None:
+            raise ValueError(f"player: expected one of {list(self._player_axis_table)}, got "
+                             f"{player!r}")
+        return found
+
+    @cached_property
+    def _player_axis_table(self) -> dict[str, tuple[int, np.ndarray]]:
+        return {p.name: (k, np.array([2 * k, 2 * k + 1], dtype=np.int64))
+                for k, p in enumerate(self.players)}
+
+    def _heading(self, gradient: np.ndarray, k: int) -> np.ndarray:
+        """Player ``k``'s optimal heading from the value's gradient along its axes
+        ``(..., 2)``."""
+        heading = unit_vectors(gradient, _GRADIENT_FLOOR)
         return -heading if self.players[k].role == "attacker" else heading
 
     def attacker_control(self, states: np.ndarray, attacker: int = 0) -> np.ndarray:
