@@ -55,6 +55,8 @@ class Tubes:
         """``(len(games),)``: the smallest ``value - margin`` over what makes each game a
         defender win (``margins`` default: the tubes'; zeros for "still winning"); one
         lookup per 6D tube."""
+        if not games:
+            return np.empty(0)
         m11, m21, m12 = self.margins if margins is None else margins
         slack = np.full(len(games), np.inf)
         pairs, teams = [], []
@@ -85,6 +87,8 @@ def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
                   tubes: Tubes) -> list[Game]:
     """The certified games of the last decision that are still on: attackers that left
     (captured) are dropped from their game, and a game stays while its value is > 0."""
+    if not certified:
+        return []
     active = state.active_attackers
     games = []
     for game in certified:
@@ -100,8 +104,10 @@ def restrict(beats: np.ndarray, active: np.ndarray, fixed: list[Game]
     """The program without the ``fixed`` games' players: their attackers inactive, their
     defenders beaten by everyone (so they take nothing); returns ``beats``, ``active`` and
     ``busy`` (the fixed defenders, which no team may use)."""
-    beats, active = beats.copy(), active.copy()
     busy = np.zeros(beats.shape[1], dtype=bool)
+    if not fixed:
+        return beats, active, busy
+    beats, active = beats.copy(), active.copy()
     for game in fixed:
         active[list(game.attackers)] = False
         busy[list(game.defenders)] = True
