@@ -107,9 +107,10 @@ violation"): 1 vs 1 0.27 cells at 25^4, 0.33 at 31^4 and 0.23 at 45^4 (against 8
 def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
     """``controls (K, 2)`` where non-zero, else the unit vectors along ``fallbacks``."""
     still = ~controls.any(axis=1)
-    controls = controls.copy()
-    controls[still] = unit_vectors(fallbacks[still])
-    return controls.astype(np.float32)
+    controls = controls.astype(np.float32)
+    if still.any():
+        controls[still] = unit_vectors(fallbacks[still])
+    return controls
 
 
 class _AssignmentDefender(ABC):
@@ -191,7 +192,7 @@ class _AssignmentDefender(ABC):
         """The certificate margin of ``vf``'s game (map units)."""
         return self.margin_cells * float(max(vf.grid.spacing))
 
-    @property
+    @functools.cached_property
     def tubes(self) -> Tubes:
         """The tubes and margins the certificate reads."""
         return Tubes(self.vf11, self.vf21, self.vf12,
@@ -239,7 +240,7 @@ class _AssignmentDefender(ABC):
             fresh = [game for game, on in zip(fresh, clear, strict=True) if on]
         self._certified = kept + fresh
         in_team = {d for _, j, k in assignment.shared for d in (j, k)}
-        singles, doubles, shadows = [], [], []
+        singles, doubles, idle = [], [], []
         for j in range(len(names)):
             mine = assignment.by_defender[j]
             if j in in_team:
@@ -248,8 +249,9 @@ class _AssignmentDefender(ABC):
                 doubles.append((j, *mine))
             elif len(mine) == 1:
                 singles.append((j, mine[0]))
-            elif (target := self._idle_target(state, j, values11)) is not None:
-                shadows.append((j, target))
+            else:
+                idle.append(j)
+        shadows = self._idle_targets(state, idle, values11) if idle else []
         if singles or shadows:
             j, i = np.array(singles + shadows).T
             controls = self.vf11.defender_control(np.concatenate([attackers[i], defenders[j]],
@@ -289,9 +291,11 @@ class _AssignmentDefender(ABC):
         bind; ``busy`` defenders take nothing."""
 
     @abstractmethod
-    def _idle_target(self, state: GameState, j: int, values11: np.ndarray) -> int | None:
-        """The attacker whose 1 vs 1 optimal control unassigned defender ``j`` plays, or
-        ``None`` to stand still; ``values11 (M, N)`` is this step's 1 vs 1 table."""
+    def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray
+                      ) -> list[tuple[int, int]]:
+        """``(defender, attacker)``: the attacker whose 1 vs 1 optimal control each of the
+        unassigned defenders ``idle`` plays (those left out stand still); ``values11
+        (M, N)`` is this step's 1 vs 1 table."""
 
 
 def _check_tube(vf: ValueFunction, scenario: Scenario, name: str) -> None:
@@ -372,17 +376,19 @@ class HJDefenderPolicy(_AssignmentDefender):
             beats_2v1[two, one, j] = wins
         return beats_2v1
 
-    def _idle_target(self, state: GameState, j: int, values11: np.ndarray) -> int | None:
+    def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray
+                      ) -> list[tuple[int, int]]:
         if self.idle == "stand":
-            return None
+            return []
         active = state.active_attackers
         taken = np.zeros(len(active), dtype=bool)
-        for i in [i for i, _ in self._assignment.pairs] + [i for i, *_ in self._assignment.shared]:
-            taken[i] = True
+        taken[[i for i, _ in self._assignment.pairs]] = True
+        taken[[i for i, *_ in self._assignment.shared]] = True
         pool = np.flatnonzero(active & ~taken)
         if len(pool) == 0:
             pool = np.flatnonzero(active)
-        return int(pool[np.argmax(values11[pool, j])])
+        best = pool[np.argmax(values11[np.ix_(pool, idle)], axis=0)]
+        return [(j, int(i)) for j, i in zip(idle, best, strict=True)]
 
 
 class HJPairsDefenderPolicy(HJDefenderPolicy):
@@ -471,9 +477,12 @@ class MatchingDefenderPolicy(_AssignmentDefender):
                active: np.ndarray, busy: np.ndarray) -> Assignment:
         return solver.solve(beats, None, active)
 
-    def _idle_target(self, state: GameState, j: int, values11: np.ndarray) -> int | None:
+    def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray
+                      ) -> list[tuple[int, int]]:
         if self.unmatched == "stand":
-            return None
+            return []
         active = np.flatnonzero(state.active_attackers)
-        gaps = state.attacker_positions[active] - state.defender_positions[j]
-        return int(active[np.argmin(np.hypot(gaps[:, 0], gaps[:, 1]))])
+        gaps = (state.attacker_positions[active][:, None, :]
+                - state.defender_positions[idle][None, :, :])
+        nearest = active[np.argmin(np.hypot(gaps[..., 0], gaps[..., 1]), axis=0)]
+        return [(j, int(i)) for j, i in zip(idle, nearest, strict=True)]
