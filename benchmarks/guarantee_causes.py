@@ -446,7 +446,7 @@ def _compare(vf: ValueFunction, reference: ValueFunction, states: np.ndarray) ->
 
 
 def tubes(args: argparse.Namespace) -> None:
-    base = reachavoid_env.builtin_scenario("paper_2v1")
+    base = reachavoid_env.builtin_scenario(args.scenario)
     rng = np.random.default_rng(args.seed)
     header = ("| grid | spacing h | max abs diff | p99 abs diff | sign disagrees | margin "
               "| wins given up |\n|---|---|---|---|---|---|---|")
@@ -456,6 +456,8 @@ def tubes(args: argparse.Namespace) -> None:
     print(header)
     for grid in args.grids1:
         print(_compare(tube_1v1(base, grid), reference1, states), flush=True)
+    if not args.grids2:
+        return
     vf11 = tube_1v1(base, args.base1)
     reference2 = solve_2v1(base.map, vf11, grid_points=args.reference2)
     states = _sample_states(base.map, 3, args.states, base.capture_radius, rng)
@@ -474,7 +476,10 @@ def main() -> None:
     t.add_argument("--grids1", type=int, nargs="+", default=[25, 31, 45])
     t.add_argument("--reference1", type=int, default=81)
     t.add_argument("--base1", type=int, default=45, help="1 vs 1 tube under every 2 vs 1")
-    t.add_argument("--grids2", type=int, nargs="+", default=[13, 15, 20])
+    t.add_argument("--grids2", type=int, nargs="*", default=[13, 15, 20],
+                   help="2 vs 1 grids to compare (none: the 1 vs 1 study alone)")
+    t.add_argument("--scenario", default="paper_2v1",
+                   help="whose map, speeds and capture radius (e.g. paper_6v4_equal)")
     t.add_argument("--reference2", type=int, default=30)
     t.add_argument("--states", type=int, default=20000)
     t.add_argument("--seed", type=int, default=0)

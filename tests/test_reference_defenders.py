@@ -108,7 +108,7 @@ def test_a_certified_game_is_kept_in_the_band_and_given_up_at_zero(coarse_tubes)
     played but not certified; once certified (clear of the margin) it stays certified in
     the band; at value <= 0 it is given up, and is not certified again from the band."""
     vf11, vf21 = coarse_tubes
-    policy = HJDefenderPolicy(vf11, vf21)
+    policy = HJDefenderPolicy(vf11, vf21, margin_cells=0.5)   # values here are <= R = 0.1
     scenario = reachavoid_env.builtin_scenario("paper_2v1").with_players(1, 1)
     env = reachavoid_env.parallel_env(scenario=scenario)
     defender = np.array([[0.3, -0.3]])
