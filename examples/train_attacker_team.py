@@ -4,8 +4,8 @@ the same seeded starts.
 
 Needs the ``rl`` extra (torch, stable-baselines3, supersuit).
 
-    python examples/train_attacker_team.py --timesteps 1000000 --max-minutes 45 \\
-        --out runs/attacker_team
+    python examples/train_attacker_team.py --imitate-steps 100000 --timesteps 3000000 \\
+        --max-minutes 45 --learning-rate 1e-4 --clip-range 0.1 --out runs/attacker_team
     python examples/train_attacker_team.py --evaluate-only runs/attacker_team/model.zip
 
 The game is ``paper_6v2`` with random starts every episode. The attacker-only env
@@ -17,6 +17,19 @@ the reward has the potential-based progress term (``--shaping 1``) and still bei
 play at the time limit scores ``--timeout-reward -1`` like a capture. The defenders'
 HJ tubes are solved once at ``--grid1``/``--grid2`` nodes per axis (coarse by default:
 31/15) and cached on disk.
+
+**Behaviour-cloning warm start** (``--imitate-steps N``, default 0: PPO from scratch): before
+PPO, the scripted ``shortest-path`` team plays the training env (same observations, same
+``--action-repeat`` hold, the same shaped reward) until N agent steps are recorded, one per
+live attacker and env step, starting from seed ``--seed`` + 1,000,000 (far from the
+evaluation seeds); the script is asked at each decision step, as the learner is. The PPO
+policy's action mean is then fitted to the script's actions and its value head to the
+discounted (``gamma`` of PPO) shaped returns, by mean-squared error, for
+``--imitate-epochs`` passes of Adam (``--imitate-learning-rate``); the log standard
+deviation of the actions is then set to ``--imitate-log-std`` (-1: std 0.37, against SB3's
+initial 1, so that PPO's exploration does not drown the cloned paths). ``--timesteps 0``
+skips PPO and evaluates the cloned policy alone. For the fine-tuning, ``--learning-rate``,
+``--clip-range`` and ``--ent-coef`` are PPO's (defaults: SB3's 3e-4, 0.2, 0).
 
 **Evaluation** (``evaluate``; alone with ``--evaluate-only MODEL``): every team plays the
 ``--episodes`` starts ``reset(seed=k)``, k = 0, 1, ..., of the attacker-only env against
@@ -79,7 +92,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     add_defender_arguments(parser, scenario="paper_6v2")
     parser.add_argument("--timesteps", type=int, default=1_000_000,
-                        help="PPO agent steps, one per attacker slot and env step "
+                        help="PPO agent steps, one per attacker slot and env step; 0: no PPO "
                              "(default: %(default)s)")
     parser.add_argument("--max-minutes", type=float, default=None,
                         help="stop training after this much wall time (default: none)")
@@ -89,6 +102,21 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="PPO rollout length per slot (default: %(default)s)")
     parser.add_argument("--batch-size", type=int, default=512,
                         help="PPO minibatch (default: %(default)s)")
+    parser.add_argument("--learning-rate", type=float, default=3e-4,
+                        help="PPO learning rate (default: %(default)s)")
+    parser.add_argument("--clip-range", type=float, default=0.2,
+                        help="PPO clip range (default: %(default)s)")
+    parser.add_argument("--ent-coef", type=float, default=0.0,
+                        help="PPO entropy coefficient (default: %(default)s)")
+    parser.add_argument("--imitate-steps", type=int, default=0,
+                        help="agent steps of the shortest-path team to clone before PPO; "
+                             "0: none (default: %(default)s)")
+    parser.add_argument("--imitate-epochs", type=int, default=20,
+                        help="passes over the cloned steps (default: %(default)s)")
+    parser.add_argument("--imitate-learning-rate", type=float, default=1e-3,
+                        help="Adam learning rate of the cloning (default: %(default)s)")
+    parser.add_argument("--imitate-log-std", type=float, default=-1.0,
+                        help="log std of the actions after cloning (default: %(default)s)")
     add_reward_arguments(parser)
     parser.add_argument("--episodes", type=int, default=200,
                         help="evaluation starts, seeds 0..N-1 (default: %(default)s)")
@@ -111,12 +139,17 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="skip training: evaluate (and record) this saved model; without "
                              "it and without 'learned' in --teams nothing is trained")
     args = parser.parse_args(argv)
-    for name in ("timesteps", "copies", "n_steps", "batch_size", "action_repeat", "episodes",
-                 "video_every", "video_width"):
+    for name in ("copies", "n_steps", "batch_size", "action_repeat", "episodes",
+                 "imitate_epochs", "video_every", "video_width"):
         if getattr(args, name) < 1:
             parser.error(f"--{name.replace('_', '-')}: must be a positive integer")
-    if args.max_minutes is not None and not args.max_minutes > 0:
-        parser.error("--max-minutes: must be positive")
+    for name in ("timesteps", "imitate_steps"):
+        if getattr(args, name) < 0:
+            parser.error(f"--{name.replace('_', '-')}: must be a non-negative integer")
+    for name in ("max_minutes", "learning_rate", "clip_range", "imitate_learning_rate"):
+        value = getattr(args, name)
+        if value is not None and not value > 0:
+            parser.error(f"--{name.replace('_', '-')}: must be positive")
     args.teams = tuple(args.teams.split(","))
     unknown = [team for team in args.teams if team not in TEAMS]
     if unknown:
@@ -139,7 +172,7 @@ def game(args: argparse.Namespace, scenario: Scenario, **env_kwargs: Any) -> Att
                                        defender_options=defender_options(args), **env_kwargs)
 
 
-# ---- training ---------------------------------------------------------------------------
+# ---- the training curve -------------------------------------------------------------------
 
 class TrainingCurve(BaseCallback):
     """One row per PPO rollout: agent steps so far, wall seconds, and over the attacker
@@ -150,6 +183,7 @@ class TrainingCurve(BaseCallback):
         super().__init__()
         self.max_seconds = max_seconds
         self.rows: list[dict[str, float]] = []
+        self.start: float | None = None
 
     def _on_training_start(self) -> None:
         self.start = time.perf_counter()
@@ -183,7 +217,8 @@ class TrainingCurve(BaseCallback):
 
     @property
     def seconds(self) -> float:
-        return time.perf_counter() - self.start
+        """Wall seconds since training started (0 before)."""
+        return 0.0 if self.start is None else time.perf_counter() - self.start
 
     def _on_rollout_end(self) -> None:
         ended = np.asarray(self._ended)
@@ -198,17 +233,139 @@ class TrainingCurve(BaseCallback):
         self._ended, self._returns = [], []
 
 
-def train(args: argparse.Namespace, scenario: Scenario) -> tuple[PPO, TrainingCurve]:
+# ---- behaviour cloning ------------------------------------------------------------------
+
+IMITATION_SEED_OFFSET = 1_000_000
+"""The cloned games start from seed ``--seed`` + this (the evaluation uses 0, 1, ...)."""
+
+
+@dataclass(frozen=True)
+class Demonstrations:
+    """The scripted team in the training env: one row per live attacker and env step."""
+
+    observations: np.ndarray    # (K, observation size) float32, what the learner would see
+    actions: np.ndarray         # (K, 2) float32, the script's action, held for the env step
+    returns: np.ndarray         # (K,) float32, discounted shaped return from that step
+    episodes: int
+    arrival_rate: float         # fraction of the attackers of those episodes that arrived
+
+
+def discounted(rewards: Sequence[float], gamma: float) -> list[float]:
+    """Returns-to-go ``G_t = r_t + gamma G_{t+1}`` of one attacker's rewards."""
+    returns, total = [], 0.0
+    for reward in reversed(rewards):
+        total = reward + gamma * total
+        returns.append(total)
+    return returns[::-1]
+
+
+def collect_demonstrations(args: argparse.Namespace, scenario: Scenario, gamma: float,
+                           ) -> Demonstrations:
+    """``args.imitate_steps`` rows of the shortest-path team playing whole episodes of the
+    training env (the last episode is finished and its rows cut at the count)."""
+    env = game(args, scenario, **reward_options(args))
+    teacher = ScriptedTeam(make_policy("attackers", "shortest-path", scenario))
+    observations: list[np.ndarray] = []
+    actions: list[np.ndarray] = []
+    returns: list[float] = []
+    arrived = episodes = 0
+    progress = tqdm(total=args.imitate_steps, desc="cloning", unit="step",
+                    disable=not sys.stderr.isatty())
+    seed: int | None = args.seed + IMITATION_SEED_OFFSET
+    while len(actions) < args.imitate_steps:
+        seen, _ = env.reset(seed=seed)
+        seed = None             # later episodes continue the env's random stream
+        teacher.reset(env)
+        played: dict[str, list[tuple[np.ndarray, np.ndarray, float]]] = {
+            name: [] for name in env.agents}
+        while env.agents:
+            chosen = teacher.act(seen, env)
+            after, rewards, *_ = env.step(chosen)
+            for name, action in chosen.items():
+                played[name].append((seen[name], action, rewards[name]))
+            progress.update(len(chosen))
+            seen = after
+        for steps in played.values():
+            seen_by_step, chosen_by_step, rewards_by_step = zip(*steps, strict=True)
+            observations.extend(seen_by_step)
+            actions.extend(chosen_by_step)
+            returns.extend(discounted(rewards_by_step, gamma))
+        arrived += env.game_state().attacker_status.count(AttackerStatus.ARRIVED)
+        episodes += 1
+    progress.close()
+    env.close()
+    count = args.imitate_steps
+    return Demonstrations(np.asarray(observations[:count], dtype=np.float32),
+                          np.asarray(actions[:count], dtype=np.float32),
+                          np.asarray(returns, dtype=np.float32)[:count], episodes,
+                          arrived / (episodes * scenario.num_attackers))
+
+
+def imitate(model: PPO, demonstrations: Demonstrations, epochs: int, batch_size: int,
+            learning_rate: float, log_std: float) -> dict[str, float]:
+    """Fit ``model``'s action mean to the script's actions and its value to the returns
+    (mean-squared error, Adam, minibatches of ``batch_size``), then set the log std of its
+    actions to ``log_std``. Returns the last epoch's mean losses."""
+    policy = model.policy
+    observations = torch.as_tensor(demonstrations.observations)
+    actions = torch.as_tensor(demonstrations.actions)
+    returns = torch.as_tensor(demonstrations.returns)
+    optimiser = torch.optim.Adam(policy.parameters(), lr=learning_rate)
+    generator = torch.Generator().manual_seed(model.seed or 0)
+    policy.set_training_mode(True)
+    for _ in range(epochs):
+        action_losses, value_losses = [], []
+        for rows in torch.randperm(len(actions), generator=generator).split(batch_size):
+            means = policy.get_distribution(observations[rows]).distribution.mean
+            values = policy.predict_values(observations[rows]).squeeze(-1)
+            action_loss = torch.nn.functional.mse_loss(means, actions[rows])
+            value_loss = torch.nn.functional.mse_loss(values, returns[rows])
+            optimiser.zero_grad()
+            (action_loss + value_loss).backward()
+            optimiser.step()
+            action_losses.append(action_loss.item())
+            value_losses.append(value_loss.item())
+    policy.set_training_mode(False)
+    with torch.no_grad():
+        policy.log_std.fill_(log_std)
+    return {"action_mse": float(np.mean(action_losses)),
+            "value_mse": float(np.mean(value_losses))}
+
+
+# ---- training ---------------------------------------------------------------------------
+
+def train(args: argparse.Namespace, scenario: Scenario,
+          ) -> tuple[PPO, TrainingCurve, dict[str, Any] | None]:
+    """PPO on the training env, from the cloned script with ``--imitate-steps``; returns the
+    model, its curve and what the cloning did (None without it)."""
     envs = VecMonitor(sb3_vec_env(game(args, scenario, **reward_options(args)),
                                   copies=args.copies))
     model = PPO("MlpPolicy", envs, n_steps=args.n_steps, batch_size=args.batch_size,
-                seed=args.seed, device="cpu", verbose=0)
+                learning_rate=args.learning_rate, clip_range=args.clip_range,
+                ent_coef=args.ent_coef, seed=args.seed, device="cpu", verbose=0)
     curve = TrainingCurve(None if args.max_minutes is None else 60.0 * args.max_minutes)
+    cloning: dict[str, Any] | None = None
     try:
-        model.learn(args.timesteps, callback=curve, progress_bar=sys.stderr.isatty())
+        if args.imitate_steps:
+            start = time.perf_counter()
+            demonstrations = collect_demonstrations(args, scenario, model.gamma)
+            collected = time.perf_counter()
+            losses = imitate(model, demonstrations, args.imitate_epochs, args.batch_size,
+                             args.imitate_learning_rate, args.imitate_log_std)
+            cloning = {"agent_steps": len(demonstrations.actions),
+                       "episodes": demonstrations.episodes,
+                       "scripted_arrival_rate": round(demonstrations.arrival_rate, 4),
+                       "epochs": args.imitate_epochs,
+                       "learning_rate": args.imitate_learning_rate,
+                       "log_std": args.imitate_log_std, **losses,
+                       "collect_seconds": round(collected - start, 1),
+                       "fit_seconds": round(time.perf_counter() - collected, 1)}
+            print("cloning: " + ", ".join(f"{k} {v}" for k, v in cloning.items()), flush=True)
+        if args.timesteps:
+            model.learn(args.timesteps, callback=curve, progress_bar=sys.stderr.isatty())
     finally:
         envs.close()
-    return model, curve
+    return model, curve, cloning
 
 
 def write_curve(rows: list[dict[str, float]], path: Path) -> None:
@@ -383,17 +540,21 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         model = PPO.load(args.evaluate_only, device="cpu")
         report["model"] = str(args.evaluate_only)
     elif "learned" in args.teams:
-        model, curve = train(args, scenario)
+        model, curve, cloning = train(args, scenario)
         with atomic_write(args.out / "model.zip", "wb") as handle:
             model.save(handle)
         game_steps = model.num_timesteps // scenario.num_attackers * args.action_repeat
+        seconds = curve.seconds
         report["training"] = {
             "agent_steps": model.num_timesteps, "game_steps": game_steps,
-            "seconds": round(curve.seconds, 1),
-            "agent_steps_per_s": round(model.num_timesteps / curve.seconds, 1),
-            "game_steps_per_s": round(game_steps / curve.seconds, 1),
+            "seconds": round(seconds, 1),
+            "agent_steps_per_s": round(model.num_timesteps / seconds, 1) if seconds else None,
+            "game_steps_per_s": round(game_steps / seconds, 1) if seconds else None,
             "copies": args.copies, "n_steps": args.n_steps, "batch_size": args.batch_size,
-            "stopped_by_time": model.num_timesteps < args.timesteps}
+            "learning_rate": args.learning_rate, "clip_range": args.clip_range,
+            "ent_coef": args.ent_coef, "stopped_by_time": model.num_timesteps < args.timesteps}
+        if cloning is not None:
+            report["imitation"] = cloning
         print("training: " + ", ".join(f"{k} {v}" for k, v in report["training"].items()),
               flush=True)
         if curve.rows:

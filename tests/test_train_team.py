@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 
+import numpy as np
 import pytest
 
 pytest.importorskip("stable_baselines3")
@@ -119,3 +120,34 @@ def test_training_curve_counts_how_every_attacker_ended(tmp_path):
                       if row["attacker_episodes"])
         assert counted == pytest.approx(codes.count(code))
     assert {0, 1} <= set(codes)     # time-outs and captures both occur in this run
+
+
+def test_cloned_policy_alone_follows_the_script(tmp_path):
+    """``--imitate-steps`` with ``--timesteps 0``: the shortest-path team's steps are
+    recorded and cloned, no PPO runs, and the cloned policy is evaluated and saved."""
+    recipe = example("train_attacker_team")
+    report = recipe.main([*TINY, "--timesteps", "0", "--imitate-steps", "300",
+                          "--imitate-epochs", "3", "--imitate-log-std", "-1.5",
+                          "--teams", "learned", "--no-video", "--out", str(tmp_path)])
+    imitation = report["imitation"]
+    assert imitation["agent_steps"] == 300 and imitation["episodes"] >= 1
+    assert 0.0 <= imitation["scripted_arrival_rate"] <= 1.0
+    assert imitation["action_mse"] < 1.0
+    assert report["training"]["agent_steps"] == 0 and "curve" not in report
+    model = recipe.PPO.load(tmp_path / "model.zip", device="cpu")
+    assert model.policy.log_std.detach().tolist() == pytest.approx([-1.5, -1.5])
+    assert report["evaluation"]["learned"]["episodes"] == 3
+
+
+def test_demonstrations_line_up_with_their_returns(tmp_path):
+    """Every recorded row is a live attacker's observation, the script's unit action and
+    the discounted return of the rewards that followed it."""
+    recipe = example("train_attacker_team")
+    args = recipe.parse_args(["--defenders", "greedy", "--imitate-steps", "200",
+                              "--out", str(tmp_path)])
+    demonstrations = recipe.collect_demonstrations(args, recipe.team_scenario(args), 0.9)
+    assert demonstrations.observations.shape == (200, 2 + 3 * 8)
+    assert demonstrations.actions.shape == (200, 2) and demonstrations.returns.shape == (200,)
+    lengths = np.linalg.norm(demonstrations.actions, axis=1)
+    assert np.all((np.abs(lengths - 1.0) < 1e-4) | (lengths == 0.0))
+    assert recipe.discounted([1.0, 0.0, 2.0], 0.5) == pytest.approx([1.5, 1.0, 2.0])
