@@ -58,7 +58,7 @@ class Tubes:
         if not games:
             return np.empty(0)
         m11, m21, m12 = self.margins if margins is None else margins
-        slack = np.full(len(games), np.inf)
+        slack = np.empty(len(games))
         pairs, teams = [], []
         for g, game in enumerate(games):
             if len(game.defenders) == 2:
@@ -69,17 +69,16 @@ class Tubes:
                 pairs.append(g)
         attackers, defenders = state.attacker_positions, state.defender_positions
         if pairs:
-            states = np.array([np.concatenate([attackers[games[g].attackers[0]],
-                                               attackers[games[g].attackers[1]],
-                                               defenders[games[g].defenders[0]]])
-                               for g in pairs])
-            slack[pairs] = np.minimum(slack[pairs], self.vf21.value(states) - m21)
+            first, second, alone = np.array([(*games[g].attackers, games[g].defenders[0])
+                                             for g in pairs]).T
+            values = self.vf21.value(np.concatenate([attackers[first], attackers[second],
+                                                     defenders[alone]], axis=1))
+            slack[pairs] = np.minimum(slack[pairs], values - m21)
         if teams:
-            states = np.array([np.concatenate([defenders[games[g].defenders[0]],
-                                               defenders[games[g].defenders[1]],
-                                               attackers[games[g].attackers[0]]])
-                               for g in teams])
-            slack[teams] = self.vf12.value(states) - m12
+            one, two, attacker = np.array([(*games[g].defenders, games[g].attackers[0])
+                                           for g in teams]).T
+            slack[teams] = self.vf12.value(np.concatenate([defenders[one], defenders[two],
+                                                           attackers[attacker]], axis=1)) - m12
         return slack
 
 
