@@ -1,26 +1,25 @@
 """Study: why Algorithm 1's certified guarantee breaks, and what margin would make it hold.
 
-Three parts (BENCHMARKS.md, "Guarantee: causes"):
+Two parts (BENCHMARKS.md, "Guarantee: causes"; the certificate rule itself now lives in
+the policy, ``policies/certificate.py``, and ``benchmarks/guarantee.py --margin-cells C``
+measures it):
 
 ``tubes``: a grid-refinement study. The 1 vs 1 tube at ``--grids1`` against a finer
 reference (``--reference1``), and the 2 vs 1 tube at ``--grids2`` (all built on the
 reference-grade 45^4 1 vs 1 tube) against ``--reference2``, compared by interpolation
-at random states of the paper map (attackers outside the target, uncaptured). Per grid:
+at random states of the map of ``--scenario`` (attackers outside the target, uncaptured). Per grid:
 the largest and 99th-percentile difference, the *margin* (the largest coarse value at a
 state where the reference says the attacker side wins: the slack a certificate
 ``value > margin`` needs on this sample), and the share of defender wins (value > 0) it
 would give up.
 
-``margins``: the same episodes with the certificate rule ``value > margin``, optionally
-with hysteresis (``--keep``: a game once taken is kept while its value stays > 0), as a
-subclass of the policy (controls unchanged): episodes violated, the guarantee at the
-start, and the attackers stopped and captured, per margin pair.
-
-``episodes``: the episodes of ``benchmarks/guarantee.py`` (same configurations, seeds
-and attacker order), recorded. For each episode whose guarantee broke, the first broken
-promise is traced: the assigned game (a defender and its one or two attackers) of the
-decision before the fall whose value reached <= 0 or whose attacker arrived, and the run
-of steps in which that defender had held that game. The cause is classified in order:
+``episodes``: the episodes of ``benchmarks/guarantee.py`` on the paper map (same
+configurations, seeds and attacker order), recorded, with the defenders reading the tubes
+as the paper does (``--margin-cells 0``, default). For each episode whose guarantee
+broke, the first broken promise is traced: the assigned game (a defender and its one or
+two attackers) of the decision before the fall whose value reached <= 0 or whose attacker
+arrived, and the run of steps in which that defender had held that game. The cause is
+classified in order:
 
 1. ``tube error``: at the start of the run the finer tubes (``--fine1/--fine2``) say the
    attacker side wins (value <= 0): the coarse certificate was wrong from the start;
@@ -41,8 +40,6 @@ whether the shadowing of unassigned defenders matters.
 
     python benchmarks/guarantee_causes.py tubes [--grids1 25 31 45] [--reference1 81]
     python benchmarks/guarantee_causes.py episodes --grid1 25 --grid2 13 --episodes 20
-    python benchmarks/guarantee_causes.py margins --grid1 25 --grid2 13 --m11 0 0.023 \
-        --m21 0 0.03 [--keep]
 """
 
 from __future__ import annotations
@@ -285,8 +282,10 @@ def episodes(args: argparse.Namespace) -> None:
     fine21 = coarse.vf21 if args.fine2 == args.grid2 else solve_2v1(
         base.map, fine11, grid_points=args.fine2)
     fine = Tubes(fine11, fine21)
-    defenders = Recorder(HJDefenderPolicy(coarse.vf11, coarse.vf21))
-    standing = HJDefenderPolicy(coarse.vf11, coarse.vf21, idle="stand")
+    defenders = Recorder(HJDefenderPolicy(coarse.vf11, coarse.vf21,
+                                          margin_cells=args.margin_cells))
+    standing = HJDefenderPolicy(coarse.vf11, coarse.vf21, idle="stand",
+                                margin_cells=args.margin_cells)
     breaks: list[Break] = []
     total = 0
     for m, n in CONFIGS:
@@ -309,77 +308,6 @@ def episodes(args: argparse.Namespace) -> None:
                     brk.standing_violates = again.guarantee_violations > 0
                 breaks.append(brk)
     _print_breaks(args, breaks, total)
-
-
-class CertifiedDefender(HJDefenderPolicy):
-    """A preview of the certificate rule (phase 2; the policy itself is unchanged): a game
-    is taken only where its value exceeds a margin (``V11 > m11``, ``V21 > m21``) and,
-    with ``keep``, a game of the previous decision is kept while its value stays > 0
-    (hysteresis: a certified game is not dropped for dipping into the margin band).
-    Controls are the policy's."""
-
-    def __init__(self, vf11: ValueFunction, vf21: ValueFunction, m11: float, m21: float,
-                 keep: bool) -> None:
-        super().__init__(vf11, vf21)
-        self.m11, self.m21, self.keep = m11, m21, keep
-
-    def _previous(self) -> Assignment | None:
-        return self._assignment if self.keep else None
-
-    def _beats_1v1(self, state: GameState) -> np.ndarray:
-        values = self.vf11.value(pair_states(state.attacker_positions,
-                                             state.defender_positions))
-        threshold = np.full(values.shape, self.m11)
-        previous = self._previous()
-        for i, j in previous.pairs if previous is not None else ():
-            threshold[i, j] = 0.0
-        return values <= threshold
-
-    def _assign(self, state: GameState, beats: np.ndarray, active: np.ndarray) -> Assignment:
-        m, n = beats.shape
-        beats_2v1 = np.zeros((m, m, n), dtype=bool)
-        takers = np.flatnonzero(active & ~beats.all(axis=1))
-        if len(takers) >= 2:
-            first, second = np.triu_indices(len(takers), k=1)
-            pairs = np.stack([takers[first], takers[second]], axis=1)
-            values = self.vf21.value(triple_states(state.attacker_positions, pairs,
-                                                   state.defender_positions))
-            threshold = np.full(values.shape, self.m21)
-            previous = self._previous()
-            for j, mine in enumerate(previous.by_defender if previous is not None else ()):
-                row = np.flatnonzero((pairs == mine).all(axis=1)) if len(mine) == 2 else []
-                threshold[row, j] = 0.0
-            wins = values <= threshold
-            beats_2v1[pairs[:, 0], pairs[:, 1]] = wins
-            beats_2v1[pairs[:, 1], pairs[:, 0]] = wins
-        return self.solver.solve(beats, beats_2v1, active)
-
-
-def margins(args: argparse.Namespace) -> None:
-    base = reachavoid_env.builtin_scenario("paper_2v1")
-    vf11, vf21 = _tubes(base, args.grid1, args.grid2)
-    rule = "; a game once taken is kept while V > 0" if args.keep else ""
-    print(f"tubes {args.grid1}^4 / {args.grid2}^6, HJ + MIP defenders taking a game only "
-          f"where V11 > m11 and V21 > m21{rule}; {args.episodes} episodes per configuration and "
-          f"attacker ({len(CONFIGS) * 3 * args.episodes} in all)")
-    print("| m11 | m21 | episodes violated | guaranteed at start | stopped | captured |")
-    print("|---|---|---|---|---|---|")
-    for m11, m21 in zip(args.m11, args.m21, strict=True):
-        defenders = CertifiedDefender(vf11, vf21, m11, m21, args.keep)
-        violated, first, stopped, captured = 0, [], [], []
-        for m, n in CONFIGS:
-            env = reachavoid_env.parallel_env(scenario=base.with_players(m, n))
-            attackers = {"shortest-path": ShortestPathAttacker(), "random": RandomAttacker(0),
-                         "hj": HJAttacker(vf11)}
-            for attacker in attackers.values():
-                for seed in range(args.episodes):
-                    result = run_episode(env, attacker, defenders, seed=seed)
-                    violated += result.guarantee_violations > 0
-                    first.append(result.guarantees[0])
-                    stopped.append(result.stopped_count)
-                    captured.append(result.captured_count)
-        print(f"| {m11:g} | {m21:g} | {violated} / {len(first)} | {np.mean(first):.2f} | "
-              f"{np.mean(stopped):.2f} | {np.mean(captured):.2f} |", flush=True)
 
 
 def _tubes(scenario: Scenario, grid1: int, grid2: int) -> tuple[ValueFunction, ValueFunction]:
@@ -494,16 +422,11 @@ def main() -> None:
                    help="measured error margins of the finer 1 vs 1 and 2 vs 1 tubes (the "
                         "tubes study: 45^4 against 81^4; 20^6 against 30^6, a lower bound "
                         "for 30^6)")
-    g = sub.add_parser("margins", help="violations and captures with V > margin")
-    g.add_argument("--grid1", type=int, default=25)
-    g.add_argument("--grid2", type=int, default=13)
-    g.add_argument("--m11", type=float, nargs="+", default=[0.0, 0.0228, 0.036])
-    g.add_argument("--m21", type=float, nargs="+", default=[0.0, 0.0293, 0.036])
-    g.add_argument("--episodes", type=int, default=20, help="per configuration and attacker")
-    g.add_argument("--keep", action="store_true",
-                   help="keep a game of the previous decision while its value is > 0")
+    e.add_argument("--margin-cells", type=float, default=0.0,
+                   help="the defenders' certificate margin (default 0: the paper's reading, "
+                        "whose breaks the study classifies)")
     args = parser.parse_args()
-    {"tubes": tubes, "episodes": episodes, "margins": margins}[args.study](args)
+    {"tubes": tubes, "episodes": episodes}[args.study](args)
 
 
 if __name__ == "__main__":
