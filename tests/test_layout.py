@@ -45,8 +45,8 @@ def test_design_names_every_module_and_nothing_else():
     design = (ROOT / "docs" / "design.md").read_text()
     tree = {str(path.relative_to(ROOT)) for package in LAYERS for path in modules(package)
             if path.name != "__init__.py"}
-    named = {word.strip("`") for word in design.split() if word.strip("`,.;:()").endswith(".py")}
-    named = {word.strip(",.;:()") for word in named}
+    named = {word.strip("`,.;:()") for word in design.split()
+             if word.strip("`,.;:()").endswith(".py")}
     missing = sorted(path for path in tree if path not in named)
     stale = sorted(path for path in named if "/" in path and path not in tree
                    and path.split("/")[0] in LAYERS)
