@@ -427,6 +427,21 @@ def _interpolate_parallel(values, stored_of, shape, lo, spacing, points):
 
 
 @njit(cache=True)
+def _gradient_point(values, stored_of, shape, lo, spacing, strides, corners, point, axes,
+                    lower, weights, gradient, with_value):
+    """Gradient along ``axes`` at one ``point`` into ``gradient``; returns the value there
+    (``with_value``, else 0).
+    ``strides`` and ``corners``: ``_row_strides`` and ``_corner_offsets`` of the grid."""
+    row_stride, col_stride = strides
+    row, col = _locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower, weights)
+    _gradient_at(values, stored_of, row, col, shape, spacing, row_stride, col_stride,
+                 corners[0], corners[1], lower, weights, axes, gradient)
+    if not with_value:
+        return 0.0
+    return _value_at(values, stored_of, row, col, corners[0], corners[1], weights)
+
+
+@njit(cache=True)
 def _gradient_serial(values, stored_of, shape, lo, spacing, points, axes, with_value):
     row_stride, col_stride = _row_strides(shape, values.shape[1])
     corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
@@ -435,13 +450,11 @@ def _gradient_serial(values, stored_of, shape, lo, spacing, points, axes, with_v
     gradient = np.empty((points.shape[0], axes.size), dtype=np.float64)
     value = np.empty(points.shape[0] if with_value else 0, dtype=np.float64)
     for q in range(points.shape[0]):
-        row, col = _locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
-                                weights)
-        _gradient_at(values, stored_of, row, col, shape, spacing, row_stride, col_stride,
-                     corner_rows, corner_cols, lower, weights, axes, gradient[q])
+        v = _gradient_point(values, stored_of, shape, lo, spacing, (row_stride, col_stride),
+                            (corner_rows, corner_cols), points[q], axes, lower, weights,
+                            gradient[q], with_value)
         if with_value:
-            value[q] = _value_at(values, stored_of, row, col, corner_rows, corner_cols,
-                                 weights)
+            value[q] = v
     return value, gradient
 
 
@@ -454,13 +467,11 @@ def _gradient_parallel(values, stored_of, shape, lo, spacing, points, axes, with
     for q in prange(points.shape[0]):
         lower = np.empty(shape.size, dtype=np.int64)
         weights = np.empty(1 << shape.size, dtype=np.float64)
-        row, col = _locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
-                                weights)
-        _gradient_at(values, stored_of, row, col, shape, spacing, row_stride, col_stride,
-                     corner_rows, corner_cols, lower, weights, axes, gradient[q])
+        v = _gradient_point(values, stored_of, shape, lo, spacing, (row_stride, col_stride),
+                            (corner_rows, corner_cols), points[q], axes, lower, weights,
+                            gradient[q], with_value)
         if with_value:
-            value[q] = _value_at(values, stored_of, row, col, corner_rows, corner_cols,
-                                 weights)
+            value[q] = v
     return value, gradient
 
 
