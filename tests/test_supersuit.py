@@ -43,6 +43,11 @@ def test_episode_ends_on_the_step_the_game_ends_and_dead_slots_are_black():
     np.testing.assert_array_equal(observations[9], start[:3])   # auto-reset
     assert infos[0]["TimeLimit.truncated"] is False      # a termination, not a time-out
     assert infos[0]["terminal_observation"].shape == (11,)
+    # the auto-reset's infos replace the last step's; "final_info" keeps them
+    assert infos[0]["status"] == 0 and infos[0]["arrived"] == 0
+    assert infos[0]["final_info"] == {"captured": 1, "arrived": 1, "status": 2, "captured_by": -1}
+    assert infos[2]["final_info"] == {"captured": 1, "arrived": 1}
+    assert "final_info" not in infos[1]                 # attacker_1 left the game on step 8
 
 
 def test_time_out_is_marked_for_bootstrapping():

@@ -18,6 +18,10 @@ traps of SuperSuit 3.11:
   and truncated; otherwise one step late, after a step of zero observations that SB3 then
   learns from. ``GameEndFlags`` (under it) marks the step that ends the game so; a time-out
   is passed to SB3 as ``info["TimeLimit.truncated"]``, so that PPO bootstraps it.
+- On the step that ends the game, ``pettingzoo_env_to_vec_env_v1`` resets and merges the
+  reset's infos over the last step's, so ``status`` and the counts of the last step are
+  replaced by those of the new episode. ``GameEndFlags`` also keeps the last step's info
+  of every agent still in the game whole under ``info["final_info"]`` (a key no reset info has).
 - ``PPO(seed=...)`` calls the vector env's ``seed``, which SuperSuit's SB3 wrapper cannot
   do; ``SeededVecEnv.seed(s)`` seeds the next reset instead, game copy ``i`` with ``s + i``.
 """
@@ -36,13 +40,13 @@ from supersuit.vector.sb3_vector_wrapper import SB3VecEnvWrapper
 class GameEndFlags(BaseParallelWrapper):
     """Marks every agent of the step that ends the game both terminated and truncated (what
     ``black_death_v3`` looks for); ``info["TimeLimit.truncated"]`` says which ran out of
-    time."""
+    time, and ``info["final_info"]`` is that step's info as the game gave it."""
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         observations, rewards, terminations, truncations, infos = self.env.step(actions)
         if observations and not self.env.agents:
             infos = {name: info | {"TimeLimit.truncated": truncations[name]
-                                   and not terminations[name]}
+                                   and not terminations[name], "final_info": dict(info)}
                      for name, info in infos.items()}
             terminations = dict.fromkeys(observations, True)
             truncations = dict.fromkeys(observations, True)
