@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from policies.lookups import values21_at
 from reachavoid_env import GameState
 from solvers.assignment import Assignment
 from solvers.hj import ValueFunction
@@ -51,10 +52,13 @@ class Tubes:
     margins: tuple[float, float, float]
 
     def slack(self, games: list[Game], state: GameState, values11: np.ndarray,
-              margins: tuple[float, float, float] | None = None) -> np.ndarray:
+              margins: tuple[float, float, float] | None = None,
+              values21: np.ndarray | None = None) -> np.ndarray:
         """``(len(games),)``: the smallest ``value - margin`` over what makes each game a
-        defender win (``margins`` default: the tubes'; zeros for "still winning"); one
-        lookup per 6D tube."""
+        defender win (``margins`` default: the tubes'; zeros for "still winning"); the
+        2 vs 1 values from the step's table ``values21 (M, M, N)`` where it holds them
+        (``policies.lookups.step_values``; the NaN ones looked up and stored), the rest
+        in one lookup per 6D tube."""
         if not games:
             return np.empty(0)
         m11, m21, m12 = self.margins if margins is None else margins
@@ -71,8 +75,10 @@ class Tubes:
         if pairs:
             first, second, alone = np.array([(*games[g].attackers, games[g].defenders[0])
                                              for g in pairs]).T
-            values = self.vf21.value(np.concatenate([attackers[first], attackers[second],
-                                                     defenders[alone]], axis=1))
+            if values21 is None:
+                values21 = np.full((len(attackers), len(attackers), len(defenders)), np.nan)
+            values = values21_at(values21, first, second, alone, self.vf21, attackers,
+                                 defenders)
             slack[pairs] = np.minimum(slack[pairs], values - m21)
         if teams:
             one, two, attacker = np.array([(*games[g].defenders, games[g].attackers[0])
@@ -83,9 +89,10 @@ class Tubes:
 
 
 def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
-                  tubes: Tubes) -> list[Game]:
+                  tubes: Tubes, values21: np.ndarray | None = None) -> list[Game]:
     """The certified games of the last decision that are still on: attackers that left
-    (captured) are dropped from their game, and a game stays while its value is > 0."""
+    (captured) are dropped from their game, and a game stays while its value is > 0
+    (``values21`` as in ``Tubes.slack``)."""
     if not certified:
         return []
     active = state.active_attackers
@@ -94,7 +101,7 @@ def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
         left = tuple(i for i in game.attackers if active[i])
         if left:
             games.append(Game(game.defenders, left))
-    keep = tubes.slack(games, state, values11, margins=(0.0, 0.0, 0.0)) > 0.0
+    keep = tubes.slack(games, state, values11, (0.0, 0.0, 0.0), values21) > 0.0
     return [game for game, on in zip(games, keep, strict=True) if on]
 
 
@@ -106,12 +113,10 @@ def restrict(beats: np.ndarray, active: np.ndarray, fixed: list[Game]
     busy = np.zeros(beats.shape[1], dtype=bool)
     if not fixed:
         return beats, active, busy
-    beats, active = beats.copy(), active.copy()
-    for game in fixed:
-        active[list(game.attackers)] = False
-        busy[list(game.defenders)] = True
-    beats[:, busy] = True
-    return beats, active, busy
+    active = active.copy()
+    active[[i for game in fixed for i in game.attackers]] = False
+    busy[[j for game in fixed for j in game.defenders]] = True
+    return beats | busy, active, busy
 
 
 def joined(rest: Assignment, fixed: list[Game], num_defenders: int) -> Assignment:

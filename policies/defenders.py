@@ -13,6 +13,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from policies.certificate import Game, Tubes, games_of, joined, restrict, still_winning
+from policies.lookups import TubeArrays, defender_headings, step_values, values21_at
 from policies.tubes import tube_1v1, tube_1v2, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario
 from reachavoid_env.rules import unit_vectors
@@ -73,9 +74,21 @@ def pair_states(attackers: np.ndarray, defenders: np.ndarray) -> np.ndarray:
 
 
 @functools.cache
-def _attacker_pairs(m: int) -> tuple[np.ndarray, np.ndarray]:
-    """Index pairs ``i < k`` of ``m`` attackers (cached: ``triu_indices`` is slow)."""
-    return np.triu_indices(m, k=1)
+def _upper_pairs(m: int) -> np.ndarray:
+    """``(m, m, 1)``: attacker index pairs ``i < k``."""
+    return np.triu(np.ones((m, m), dtype=bool), k=1)[:, :, None]
+
+
+def settled_pairs(certified: list[Game], shape: tuple[int, int]) -> np.ndarray:
+    """``(M, N)``: the attacker-defender pairs that touch a ``certified`` game without
+    being one of its own: no 2 vs 1 value of them is read while the games are kept."""
+    settled = np.zeros(shape, dtype=bool)
+    if certified:
+        settled[[i for game in certified for i in game.attackers]] = True
+        settled[:, [j for game in certified for j in game.defenders]] = True
+        own = [(i, j) for game in certified for i in game.attackers for j in game.defenders]
+        settled[tuple(np.array(own).T)] = False
+    return settled
 
 
 def triple_states(attackers: np.ndarray, pairs: np.ndarray, defenders: np.ndarray) -> np.ndarray:
@@ -148,7 +161,7 @@ class _AssignmentDefender(ABC):
         self._nominal_solver = AssignmentSolver(method)
         self._assignment: Assignment | None = None
         self._certified: list[Game] = []
-        self._step: tuple[GameState, np.ndarray, bool] | None = None
+        self._step: tuple[GameState, np.ndarray, np.ndarray, bool] | None = None
         self._nominal: int | None = None
 
     def reset(self, scenario: Scenario) -> None:
@@ -182,11 +195,12 @@ class _AssignmentDefender(ABC):
         matching size for the baseline) with every value > 0 a defender win."""
         if self._assignment is None:
             return 0
-        state, values11, fixed_any = self._step
+        state, values11, values21, fixed_any = self._step
         if not fixed_any:
             return self._assignment.captures
         if self._nominal is None:
-            self._nominal = self._assign(self._nominal_solver, state, values11, []).captures
+            self._nominal = self._assign(self._nominal_solver, state, values11, values21,
+                                         []).captures
         return self._nominal
 
     def margin(self, vf: ValueFunction) -> float:
@@ -217,9 +231,9 @@ class _AssignmentDefender(ABC):
                               f"{self.nominal_captures} nominal",))
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
-        """One decision: the 1 vs 1 table, the assignment keeping the certified games, the
-        certificate, then every assigned or shadowing defender's optimal control, looked up
-        in one batch per tube."""
+        """One decision: the step's tables (one lookup), the assignment keeping the
+        certified games, the certificate, then every assigned or shadowing defender's
+        optimal control (one lookup for the 1 vs 1 and 2 vs 1 games, one for teams)."""
         active = state.active_attackers
         names = state.defender_names
         actions = np.zeros((len(names), 2), dtype=np.float32)
@@ -229,21 +243,23 @@ class _AssignmentDefender(ABC):
             self._certified = []
             return dict(zip(names, actions, strict=True))
         attackers, defenders = state.attacker_positions, state.defender_positions
-        values11 = self.vf11.value(pair_states(attackers, defenders))
+        settled = settled_pairs(self._certified, (len(active), len(names)))
+        values11, values21 = step_values(attackers, defenders, active, settled,
+                                         *self._tube_arrays)
         certify = self.margin_cells > 0.0
         tubes = self.tubes
-        kept = still_winning(self._certified, state, values11, tubes) if certify else []
-        assignment = self._assign(self.solver, state, values11, kept)
-        self._assignment, self._step = assignment, (state, values11, bool(kept))
+        kept = (still_winning(self._certified, state, values11, tubes, values21)
+                if certify else [])
+        assignment = self._assign(self.solver, state, values11, values21, kept)
+        self._assignment, self._step = assignment, (state, values11, values21, bool(kept))
         fresh = [game for game in games_of(assignment) if game not in kept]
         if certify:
-            clear = tubes.slack(fresh, state, values11) > 0.0
+            clear = tubes.slack(fresh, state, values11, values21=values21) > 0.0
             fresh = [game for game, on in zip(fresh, clear, strict=True) if on]
         self._certified = kept + fresh
         in_team = {d for _, j, k in assignment.shared for d in (j, k)}
         singles, doubles, idle = [], [], []
-        for j in range(len(names)):
-            mine = assignment.by_defender[j]
+        for j, mine in enumerate(assignment.by_defender):
             if j in in_team:
                 continue
             if len(mine) == 2:
@@ -252,20 +268,11 @@ class _AssignmentDefender(ABC):
                 singles.append((j, mine[0]))
             else:
                 idle.append(j)
-        shadows = self._idle_targets(state, idle, values11) if idle else []
-        if singles or shadows:
-            j, i = np.array(singles + shadows).T
-            controls = self.vf11.defender_control(np.concatenate([attackers[i], defenders[j]],
-                                                                 axis=1))
-            actions[j] = _headings(controls, attackers[i] - defenders[j])
-        if doubles:
-            j, first, second = np.array(doubles).T
-            states = np.concatenate([attackers[first], attackers[second], defenders[j]], axis=1)
-            controls = self.vf21.defender_control(states)
-            gaps = np.stack([attackers[first] - defenders[j], attackers[second] - defenders[j]])
-            nearer = gaps[np.argmin(np.hypot(gaps[..., 0], gaps[..., 1]), axis=0),
-                          np.arange(len(j))]
-            actions[j] = _headings(controls, nearer)
+        if idle:
+            singles += self._idle_targets(state, idle, values11)
+        defender_headings(attackers, defenders, np.array(singles, dtype=np.int64).reshape(-1, 2),
+                          np.array(doubles, dtype=np.int64).reshape(-1, 3),
+                          *self._tube_arrays, actions)
         if assignment.shared:
             teams = np.array(assignment.shared)
             states = team_states(attackers, defenders, teams)
@@ -275,21 +282,27 @@ class _AssignmentDefender(ABC):
                                        attackers[teams[:, 0]] - defenders[j])
         return dict(zip(names, actions, strict=True))
 
+    @functools.cached_property
+    def _tube_arrays(self) -> tuple[TubeArrays, TubeArrays | None]:
+        """The 1 vs 1 and 2 vs 1 tubes as the batched lookups take them."""
+        return TubeArrays.of(self.vf11), None if self.vf21 is None else TubeArrays.of(self.vf21)
+
     def _assign(self, solver: AssignmentSolver, state: GameState, values11: np.ndarray,
-                fixed: list[Game]) -> Assignment:
-        """The paper's program on this step's tables (``values11 (M, N)`` and the higher
-        games' tubes, every value > 0 a defender win) for the players outside the
-        ``fixed`` games, which are then put back."""
+                values21: np.ndarray, fixed: list[Game]) -> Assignment:
+        """The paper's program on this step's tables (``values11 (M, N)``, ``values21
+        (M, M, N)`` from ``step_values``, and the 1 vs 2 tube for teams; every value > 0 a
+        defender win) for the players outside the ``fixed`` games, which are then put
+        back."""
         beats, active, busy = restrict(values11 <= 0.0, state.active_attackers, fixed)
-        rest = self._solve(solver, state, beats, active, busy)
+        rest = self._solve(solver, state, beats, active, busy, values21)
         return joined(rest, fixed, len(state.defender_names)) if fixed else rest
 
     @abstractmethod
     def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               active: np.ndarray, busy: np.ndarray) -> Assignment:
+               active: np.ndarray, busy: np.ndarray, values21: np.ndarray) -> Assignment:
         """The assignment of the ``active`` attackers from the 1 vs 1 table ``beats (M, N)``
-        (attacker ``i`` beats defender ``j``), reading the higher games' tubes where they
-        bind; ``busy`` defenders take nothing."""
+        (attacker ``i`` beats defender ``j``) and the step's 2 vs 1 values ``values21``,
+        reading the 1 vs 2 tube where it binds; ``busy`` defenders take nothing."""
 
     @abstractmethod
     def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray
@@ -355,27 +368,22 @@ class HJDefenderPolicy(_AssignmentDefender):
         _check_tube(self.vf21, scenario, "vf21")
 
     def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               active: np.ndarray, busy: np.ndarray) -> Assignment:
-        return solver.solve(beats, self._beats_2v1(state, beats, active), active)
+               active: np.ndarray, busy: np.ndarray, values21: np.ndarray) -> Assignment:
+        return solver.solve(beats, self._beats_2v1(state, beats, active, values21), active)
 
-    def _beats_2v1(self, state: GameState, beats: np.ndarray, active: np.ndarray
-                   ) -> np.ndarray:
+    def _beats_2v1(self, state: GameState, beats: np.ndarray, active: np.ndarray,
+                   values21: np.ndarray) -> np.ndarray:
         """The 2 vs 1 table ``(M, M, N)``. (c5) binds only pairs of attackers that the
-        defender beats one by one, so the tube is read for those triples alone, in one
-        lookup."""
-        m, n = beats.shape
-        beats_2v1 = np.zeros((m, m, n), dtype=bool)
+        defender beats one by one (its candidates), so it is read there alone, from the
+        step's ``values21``; the entries ``step_values`` skipped (the players of a
+        certified game given up this step) are looked up in one batch."""
         candidates = active[:, None] & ~beats
-        first, second = _attacker_pairs(m)
-        pair, j = np.nonzero(candidates[first] & candidates[second])     # (pairs, N)
-        if len(j):
-            one, two = first[pair], second[pair]
-            attackers, defenders = state.attacker_positions, state.defender_positions
-            wins = self.vf21.value(np.concatenate([attackers[one], attackers[two],
-                                                   defenders[j]], axis=1)) <= 0.0
-            beats_2v1[one, two, j] = wins
-            beats_2v1[two, one, j] = wins
-        return beats_2v1
+        both = candidates[:, None, :] & candidates[None, :, :]
+        missing = both & np.isnan(values21) & _upper_pairs(len(active))
+        if missing.any():
+            values21_at(values21, *np.nonzero(missing), self.vf21, state.attacker_positions,
+                        state.defender_positions)
+        return (values21 <= 0.0) & both
 
     def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray
                       ) -> list[tuple[int, int]]:
@@ -423,8 +431,8 @@ class HJPairsDefenderPolicy(HJDefenderPolicy):
         _check_tube(self.vf12, scenario, "vf12")
 
     def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               active: np.ndarray, busy: np.ndarray) -> Assignment:
-        return solver.solve(beats, self._beats_2v1(state, beats, active), active,
+               active: np.ndarray, busy: np.ndarray, values21: np.ndarray) -> Assignment:
+        return solver.solve(beats, self._beats_2v1(state, beats, active, values21), active,
                             beats_1v2=self._beats_1v2(state, beats, active, busy))
 
     def _beats_1v2(self, state: GameState, beats: np.ndarray, active: np.ndarray,
@@ -475,7 +483,7 @@ class MatchingDefenderPolicy(_AssignmentDefender):
                    margin_cells=margin_cells)
 
     def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               active: np.ndarray, busy: np.ndarray) -> Assignment:
+               active: np.ndarray, busy: np.ndarray, values21: np.ndarray) -> Assignment:
         return solver.solve(beats, None, active)
 
     def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray

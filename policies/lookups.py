@@ -1,0 +1,191 @@
+"""Batched tube lookups of one defender decision: a step's values and controls in one
+numba call each.
+
+``step_values`` reads the whole 1 vs 1 table of a step and the 2 vs 1 value of every
+triple the program or the certificate can read; ``defender_headings`` every 1 vs 1 and
+2 vs 1 defender control of the step with its fallback heading. Both evaluate each point
+with the interpolation kernels' own per-point helpers (``solvers.hj.kernels``), so they
+return exactly (bit for bit) what ``ValueFunction.value`` and ``defender_control`` give
+point by point; ``lookups_reference`` holds their pure-numpy twins, built on those calls.
+
+A tube goes to the kernels as ``TubeArrays``: its stored rows, ``stored_of``, the grid's
+kernel arrays and the defender's two axes (plain arrays, made once per policy).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from solvers.hj import ValueFunction
+from solvers.hj.kernels import (
+    _corner_offsets,
+    _gradient_point,
+    _locate_cell,
+    _row_strides,
+    _value_at,
+)
+
+HEADING_FLOOR = 1e-9
+"""A gradient no longer than this has no direction (``ValueFunction``'s floor)."""
+
+
+class TubeArrays(NamedTuple):
+    """What the kernels read of a tube (``ValueFunction``)."""
+
+    rows: np.ndarray
+    stored_of: np.ndarray
+    shape: np.ndarray
+    lo: np.ndarray
+    spacing: np.ndarray
+    defender_axes: np.ndarray
+
+    @classmethod
+    def of(cls, vf: ValueFunction) -> TubeArrays:
+        rows, stored_of = vf._rows
+        shape, lo, spacing = vf.grid.kernel_arrays
+        axes = vf._player_axes(vf.defenders[0].name)[1]
+        return cls(rows, stored_of, shape, lo, spacing, axes)
+
+
+@njit(cache=True)
+def _layout(tube):
+    """The tube's ``_row_strides`` and ``_corner_offsets`` (once per call)."""
+    strides = _row_strides(tube.shape, tube.rows.shape[1])
+    return strides, _corner_offsets(strides[0], strides[1])
+
+
+@njit(cache=True)
+def _tube_value(tube, layout, point, lower, weights):
+    (row_stride, col_stride), (corner_rows, corner_cols) = layout
+    row, col = _locate_cell(point, tube.shape, tube.lo, tube.spacing, row_stride, col_stride,
+                            lower, weights)
+    return _value_at(tube.rows, tube.stored_of, row, col, corner_rows, corner_cols, weights)
+
+
+@njit(cache=True)
+def _step_values(attackers, defenders, active, settled, tube11, tube21, with_pairs):
+    m, n = attackers.shape[0], defenders.shape[0]
+    lower = np.empty(6, dtype=np.int64)
+    weights = np.empty(64, dtype=np.float64)
+    point = np.empty(4, dtype=np.float64)
+    values11 = np.empty((m, n), dtype=np.float64)
+    layout = _layout(tube11)
+    for i in range(m):
+        for j in range(n):
+            point[0], point[1] = attackers[i, 0], attackers[i, 1]
+            point[2], point[3] = defenders[j, 0], defenders[j, 1]
+            values11[i, j] = _tube_value(tube11, layout, point, lower[:4], weights[:16])
+    values21 = np.full((m, m, n), np.nan)
+    if not with_pairs:
+        return values11, values21
+    point = np.empty(6, dtype=np.float64)
+    layout = _layout(tube21)
+    for i in range(m):
+        for k in range(i + 1, m):
+            if not (active[i] and active[k]):
+                continue
+            for j in range(n):
+                if values11[i, j] > 0.0 and values11[k, j] > 0.0 and not (
+                        settled[i, j] or settled[k, j]):
+                    point[0], point[1] = attackers[i, 0], attackers[i, 1]
+                    point[2], point[3] = attackers[k, 0], attackers[k, 1]
+                    point[4], point[5] = defenders[j, 0], defenders[j, 1]
+                    value = _tube_value(tube21, layout, point, lower, weights)
+                    values21[i, k, j] = value
+                    values21[k, i, j] = value
+    return values11, values21
+
+
+def step_values(attackers: np.ndarray, defenders: np.ndarray, active: np.ndarray,
+                settled: np.ndarray, tube11: TubeArrays, tube21: TubeArrays | None
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``values11 (M, N)``: the 1 vs 1 value of every attacker against every defender;
+    ``values21 (M, M, N)``: the 2 vs 1 value of attackers ``i`` and ``k`` (state in the
+    order ``i < k``, both entries filled) against defender ``j`` where both are
+    ``active``, each alone loses to ``j`` (1 vs 1 value > 0) and neither is ``settled``
+    with ``j`` (bool ``(M, N)``: the pairs the caller expects to read no 2 vs 1 value
+    of), NaN elsewhere (all NaN without ``tube21``; ``values21_at`` fills them in).
+    Positions ``(M, 2)`` and ``(N, 2)``, float64."""
+    return _step_values(attackers, defenders, active, settled, tube11,
+                        tube11 if tube21 is None else tube21, tube21 is not None)
+
+
+def values21_at(values21: np.ndarray, first: np.ndarray, second: np.ndarray,
+                alone: np.ndarray, vf21: ValueFunction, attackers: np.ndarray,
+                defenders: np.ndarray) -> np.ndarray:
+    """``values21[first, second, alone]`` (index arrays, ``first < second``), the entries
+    ``step_values`` left NaN looked up (in one batch) and stored into ``values21``."""
+    values = values21[first, second, alone]
+    missing = np.isnan(values)
+    if missing.any():
+        one, two, j = first[missing], second[missing], alone[missing]
+        values[missing] = vf21.value(np.concatenate([attackers[one], attackers[two],
+                                                     defenders[j]], axis=1))
+        values21[one, two, j] = values[missing]
+        values21[two, one, j] = values[missing]
+    return values
+
+
+@njit(cache=True)
+def _heading(gx, gy, fx, fy, out):
+    """``(gx, gy)`` scaled to length 1, or where it is no longer than the floor the
+    fallback ``(fx, fy)`` scaled to length 1 (zero where that is zero), into ``out``."""
+    length = math.hypot(gx, gy)
+    if length > HEADING_FLOOR:
+        out[0], out[1] = gx / length, gy / length
+        return
+    length = math.hypot(fx, fy)
+    if length > 0.0:
+        out[0], out[1] = fx / length, fy / length
+    else:
+        out[0], out[1] = 0.0, 0.0
+
+
+@njit(cache=True)
+def _tube_gradient(tube, layout, point, lower, weights, gradient):
+    _gradient_point(tube.rows, tube.stored_of, tube.shape, tube.lo, tube.spacing, layout[0],
+                    layout[1], point, tube.defender_axes, lower, weights, gradient, False)
+
+
+@njit(cache=True)
+def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, actions):
+    lower = np.empty(6, dtype=np.int64)
+    weights = np.empty(64, dtype=np.float64)
+    gradient = np.empty(2, dtype=np.float64)
+    point = np.empty(4, dtype=np.float64)
+    layout = _layout(tube11)
+    for s in range(singles.shape[0]):
+        j, i = singles[s, 0], singles[s, 1]
+        point[0], point[1] = attackers[i, 0], attackers[i, 1]
+        point[2], point[3] = defenders[j, 0], defenders[j, 1]
+        _tube_gradient(tube11, layout, point, lower[:4], weights[:16], gradient)
+        _heading(gradient[0], gradient[1], attackers[i, 0] - defenders[j, 0],
+                 attackers[i, 1] - defenders[j, 1], actions[j])
+    point = np.empty(6, dtype=np.float64)
+    layout = _layout(tube21)
+    for d in range(doubles.shape[0]):
+        j, first, second = doubles[d, 0], doubles[d, 1], doubles[d, 2]
+        point[0], point[1] = attackers[first, 0], attackers[first, 1]
+        point[2], point[3] = attackers[second, 0], attackers[second, 1]
+        point[4], point[5] = defenders[j, 0], defenders[j, 1]
+        _tube_gradient(tube21, layout, point, lower, weights, gradient)
+        fx, fy = attackers[first, 0] - defenders[j, 0], attackers[first, 1] - defenders[j, 1]
+        sx, sy = attackers[second, 0] - defenders[j, 0], attackers[second, 1] - defenders[j, 1]
+        if math.hypot(sx, sy) < math.hypot(fx, fy):
+            fx, fy = sx, sy
+        _heading(gradient[0], gradient[1], fx, fy, actions[j])
+
+
+def defender_headings(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
+                      doubles: np.ndarray, tube11: TubeArrays, tube21: TubeArrays | None,
+                      actions: np.ndarray) -> None:
+    """Write into ``actions (N, 2)`` (float32) the optimal heading of every defender of
+    ``singles`` (int64 rows ``(defender, attacker)``: its 1 vs 1 control) and ``doubles``
+    (rows ``(defender, first, second)``: its 2 vs 1 control); where the control vanishes,
+    the heading straight at its attacker (the nearer of the two, the first on a tie)."""
+    _defender_headings(attackers, defenders, singles, doubles, tube11,
+                       tube11 if tube21 is None else tube21, actions)
