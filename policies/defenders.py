@@ -161,6 +161,8 @@ class _AssignmentDefender(ABC):
         self._nominal_solver = AssignmentSolver(method)
         self._assignment: Assignment | None = None
         self._certified: list[Game] = []
+        self._settled: tuple[list[Game], np.ndarray] | None = None
+        self._joined: tuple[Assignment, list[Game], Assignment] | None = None
         self._step: tuple[GameState, np.ndarray, np.ndarray, bool] | None = None
         self._nominal: int | None = None
 
@@ -168,7 +170,7 @@ class _AssignmentDefender(ABC):
         _check_tube(self.vf11, scenario, "vf11")
         self.solver.reset()
         self._nominal_solver.reset()
-        self._assignment = self._step = self._nominal = None
+        self._assignment = self._step = self._nominal = self._settled = self._joined = None
         self._certified = []
 
     @property
@@ -243,8 +245,10 @@ class _AssignmentDefender(ABC):
             self._certified = []
             return dict(zip(names, actions, strict=True))
         attackers, defenders = state.attacker_positions, state.defender_positions
-        settled = settled_pairs(self._certified, (len(active), len(names)))
-        values11, values21 = step_values(attackers, defenders, active, settled,
+        if self._settled is None or self._settled[0] != self._certified:
+            self._settled = (self._certified,
+                             settled_pairs(self._certified, (len(active), len(names))))
+        values11, values21 = step_values(attackers, defenders, active, self._settled[1],
                                          *self._tube_arrays)
         certify = self.margin_cells > 0.0
         tubes = self.tubes
@@ -295,7 +299,12 @@ class _AssignmentDefender(ABC):
         back."""
         beats, active, busy = restrict(values11 <= 0.0, state.active_attackers, fixed)
         rest = self._solve(solver, state, beats, active, busy, values21)
-        return joined(rest, fixed, len(state.defender_names)) if fixed else rest
+        if not fixed:
+            return rest
+        last = self._joined
+        if last is None or last[0] is not rest or last[1] != fixed:
+            self._joined = last = (rest, fixed, joined(rest, fixed, len(state.defender_names)))
+        return last[2]
 
     @abstractmethod
     def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
@@ -390,13 +399,11 @@ class HJDefenderPolicy(_AssignmentDefender):
         if self.idle == "stand":
             return []
         active = state.active_attackers
-        taken = np.zeros(len(active), dtype=bool)
-        taken[[i for i, _ in self._assignment.pairs]] = True
-        taken[[i for i, *_ in self._assignment.shared]] = True
-        pool = np.flatnonzero(active & ~taken)
-        if len(pool) == 0:
-            pool = np.flatnonzero(active)
-        best = pool[np.argmax(values11[np.ix_(pool, idle)], axis=0)]
+        free = active.copy()
+        free[[i for i, _ in self._assignment.pairs]
+             + [i for i, *_ in self._assignment.shared]] = False
+        pool = np.flatnonzero(free if free.any() else active)
+        best = pool[np.argmax(values11[pool][:, idle], axis=0)]
         return [(j, int(i)) for j, i in zip(idle, best, strict=True)]
 
 
