@@ -79,6 +79,29 @@ def _upper_pairs(m: int) -> np.ndarray:
     return np.triu(np.ones((m, m), dtype=bool), k=1)[:, :, None]
 
 
+@functools.lru_cache(maxsize=1024)
+def _roles(assignment: Assignment) -> tuple[np.ndarray, np.ndarray, tuple[int, ...],
+                                            tuple[Game, ...]]:
+    """What each defender of ``assignment`` plays: int64 rows ``(defender, attacker)``
+    alone against one, ``(defender, first, second)`` against two; the idle defenders (in
+    no game); and its games (``games_of``). Made once per distinct assignment: answers
+    recur step after step."""
+    in_team = {d for _, j, k in assignment.shared for d in (j, k)}
+    singles, doubles, idle = [], [], []
+    for j, mine in enumerate(assignment.by_defender):
+        if j in in_team:
+            continue
+        if len(mine) == 2:
+            doubles.append((j, *mine))
+        elif len(mine) == 1:
+            singles.append((j, mine[0]))
+        else:
+            idle.append(j)
+    return (np.array(singles, dtype=np.int64).reshape(-1, 2),
+            np.array(doubles, dtype=np.int64).reshape(-1, 3), tuple(idle),
+            tuple(games_of(assignment)))
+
+
 def settled_pairs(certified: list[Game], shape: tuple[int, int]) -> np.ndarray:
     """``(M, N)``: the attacker-defender pairs that touch a ``certified`` game without
     being one of its own: no 2 vs 1 value of them is read while the games are kept."""
@@ -256,27 +279,16 @@ class _AssignmentDefender(ABC):
                 if certify else [])
         assignment = self._assign(self.solver, state, values11, values21, kept)
         self._assignment, self._step = assignment, (state, values11, values21, bool(kept))
-        fresh = [game for game in games_of(assignment) if game not in kept]
+        singles, doubles, idle, games = _roles(assignment)
+        fresh = [game for game in games if game not in kept]
         if certify:
             clear = tubes.slack(fresh, state, values11, values21=values21) > 0.0
             fresh = [game for game, on in zip(fresh, clear, strict=True) if on]
         self._certified = kept + fresh
-        in_team = {d for _, j, k in assignment.shared for d in (j, k)}
-        singles, doubles, idle = [], [], []
-        for j, mine in enumerate(assignment.by_defender):
-            if j in in_team:
-                continue
-            if len(mine) == 2:
-                doubles.append((j, *mine))
-            elif len(mine) == 1:
-                singles.append((j, mine[0]))
-            else:
-                idle.append(j)
         if idle:
-            singles += self._idle_targets(state, idle, values11)
-        defender_headings(attackers, defenders, np.array(singles, dtype=np.int64).reshape(-1, 2),
-                          np.array(doubles, dtype=np.int64).reshape(-1, 3),
-                          *self._tube_arrays, actions)
+            shadows = np.array(self._idle_targets(state, list(idle), values11), dtype=np.int64)
+            singles = np.concatenate([singles, shadows.reshape(-1, 2)])
+        defender_headings(attackers, defenders, singles, doubles, *self._tube_arrays, actions)
         if assignment.shared:
             teams = np.array(assignment.shared)
             states = team_states(attackers, defenders, teams)
