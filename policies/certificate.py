@@ -58,7 +58,7 @@ class Tubes:
         """``(len(games),)``: the smallest ``value - margin`` over what makes each game a
         defender win (``margins`` default: the tubes'; zeros for "still winning"); the
         2 vs 1 values from the step's table ``values21 (M, M, N)`` where it holds them
-        (``policies.lookups.step_values``; the NaN ones looked up and stored), the rest
+        (``policies.lookups.decision_tables``; the NaN ones looked up and stored), the rest
         in one lookup per 6D tube."""
         if not games:
             return np.empty(0)

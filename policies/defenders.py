@@ -12,8 +12,8 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from policies.certificate import Game, Tubes, games_of, joined, restrict, still_winning
-from policies.lookups import TubeArrays, defender_headings, step_values, values21_at
+from policies.certificate import Game, Tubes, games_of, joined
+from policies.lookups import DecisionTables, TubeArrays, decision_tables, defender_headings
 from policies.tubes import tube_1v1, tube_1v2, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario
 from reachavoid_env.rules import unit_vectors
@@ -73,10 +73,27 @@ def pair_states(attackers: np.ndarray, defenders: np.ndarray) -> np.ndarray:
     return states
 
 
-@functools.cache
-def _upper_pairs(m: int) -> np.ndarray:
-    """``(m, m, 1)``: attacker index pairs ``i < k``."""
-    return np.triu(np.ones((m, m), dtype=bool), k=1)[:, :, None]
+@functools.lru_cache(maxsize=1024)
+def _game_rows(games: tuple[Game, ...]) -> np.ndarray:
+    """``games`` as ``decision_tables`` takes them: int64 rows ``(j, k, i, l)``, -1 for
+    a second defender or attacker a game does not have."""
+    rows = np.full((len(games), 4), -1, dtype=np.int64)
+    for g, game in enumerate(games):
+        rows[g, :len(game.defenders)] = game.defenders
+        rows[g, 2:2 + len(game.attackers)] = game.attackers
+    return rows
+
+
+def _kept_games(certified: list[Game], kept: np.ndarray, left: np.ndarray) -> list[Game]:
+    """The ``certified`` games still on (``decision_tables``), without the attackers that
+    left."""
+    games = []
+    for game, on, present in zip(certified, kept, left, strict=True):
+        here = present[:len(game.attackers)]
+        if on:
+            games.append(game if here.all() else Game(game.defenders, tuple(
+                i for i, stays in zip(game.attackers, here, strict=True) if stays)))
+    return games
 
 
 @functools.lru_cache(maxsize=1024)
@@ -100,18 +117,6 @@ def _roles(assignment: Assignment) -> tuple[np.ndarray, np.ndarray, tuple[int, .
     return (np.array(singles, dtype=np.int64).reshape(-1, 2),
             np.array(doubles, dtype=np.int64).reshape(-1, 3), tuple(idle),
             tuple(games_of(assignment)))
-
-
-def settled_pairs(certified: list[Game], shape: tuple[int, int]) -> np.ndarray:
-    """``(M, N)``: the attacker-defender pairs that touch a ``certified`` game without
-    being one of its own: no 2 vs 1 value of them is read while the games are kept."""
-    settled = np.zeros(shape, dtype=bool)
-    if certified:
-        settled[[i for game in certified for i in game.attackers]] = True
-        settled[:, [j for game in certified for j in game.defenders]] = True
-        own = [(i, j) for game in certified for i in game.attackers for j in game.defenders]
-        settled[tuple(np.array(own).T)] = False
-    return settled
 
 
 def triple_states(attackers: np.ndarray, pairs: np.ndarray, defenders: np.ndarray) -> np.ndarray:
@@ -184,16 +189,15 @@ class _AssignmentDefender(ABC):
         self._nominal_solver = AssignmentSolver(method)
         self._assignment: Assignment | None = None
         self._certified: list[Game] = []
-        self._settled: tuple[list[Game], np.ndarray] | None = None
         self._joined: tuple[Assignment, list[Game], Assignment] | None = None
-        self._step: tuple[GameState, np.ndarray, np.ndarray, bool] | None = None
+        self._step: tuple[GameState, bool] | None = None
         self._nominal: int | None = None
 
     def reset(self, scenario: Scenario) -> None:
         _check_tube(self.vf11, scenario, "vf11")
         self.solver.reset()
         self._nominal_solver.reset()
-        self._assignment = self._step = self._nominal = self._settled = self._joined = None
+        self._assignment = self._step = self._nominal = self._joined = None
         self._certified = []
 
     @property
@@ -220,12 +224,12 @@ class _AssignmentDefender(ABC):
         matching size for the baseline) with every value > 0 a defender win."""
         if self._assignment is None:
             return 0
-        state, values11, values21, fixed_any = self._step
+        state, fixed_any = self._step
         if not fixed_any:
             return self._assignment.captures
         if self._nominal is None:
-            self._nominal = self._assign(self._nominal_solver, state, values11, values21,
-                                         []).captures
+            tables = self._tables(state, state.active_attackers, [])
+            self._nominal = self._solve(self._nominal_solver, state, tables).captures
         return self._nominal
 
     def margin(self, vf: ValueFunction) -> float:
@@ -256,9 +260,10 @@ class _AssignmentDefender(ABC):
                               f"{self.nominal_captures} nominal",))
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
-        """One decision: the step's tables (one lookup), the assignment keeping the
-        certified games, the certificate, then every assigned or shadowing defender's
-        optimal control (one lookup for the 1 vs 1 and 2 vs 1 games, one for teams)."""
+        """One decision: the step's tables and the certified games still on (one lookup),
+        the assignment keeping those games, the certificate, then every assigned or
+        shadowing defender's optimal control (one lookup for the 1 vs 1 and 2 vs 1 games,
+        one for teams)."""
         active = state.active_attackers
         names = state.defender_names
         actions = np.zeros((len(names), 2), dtype=np.float32)
@@ -268,25 +273,27 @@ class _AssignmentDefender(ABC):
             self._certified = []
             return dict(zip(names, actions, strict=True))
         attackers, defenders = state.attacker_positions, state.defender_positions
-        if self._settled is None or self._settled[0] != self._certified:
-            self._settled = (self._certified,
-                             settled_pairs(self._certified, (len(active), len(names))))
-        values11, values21 = step_values(attackers, defenders, active, self._settled[1],
-                                         *self._tube_arrays)
         certify = self.margin_cells > 0.0
-        tubes = self.tubes
-        kept = (still_winning(self._certified, state, values11, tubes, values21)
-                if certify else [])
-        assignment = self._assign(self.solver, state, values11, values21, kept)
-        self._assignment, self._step = assignment, (state, values11, values21, bool(kept))
+        certified = self._certified if certify else []
+        tables = self._tables(state, active, certified)
+        kept = _kept_games(certified, tables.kept, tables.left)
+        assignment = self._solve(self.solver, state, tables)
+        if kept:
+            last = self._joined
+            if last is None or last[0] is not assignment or last[1] != kept:
+                self._joined = last = (assignment, kept, joined(assignment, kept, len(names)))
+            assignment = last[2]
+        self._assignment, self._step = assignment, (state, bool(kept))
         singles, doubles, idle, games = _roles(assignment)
         fresh = [game for game in games if game not in kept]
         if certify:
-            clear = tubes.slack(fresh, state, values11, values21=values21) > 0.0
+            clear = self.tubes.slack(fresh, state, tables.values11,
+                                     values21=tables.values21) > 0.0
             fresh = [game for game, on in zip(fresh, clear, strict=True) if on]
         self._certified = kept + fresh
         if idle:
-            shadows = np.array(self._idle_targets(state, list(idle), values11), dtype=np.int64)
+            shadows = np.array(self._idle_targets(state, list(idle), tables.values11),
+                               dtype=np.int64)
             singles = np.concatenate([singles, shadows.reshape(-1, 2)])
         defender_headings(attackers, defenders, singles, doubles, *self._tube_arrays, actions)
         if assignment.shared:
@@ -303,27 +310,26 @@ class _AssignmentDefender(ABC):
         """The 1 vs 1 and 2 vs 1 tubes as the batched lookups take them."""
         return TubeArrays.of(self.vf11), None if self.vf21 is None else TubeArrays.of(self.vf21)
 
-    def _assign(self, solver: AssignmentSolver, state: GameState, values11: np.ndarray,
-                values21: np.ndarray, fixed: list[Game]) -> Assignment:
-        """The paper's program on this step's tables (``values11 (M, N)``, ``values21
-        (M, M, N)`` from ``step_values``, and the 1 vs 2 tube for teams; every value > 0 a
-        defender win) for the players outside the ``fixed`` games, which are then put
-        back."""
-        beats, active, busy = restrict(values11 <= 0.0, state.active_attackers, fixed)
-        rest = self._solve(solver, state, beats, active, busy, values21)
-        if not fixed:
-            return rest
-        last = self._joined
-        if last is None or last[0] is not rest or last[1] != fixed:
-            self._joined = last = (rest, fixed, joined(rest, fixed, len(state.defender_names)))
-        return last[2]
+    def _tables(self, state: GameState, active: np.ndarray, certified: list[Game]
+                ) -> DecisionTables:
+        """``decision_tables`` of ``state`` with the ``certified`` games of the last
+        decision (the 1 vs 2 values of their teams looked up first)."""
+        rows = _game_rows(tuple(certified))
+        team_values = np.full(len(rows), np.nan)
+        teams = np.flatnonzero(rows[:, 1] >= 0)
+        if len(teams):
+            team_values[teams] = self.vf12.value(team_states(
+                state.attacker_positions, state.defender_positions, rows[teams][:, [2, 0, 1]]))
+        return decision_tables(state.attacker_positions, state.defender_positions, active,
+                               rows, team_values, *self._tube_arrays)
 
     @abstractmethod
-    def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               active: np.ndarray, busy: np.ndarray, values21: np.ndarray) -> Assignment:
-        """The assignment of the ``active`` attackers from the 1 vs 1 table ``beats (M, N)``
-        (attacker ``i`` beats defender ``j``) and the step's 2 vs 1 values ``values21``,
-        reading the 1 vs 2 tube where it binds; ``busy`` defenders take nothing."""
+    def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
+               ) -> Assignment:
+        """The assignment of the program's active attackers (``tables.active``) from its
+        1 vs 1 table ``tables.beats`` (attacker ``i`` beats defender ``j``) and 2 vs 1
+        table, reading the 1 vs 2 tube where it binds; ``tables.busy`` defenders take
+        nothing."""
 
     @abstractmethod
     def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray
@@ -388,23 +394,9 @@ class HJDefenderPolicy(_AssignmentDefender):
         super().reset(scenario)
         _check_tube(self.vf21, scenario, "vf21")
 
-    def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               active: np.ndarray, busy: np.ndarray, values21: np.ndarray) -> Assignment:
-        return solver.solve(beats, self._beats_2v1(state, beats, active, values21), active)
-
-    def _beats_2v1(self, state: GameState, beats: np.ndarray, active: np.ndarray,
-                   values21: np.ndarray) -> np.ndarray:
-        """The 2 vs 1 table ``(M, M, N)``. (c5) binds only pairs of attackers that the
-        defender beats one by one (its candidates), so it is read there alone, from the
-        step's ``values21``; the entries ``step_values`` skipped (the players of a
-        certified game given up this step) are looked up in one batch."""
-        candidates = active[:, None] & ~beats
-        both = candidates[:, None, :] & candidates[None, :, :]
-        missing = both & np.isnan(values21) & _upper_pairs(len(active))
-        if missing.any():
-            values21_at(values21, *np.nonzero(missing), self.vf21, state.attacker_positions,
-                        state.defender_positions)
-        return (values21 <= 0.0) & both
+    def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
+               ) -> Assignment:
+        return solver.solve(tables.beats, tables.beats_2v1, tables.active)
 
     def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray
                       ) -> list[tuple[int, int]]:
@@ -449,10 +441,11 @@ class HJPairsDefenderPolicy(HJDefenderPolicy):
         super().reset(scenario)
         _check_tube(self.vf12, scenario, "vf12")
 
-    def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               active: np.ndarray, busy: np.ndarray, values21: np.ndarray) -> Assignment:
-        return solver.solve(beats, self._beats_2v1(state, beats, active, values21), active,
-                            beats_1v2=self._beats_1v2(state, beats, active, busy))
+    def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
+               ) -> Assignment:
+        return solver.solve(tables.beats, tables.beats_2v1, tables.active,
+                            beats_1v2=self._beats_1v2(state, tables.beats, tables.active,
+                                                      tables.busy))
 
     def _beats_1v2(self, state: GameState, beats: np.ndarray, active: np.ndarray,
                    busy: np.ndarray) -> np.ndarray:
@@ -501,9 +494,9 @@ class MatchingDefenderPolicy(_AssignmentDefender):
         return cls(tube_1v1(scenario, grid1, progress), unmatched=unmatched,
                    margin_cells=margin_cells)
 
-    def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               active: np.ndarray, busy: np.ndarray, values21: np.ndarray) -> Assignment:
-        return solver.solve(beats, None, active)
+    def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
+               ) -> Assignment:
+        return solver.solve(tables.beats, None, tables.active)
 
     def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray
                       ) -> list[tuple[int, int]]:

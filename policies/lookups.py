@@ -1,9 +1,10 @@
 """Batched tube lookups of one defender decision: a step's values and controls in one
 numba call each.
 
-``step_values`` reads the whole 1 vs 1 table of a step and the 2 vs 1 value of every
-triple the program or the certificate can read; ``defender_headings`` every 1 vs 1 and
-2 vs 1 defender control of the step with its fallback heading. Both evaluate each point
+``decision_tables`` reads the whole 1 vs 1 table of a step, checks the certified games
+and builds the program's tables, reading the 2 vs 1 value of exactly the triples these
+need; ``defender_headings`` every 1 vs 1 and 2 vs 1 defender control of the step with
+its fallback heading. Both evaluate each point
 with the interpolation kernels' own per-point helpers (``solvers.hj.kernels``), so they
 return exactly (bit for bit) what ``ValueFunction.value`` and ``defender_control`` give
 point by point; ``lookups_reference`` holds their pure-numpy twins, built on those calls.
@@ -67,7 +68,24 @@ def _tube_value(tube, layout, point, lower, weights):
 
 
 @njit(cache=True)
-def _step_values(attackers, defenders, active, settled, tube11, tube21, with_pairs):
+def _pair_value(tube21, layout, attackers, defenders, i, k, j, point, lower, weights,
+                values21):
+    """The 2 vs 1 value of attackers ``i < k`` against defender ``j``, looked up once
+    (stored in both orders of ``values21``)."""
+    value = values21[i, k, j]
+    if np.isnan(value):
+        point[0], point[1] = attackers[i, 0], attackers[i, 1]
+        point[2], point[3] = attackers[k, 0], attackers[k, 1]
+        point[4], point[5] = defenders[j, 0], defenders[j, 1]
+        value = _tube_value(tube21, layout, point, lower, weights)
+        values21[i, k, j] = value
+        values21[k, i, j] = value
+    return value
+
+
+@njit(cache=True)
+def _decision_tables(attackers, defenders, active, certified, team_values, tube11, tube21,
+                     with_pairs):
     m, n = attackers.shape[0], defenders.shape[0]
     lower = np.empty(6, dtype=np.int64)
     weights = np.empty(64, dtype=np.float64)
@@ -80,45 +98,97 @@ def _step_values(attackers, defenders, active, settled, tube11, tube21, with_pai
             point[2], point[3] = defenders[j, 0], defenders[j, 1]
             values11[i, j] = _tube_value(tube11, layout, point, lower[:4], weights[:16])
     values21 = np.full((m, m, n), np.nan)
-    if not with_pairs:
-        return values11, values21
+    layout21 = _layout(tube21)
     point = np.empty(6, dtype=np.float64)
-    layout = _layout(tube21)
+    left = np.zeros((certified.shape[0], 2), dtype=np.bool_)
+    kept = np.zeros(certified.shape[0], dtype=np.bool_)
+    program_active = active.copy()
+    busy = np.zeros(n, dtype=np.bool_)
+    for g in range(certified.shape[0]):
+        d1, d2, a1, a2 = certified[g, 0], certified[g, 1], certified[g, 2], certified[g, 3]
+        left[g, 0] = active[a1]
+        left[g, 1] = a2 >= 0 and active[a2]
+        if not (left[g, 0] or left[g, 1]):
+            continue
+        if d2 >= 0:
+            value = team_values[g]
+        else:
+            value = np.inf
+            for a in range(2):
+                if left[g, a]:
+                    value = min(value, values11[certified[g, 2 + a], d1])
+            if left[g, 0] and left[g, 1]:
+                value = min(value, _pair_value(tube21, layout21, attackers, defenders, a1, a2,
+                                               d1, point, lower, weights, values21))
+        if value > 0.0:
+            kept[g] = True
+            for a in range(2):
+                if left[g, a]:
+                    program_active[certified[g, 2 + a]] = False
+            busy[d1] = True
+            if d2 >= 0:
+                busy[d2] = True
+    beats = np.empty((m, n), dtype=np.bool_)
     for i in range(m):
-        for k in range(i + 1, m):
-            if not (active[i] and active[k]):
-                continue
-            for j in range(n):
-                if values11[i, j] > 0.0 and values11[k, j] > 0.0 and not (
-                        settled[i, j] or settled[k, j]):
-                    point[0], point[1] = attackers[i, 0], attackers[i, 1]
-                    point[2], point[3] = attackers[k, 0], attackers[k, 1]
-                    point[4], point[5] = defenders[j, 0], defenders[j, 1]
-                    value = _tube_value(tube21, layout, point, lower, weights)
-                    values21[i, k, j] = value
-                    values21[k, i, j] = value
-    return values11, values21
+        for j in range(n):
+            beats[i, j] = values11[i, j] <= 0.0 or busy[j]
+    beats_2v1 = np.zeros((m, m, n), dtype=np.bool_)
+    if with_pairs:
+        for i in range(m):
+            for k in range(i + 1, m):
+                if not (program_active[i] and program_active[k]):
+                    continue
+                for j in range(n):
+                    if not (beats[i, j] or beats[k, j]):
+                        wins = _pair_value(tube21, layout21, attackers, defenders, i, k, j,
+                                           point, lower, weights, values21) <= 0.0
+                        beats_2v1[i, k, j] = wins
+                        beats_2v1[k, i, j] = wins
+    return values11, values21, kept, left, beats, beats_2v1, program_active, busy
 
 
-def step_values(attackers: np.ndarray, defenders: np.ndarray, active: np.ndarray,
-                settled: np.ndarray, tube11: TubeArrays, tube21: TubeArrays | None
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """``values11 (M, N)``: the 1 vs 1 value of every attacker against every defender;
-    ``values21 (M, M, N)``: the 2 vs 1 value of attackers ``i`` and ``k`` (state in the
-    order ``i < k``, both entries filled) against defender ``j`` where both are
-    ``active``, each alone loses to ``j`` (1 vs 1 value > 0) and neither is ``settled``
-    with ``j`` (bool ``(M, N)``: the pairs the caller expects to read no 2 vs 1 value
-    of), NaN elsewhere (all NaN without ``tube21``; ``values21_at`` fills them in).
-    Positions ``(M, 2)`` and ``(N, 2)``, float64."""
-    return _step_values(attackers, defenders, active, settled, tube11,
-                        tube11 if tube21 is None else tube21, tube21 is not None)
+class DecisionTables(NamedTuple):
+    """One step's tables (``decision_tables``)."""
+
+    values11: np.ndarray
+    values21: np.ndarray
+    kept: np.ndarray
+    left: np.ndarray
+    beats: np.ndarray
+    beats_2v1: np.ndarray
+    active: np.ndarray
+    busy: np.ndarray
+
+
+def decision_tables(attackers: np.ndarray, defenders: np.ndarray, active: np.ndarray,
+                    certified: np.ndarray, team_values: np.ndarray, tube11: TubeArrays,
+                    tube21: TubeArrays | None) -> DecisionTables:
+    """Everything one decision reads of the tubes before its program, in one call.
+
+    ``values11 (M, N)``: the 1 vs 1 value of every attacker (positions ``(M, 2)``,
+    ``active`` ``(M,)``) against every defender (``(N, 2)``). The last decision's
+    ``certified`` games, int64 rows ``(j, k, i, l)`` (defenders ``j`` and ``k``, attackers
+    ``i < l``; -1 where a game has one), ``team_values`` their 1 vs 2 values (read for
+    teams only): ``left (G, 2)`` which of each game's attackers are still active, ``kept
+    (G,)`` the games still on (an attacker left and the game's value, over those left,
+    > 0; ``policies.certificate.still_winning``). The program without the kept games'
+    players (``policies.certificate.restrict``): ``beats (M, N)`` (``values11 <= 0``,
+    every attacker beating a ``busy`` defender), ``active``, ``busy (N,)``, and
+    ``beats_2v1 (M, M, N)``: the 2 vs 1 table where (c5) binds, the pairs of attackers
+    that a defender beats one by one (false elsewhere). ``values21 (M, M, N)``: the
+    2 vs 1 values read for these (state order ``i < k``, both entries filled), NaN
+    elsewhere (``values21_at`` reads more). Without ``tube21`` no 2 vs 1 value is read:
+    no certified game may have two attackers."""
+    return DecisionTables(*_decision_tables(
+        attackers, defenders, active, certified, team_values, tube11,
+        tube11 if tube21 is None else tube21, tube21 is not None))
 
 
 def values21_at(values21: np.ndarray, first: np.ndarray, second: np.ndarray,
                 alone: np.ndarray, vf21: ValueFunction, attackers: np.ndarray,
                 defenders: np.ndarray) -> np.ndarray:
     """``values21[first, second, alone]`` (index arrays, ``first < second``), the entries
-    ``step_values`` left NaN looked up (in one batch) and stored into ``values21``."""
+    ``decision_tables`` left NaN looked up (in one batch) and stored into ``values21``."""
     values = values21[first, second, alone]
     missing = np.isnan(values)
     if missing.any():

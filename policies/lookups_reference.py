@@ -1,36 +1,51 @@
 """Pure-numpy twins of ``lookups``, for tests: the same tables and headings from
-``ValueFunction.value`` and ``defender_control`` called per batch of points (the defenders'
-step-by-step computation before the batched kernels)."""
+``ValueFunction.value`` and ``defender_control`` called per batch of points and the
+certificate's own functions (the defenders' step-by-step computation before the batched
+kernels)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from policies.certificate import Game, Tubes, restrict, still_winning
+from policies.lookups import DecisionTables
+from reachavoid_env import GameState
 from reachavoid_env.rules import unit_vectors
 from solvers.hj import ValueFunction
 
 
-def step_values(attackers: np.ndarray, defenders: np.ndarray, active: np.ndarray,
-                settled: np.ndarray, vf11: ValueFunction, vf21: ValueFunction | None
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """``lookups.step_values`` from the tubes' ``value``."""
+def decision_tables(state: GameState, certified: list[Game], tubes: Tubes
+                    ) -> DecisionTables:
+    """``lookups.decision_tables`` the step-by-step way: the 1 vs 1 table from the tube's
+    ``value``, ``still_winning`` and ``restrict`` (``policies.certificate``), and the
+    2 vs 1 value of every candidate pair of the restricted program in one lookup."""
+    attackers, defenders = state.attacker_positions, state.defender_positions
+    active = state.active_attackers
     m, n = len(attackers), len(defenders)
     states = np.concatenate([np.repeat(attackers, n, axis=0), np.tile(defenders, (m, 1))],
                             axis=1)
-    values11 = vf11.value(states).reshape(m, n)
+    values11 = tubes.vf11.value(states).reshape(m, n)
     values21 = np.full((m, m, n), np.nan)
-    if vf21 is None:
-        return values11, values21
+    kept = still_winning(certified, state, values11, tubes, values21) if certified else []
+    left = np.zeros((len(certified), 2), dtype=bool)
+    on = np.zeros(len(certified), dtype=bool)
+    for g, game in enumerate(certified):
+        left[g, :len(game.attackers)] = active[list(game.attackers)]
+        still = tuple(i for i in game.attackers if active[i])
+        on[g] = Game(game.defenders, still) in kept
+    beats, program_active, busy = restrict(values11 <= 0.0, active, kept)
+    beats_2v1 = np.zeros((m, m, n), dtype=bool)
+    candidates = program_active[:, None] & ~beats
     first, second = np.triu_indices(m, k=1)
-    loses = active[:, None] & (values11 > 0.0) & ~settled
-    pair, j = np.nonzero(loses[first] & loses[second])
-    if len(j):
+    pair, j = np.nonzero(candidates[first] & candidates[second])
+    if len(j) and tubes.vf21 is not None:
         one, two = first[pair], second[pair]
-        values = vf21.value(np.concatenate([attackers[one], attackers[two], defenders[j]],
-                                           axis=1))
-        values21[one, two, j] = values
-        values21[two, one, j] = values
-    return values11, values21
+        values = tubes.vf21.value(np.concatenate([attackers[one], attackers[two],
+                                                  defenders[j]], axis=1))
+        values21[one, two, j] = values21[two, one, j] = values
+        beats_2v1[one, two, j] = beats_2v1[two, one, j] = values <= 0.0
+    return DecisionTables(values11, values21, on, left, beats, beats_2v1, program_active,
+                          busy)
 
 
 def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
