@@ -73,25 +73,38 @@ def pair_states(attackers: np.ndarray, defenders: np.ndarray) -> np.ndarray:
     return states
 
 
+@functools.cache
+def _no_team_values(games: int) -> np.ndarray:
+    """``decision_tables``' team values of ``games`` certified games none of which is a
+    team (read for none; read-only)."""
+    values = np.full(games, np.nan)
+    values.setflags(write=False)
+    return values
+
+
 @functools.lru_cache(maxsize=1024)
-def _game_rows(games: tuple[Game, ...]) -> np.ndarray:
+def _game_rows(games: tuple[Game, ...]) -> tuple[np.ndarray, np.ndarray]:
     """``games`` as ``decision_tables`` takes them: int64 rows ``(j, k, i, l)``, -1 for
-    a second defender or attacker a game does not have."""
+    a second defender or attacker a game does not have; and the positions of the teams
+    (made once per distinct list, read-only)."""
     rows = np.full((len(games), 4), -1, dtype=np.int64)
     for g, game in enumerate(games):
         rows[g, :len(game.defenders)] = game.defenders
         rows[g, 2:2 + len(game.attackers)] = game.attackers
-    return rows
+    teams = np.flatnonzero(rows[:, 1] >= 0)
+    rows.setflags(write=False)
+    teams.setflags(write=False)
+    return rows, teams
 
 
 def _kept_games(certified: list[Game], kept: np.ndarray, left: np.ndarray) -> list[Game]:
     """The ``certified`` games still on (``decision_tables``), without the attackers that
     left."""
     games = []
-    for game, on, present in zip(certified, kept, left, strict=True):
+    for game, on, present in zip(certified, kept.tolist(), left.tolist(), strict=True):
         here = present[:len(game.attackers)]
         if on:
-            games.append(game if here.all() else Game(game.defenders, tuple(
+            games.append(game if all(here) else Game(game.defenders, tuple(
                 i for i, stays in zip(game.attackers, here, strict=True) if stays)))
     return games
 
@@ -314,10 +327,10 @@ class _AssignmentDefender(ABC):
                 ) -> DecisionTables:
         """``decision_tables`` of ``state`` with the ``certified`` games of the last
         decision (the 1 vs 2 values of their teams looked up first)."""
-        rows = _game_rows(tuple(certified))
-        team_values = np.full(len(rows), np.nan)
-        teams = np.flatnonzero(rows[:, 1] >= 0)
+        rows, teams = _game_rows(tuple(certified))
+        team_values = _no_team_values(len(rows))
         if len(teams):
+            team_values = np.full(len(rows), np.nan)
             team_values[teams] = self.vf12.value(team_states(
                 state.attacker_positions, state.defender_positions, rows[teams][:, [2, 0, 1]]))
         return decision_tables(state.attacker_positions, state.defender_positions, active,
@@ -402,13 +415,12 @@ class HJDefenderPolicy(_AssignmentDefender):
                       ) -> list[tuple[int, int]]:
         if self.idle == "stand":
             return []
-        active = state.active_attackers
-        free = active.copy()
-        free[[i for i, _ in self._assignment.pairs]
-             + [i for i, *_ in self._assignment.shared]] = False
-        pool = np.flatnonzero(free if free.any() else active)
-        best = pool[np.argmax(values11[pool][:, idle], axis=0)]
-        return [(j, int(i)) for j, i in zip(idle, best, strict=True)]
+        active = state.active_attackers.tolist()
+        taken = {i for i, _ in self._assignment.pairs} | {i for i, *_ in self._assignment.shared}
+        pool = ([i for i, on in enumerate(active) if on and i not in taken]
+                or [i for i, on in enumerate(active) if on])
+        values = values11.tolist()
+        return [(j, max(pool, key=lambda i, j=j: values[i][j])) for j in idle]
 
 
 class HJPairsDefenderPolicy(HJDefenderPolicy):
