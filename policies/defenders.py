@@ -13,7 +13,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from policies.certificate import Game, Tubes, games_of, joined
-from policies.lookups import DecisionTables, TubeArrays, decision_tables, defender_headings
+from policies.lookups import DecisionTables, TubeArrays, decision_controls, decision_tables
 from policies.tubes import tube_1v1, tube_1v2, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario
 from reachavoid_env.rules import unit_vectors
@@ -299,16 +299,21 @@ class _AssignmentDefender(ABC):
         self._assignment, self._step = assignment, (state, bool(kept))
         singles, doubles, idle, games = _roles(assignment)
         fresh = [game for game in games if game not in kept]
-        if certify:
-            clear = self.tubes.slack(fresh, state, tables.values11,
-                                     values21=tables.values21) > 0.0
-            fresh = [game for game, on in zip(fresh, clear, strict=True) if on]
-        self._certified = kept + fresh
         if idle:
             shadows = np.array(self._idle_targets(state, list(idle), tables.values11),
                                dtype=np.int64)
             singles = np.concatenate([singles, shadows.reshape(-1, 2)])
-        defender_headings(attackers, defenders, singles, doubles, *self._tube_arrays, actions)
+        rows, teams = _game_rows(tuple(fresh) if certify else ())
+        slack = decision_controls(attackers, defenders, singles, doubles, rows, self._margins,
+                                  tables.values11, tables.values21, *self._tube_arrays,
+                                  actions)
+        if certify:
+            if len(teams):
+                slack[teams] = self.tubes.slack([fresh[g] for g in teams], state,
+                                                tables.values11)
+            fresh = [game for game, on in zip(fresh, (slack > 0.0).tolist(), strict=True)
+                     if on]
+        self._certified = kept + fresh
         if assignment.shared:
             teams = np.array(assignment.shared)
             states = team_states(attackers, defenders, teams)
@@ -317,6 +322,11 @@ class _AssignmentDefender(ABC):
                 actions[j] = _headings(self.vf12.control(states, player),
                                        attackers[teams[:, 0]] - defenders[j])
         return dict(zip(names, actions, strict=True))
+
+    @functools.cached_property
+    def _margins(self) -> np.ndarray:
+        """The tubes' certificate margins as ``decision_controls`` takes them."""
+        return np.array(self.tubes.margins, dtype=np.float64)
 
     @functools.cached_property
     def _tube_arrays(self) -> tuple[TubeArrays, TubeArrays | None]:

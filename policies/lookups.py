@@ -1,13 +1,14 @@
-"""Batched tube lookups of one defender decision: a step's values and controls in one
-numba call each.
+"""Batched tube lookups of one defender decision: two numba calls, one before the
+assignment program and one after it.
 
 ``decision_tables`` reads the whole 1 vs 1 table of a step, checks the certified games
 and builds the program's tables, reading the 2 vs 1 value of exactly the triples these
-need; ``defender_headings`` every 1 vs 1 and 2 vs 1 defender control of the step with
-its fallback heading. Both evaluate each point
-with the interpolation kernels' own per-point helpers (``solvers.hj.kernels``), so they
-return exactly (bit for bit) what ``ValueFunction.value`` and ``defender_control`` give
-point by point; ``lookups_reference`` holds their pure-numpy twins, built on those calls.
+need; ``decision_controls`` every 1 vs 1 and 2 vs 1 defender control of the step with
+its fallback heading, and the certificate slacks of the step's new games. Both evaluate
+each point with the interpolation kernels' own per-point helpers
+(``solvers.hj.kernels``), so they return exactly (bit for bit) what
+``ValueFunction.value`` and ``defender_control`` give point by point;
+``lookups_reference`` holds their pure-numpy twins, built on those calls.
 
 A tube goes to the kernels as ``TubeArrays``: its stored rows, ``stored_of``, the grid's
 kernel arrays and the defender's two axes (plain arrays, made once per policy).
@@ -250,12 +251,47 @@ def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, a
         _heading(gradient[0], gradient[1], fx, fy, actions[j])
 
 
-def defender_headings(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
-                      doubles: np.ndarray, tube11: TubeArrays, tube21: TubeArrays | None,
-                      actions: np.ndarray) -> None:
-    """Write into ``actions (N, 2)`` (float32) the optimal heading of every defender of
+@njit(cache=True)
+def _game_slacks(attackers, defenders, games, margins, values11, values21, tube21):
+    slack = np.empty(games.shape[0], dtype=np.float64)
+    lower = np.empty(6, dtype=np.int64)
+    weights = np.empty(64, dtype=np.float64)
+    point = np.empty(6, dtype=np.float64)
+    layout = _layout(tube21)
+    for g in range(games.shape[0]):
+        j, k, i, other = games[g, 0], games[g, 1], games[g, 2], games[g, 3]
+        if k >= 0:
+            slack[g] = np.nan
+            continue
+        second = i if other < 0 else other
+        slack[g] = min(values11[i, j], values11[second, j]) - margins[0]
+        if other >= 0:
+            value = _pair_value(tube21, layout, attackers, defenders, i, other, j, point,
+                                lower, weights, values21)
+            slack[g] = min(slack[g], value - margins[1])
+    return slack
+
+
+@njit(cache=True)
+def _decision_controls(attackers, defenders, singles, doubles, games, margins, values11,
+                       values21, tube11, tube21, actions):
+    _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, actions)
+    return _game_slacks(attackers, defenders, games, margins, values11, values21, tube21)
+
+
+def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
+                      doubles: np.ndarray, games: np.ndarray, margins: np.ndarray,
+                      values11: np.ndarray, values21: np.ndarray, tube11: TubeArrays,
+                      tube21: TubeArrays | None, actions: np.ndarray) -> np.ndarray:
+    """Everything one decision reads of the tubes after its program, in one call.
+
+    Writes into ``actions (N, 2)`` (float32) the optimal heading of every defender of
     ``singles`` (int64 rows ``(defender, attacker)``: its 1 vs 1 control) and ``doubles``
     (rows ``(defender, first, second)``: its 2 vs 1 control); where the control vanishes,
-    the heading straight at its attacker (the nearer of the two, the first on a tie)."""
-    _defender_headings(attackers, defenders, singles, doubles, tube11,
-                       tube11 if tube21 is None else tube21, actions)
+    the heading straight at its attacker (the nearer of the two, the first on a tie).
+    Returns the certificate slack of each of ``games`` (rows as ``decision_tables``' games,
+    ``policies.certificate.Tubes.slack``) with ``margins`` ``(3,)`` and the step's tables
+    ``values11``, ``values21`` (its missing 2 vs 1 values looked up and stored); NaN for
+    teams (the 1 vs 2 tube is not read here)."""
+    return _decision_controls(attackers, defenders, singles, doubles, games, margins, values11,
+                              values21, tube11, tube11 if tube21 is None else tube21, actions)

@@ -56,10 +56,31 @@ def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
     return controls
 
 
-def defender_headings(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
-                      doubles: np.ndarray, vf11: ValueFunction, vf21: ValueFunction | None,
-                      actions: np.ndarray) -> None:
-    """``lookups.defender_headings`` from the tubes' ``defender_control``."""
+def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
+                      doubles: np.ndarray, games: np.ndarray, margins: np.ndarray,
+                      values11: np.ndarray, values21: np.ndarray, vf11: ValueFunction,
+                      vf21: ValueFunction | None, actions: np.ndarray) -> np.ndarray:
+    """``lookups.decision_controls`` from the tubes' ``defender_control`` and ``value``."""
+    _defender_headings(attackers, defenders, singles, doubles, vf11, vf21, actions)
+    slack = np.full(len(games), np.nan)
+    for g, (j, k, i, other) in enumerate(games):
+        if k >= 0:
+            continue
+        second = i if other < 0 else other
+        slack[g] = np.minimum(values11[i, j], values11[second, j]) - margins[0]
+        if other >= 0:
+            value = values21[i, other, j]
+            if np.isnan(value):
+                value = vf21.value(np.concatenate([attackers[i], attackers[other],
+                                                   defenders[j]]))
+                values21[i, other, j] = values21[other, i, j] = value
+            slack[g] = np.minimum(slack[g], value - margins[1])
+    return slack
+
+
+def _defender_headings(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
+                       doubles: np.ndarray, vf11: ValueFunction, vf21: ValueFunction | None,
+                       actions: np.ndarray) -> None:
     if len(singles):
         j, i = singles.T
         controls = vf11.defender_control(np.concatenate([attackers[i], defenders[j]], axis=1))

@@ -21,11 +21,12 @@ class StepByStepDefender(HJDefenderPolicy):
 
 
 def step_by_step(monkeypatch, vf11, vf21):
-    """Route the policies' headings through the reference (``defender_headings``)."""
-    def headings(attackers, defenders, singles, doubles, tube11, tube21, actions):
-        reference.defender_headings(attackers, defenders, singles, doubles, vf11, vf21,
-                                    actions)
-    monkeypatch.setattr(defenders_module, "defender_headings", headings)
+    """Route the policies' controls and slacks through the reference
+    (``decision_controls``)."""
+    def controls(*arrays):
+        *inputs, _, _, actions = arrays
+        return reference.decision_controls(*inputs, vf11, vf21, actions)
+    monkeypatch.setattr(defenders_module, "decision_controls", controls)
 
 
 def play(seed: int, attackers, decide) -> None:
@@ -55,7 +56,8 @@ def assert_same_tables(ours, theirs):
 def test_tables_and_headings_match_step_by_step(coarse_tubes, seed, attackers, margin):
     """Before every decision of the episode: ``decision_tables`` with the policy's
     certified games equals the reference; the headings of every defender against every
-    attacker alone and against every pair equal the reference's."""
+    attacker alone and against every pair, and the slacks of all these games, equal the
+    reference's."""
     vf11, vf21 = coarse_tubes
     policy = HJDefenderPolicy(vf11, vf21, margin_cells=margin)
     tubes = lookups.TubeArrays.of(vf11), lookups.TubeArrays.of(vf21)
@@ -75,13 +77,25 @@ def test_tables_and_headings_match_step_by_step(coarse_tubes, seed, attackers, m
         groups = [(np.stack([every, np.full(n, i)], axis=1), none2) for i in range(m)] + [
             (none1, np.stack([every, np.full(n, i), np.full(n, k)], axis=1))
             for i in range(m) for k in range(i + 1, m)]
-        for singles, doubles in groups:    # each defender once per call
+        games = np.concatenate(
+            [np.stack([singles[:, 0], np.full(len(singles), -1), *singles[:, 1:].T,
+                       np.full(len(singles), -1)], axis=1) for singles, _ in groups[:m]]
+            + [np.insert(doubles, 1, -1, axis=1) for _, doubles in groups[m:]]
+            + [np.array([[0, 1, 0, -1]])])        # a team: not read here (NaN)
+        margins = np.array(policy.tubes.margins)
+        for g, (singles, doubles) in enumerate(groups):    # each defender once per call
             mine, expected = (np.zeros((n, 2), np.float32) for _ in range(2))
-            lookups.defender_headings(state.attacker_positions, state.defender_positions,
-                                      singles, doubles, *tubes, mine)
-            reference.defender_headings(state.attacker_positions, state.defender_positions,
-                                        singles, doubles, vf11, vf21, expected)
+            table, expected_table = ours.values21.copy(), ours.values21.copy()
+            rows = games if g == 0 else games[:0]
+            slack = lookups.decision_controls(
+                state.attacker_positions, state.defender_positions, singles, doubles, rows,
+                margins, ours.values11, table, *tubes, mine)
+            expected_slack = reference.decision_controls(
+                state.attacker_positions, state.defender_positions, singles, doubles, rows,
+                margins, ours.values11, expected_table, vf11, vf21, expected)
             assert np.array_equal(mine, expected), (step, singles, doubles)
+            assert np.array_equal(slack, expected_slack, equal_nan=True), step
+            assert np.array_equal(table, expected_table, equal_nan=True), step
         return policy.act(state)
 
     play(seed, attackers, decide)
@@ -98,7 +112,7 @@ def test_actions_match_step_by_step(coarse_tubes, monkeypatch, seed, attackers, 
     vf11, vf21 = coarse_tubes
     fast = HJDefenderPolicy(vf11, vf21, margin_cells=margin)
     slow = StepByStepDefender(vf11, vf21, margin_cells=margin)
-    batched = defenders_module.defender_headings
+    batched = defenders_module.decision_controls
 
     def decide(scenario, step, state):
         if step == 0:
@@ -107,7 +121,7 @@ def test_actions_match_step_by_step(coarse_tubes, monkeypatch, seed, attackers, 
         ours = fast.act(state)
         with monkeypatch.context() as patch:
             step_by_step(patch, vf11, vf21)
-            assert defenders_module.defender_headings is not batched
+            assert defenders_module.decision_controls is not batched
             theirs = slow.act(state)
         assert ours.keys() == theirs.keys()
         for name in ours:
