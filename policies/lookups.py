@@ -54,23 +54,24 @@ class TubeArrays(NamedTuple):
 
 
 @njit(cache=True)
-def _layout(tube):
-    """The tube's ``_row_strides`` and ``_corner_offsets`` (once per call)."""
-    strides = _row_strides(tube.shape, tube.rows.shape[1])
-    return strides, _corner_offsets(strides[0], strides[1])
+def _strides(rows, shape):
+    """A tube's ``_row_strides`` and ``_corner_offsets``: four int64 arrays."""
+    row_stride, col_stride = _row_strides(shape, rows.shape[1])
+    corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
+    return row_stride, col_stride, corner_rows, corner_cols
 
 
 @njit(cache=True)
-def _tube_value(tube, layout, point, lower, weights):
-    (row_stride, col_stride), (corner_rows, corner_cols) = layout
-    row, col = _locate_cell(point, tube.shape, tube.lo, tube.spacing, row_stride, col_stride,
-                            lower, weights)
-    return _value_at(tube.rows, tube.stored_of, row, col, corner_rows, corner_cols, weights)
+def _value(rows, stored_of, shape, lo, spacing, row_stride, col_stride, corner_rows,
+           corner_cols, point, lower, weights):
+    """The interpolated value at ``point`` (``kernels._interpolate_serial``'s steps)."""
+    row, col = _locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower, weights)
+    return _value_at(rows, stored_of, row, col, corner_rows, corner_cols, weights)
 
 
 @njit(cache=True)
-def _pair_value(tube21, layout, attackers, defenders, i, k, j, point, lower, weights,
-                values21):
+def _pair_value(rows, stored_of, shape, lo, spacing, row_stride, col_stride, corner_rows,
+                corner_cols, attackers, defenders, i, k, j, point, lower, weights, values21):
     """The 2 vs 1 value of attackers ``i < k`` against defender ``j``, looked up once
     (stored in both orders of ``values21``)."""
     value = values21[i, k, j]
@@ -78,7 +79,8 @@ def _pair_value(tube21, layout, attackers, defenders, i, k, j, point, lower, wei
         point[0], point[1] = attackers[i, 0], attackers[i, 1]
         point[2], point[3] = attackers[k, 0], attackers[k, 1]
         point[4], point[5] = defenders[j, 0], defenders[j, 1]
-        value = _tube_value(tube21, layout, point, lower, weights)
+        value = _value(rows, stored_of, shape, lo, spacing, row_stride, col_stride,
+                       corner_rows, corner_cols, point, lower, weights)
         values21[i, k, j] = value
         values21[k, i, j] = value
     return value
@@ -88,18 +90,24 @@ def _pair_value(tube21, layout, attackers, defenders, i, k, j, point, lower, wei
 def _decision_tables(attackers, defenders, active, certified, team_values, tube11, tube21,
                      with_pairs):
     m, n = attackers.shape[0], defenders.shape[0]
-    lower = np.empty(6, dtype=np.int64)
-    weights = np.empty(64, dtype=np.float64)
+    rows, stored_of, shape, lo, spacing, _ = tube11
+    row_stride, col_stride, corner_rows, corner_cols = _strides(rows, shape)
+    lower = np.empty(4, dtype=np.int64)
+    weights = np.empty(16, dtype=np.float64)
     point = np.empty(4, dtype=np.float64)
     values11 = np.empty((m, n), dtype=np.float64)
-    layout = _layout(tube11)
     for i in range(m):
         for j in range(n):
             point[0], point[1] = attackers[i, 0], attackers[i, 1]
             point[2], point[3] = defenders[j, 0], defenders[j, 1]
-            values11[i, j] = _tube_value(tube11, layout, point, lower[:4], weights[:16])
+            values11[i, j] = _value(rows, stored_of, shape, lo, spacing, row_stride,
+                                    col_stride, corner_rows, corner_cols, point, lower,
+                                    weights)
     values21 = np.full((m, m, n), np.nan)
-    layout21 = _layout(tube21)
+    rows, stored_of, shape, lo, spacing, _ = tube21
+    row_stride, col_stride, corner_rows, corner_cols = _strides(rows, shape)
+    lower = np.empty(6, dtype=np.int64)
+    weights = np.empty(64, dtype=np.float64)
     point = np.empty(6, dtype=np.float64)
     left = np.zeros((certified.shape[0], 2), dtype=np.bool_)
     kept = np.zeros(certified.shape[0], dtype=np.bool_)
@@ -119,8 +127,10 @@ def _decision_tables(attackers, defenders, active, certified, team_values, tube1
                 if left[g, a]:
                     value = min(value, values11[certified[g, 2 + a], d1])
             if left[g, 0] and left[g, 1]:
-                value = min(value, _pair_value(tube21, layout21, attackers, defenders, a1, a2,
-                                               d1, point, lower, weights, values21))
+                value = min(value, _pair_value(
+                    rows, stored_of, shape, lo, spacing, row_stride, col_stride, corner_rows,
+                    corner_cols, attackers, defenders, a1, a2, d1, point, lower, weights,
+                    values21))
         if value > 0.0:
             kept[g] = True
             for a in range(2):
@@ -141,8 +151,10 @@ def _decision_tables(attackers, defenders, active, certified, team_values, tube1
                     continue
                 for j in range(n):
                     if not (beats[i, j] or beats[k, j]):
-                        wins = _pair_value(tube21, layout21, attackers, defenders, i, k, j,
-                                           point, lower, weights, values21) <= 0.0
+                        wins = _pair_value(
+                            rows, stored_of, shape, lo, spacing, row_stride, col_stride,
+                            corner_rows, corner_cols, attackers, defenders, i, k, j, point,
+                            lower, weights, values21) <= 0.0
                         beats_2v1[i, k, j] = wins
                         beats_2v1[k, i, j] = wins
     return values11, values21, kept, left, beats, beats_2v1, program_active, busy
@@ -201,7 +213,7 @@ def values21_at(values21: np.ndarray, first: np.ndarray, second: np.ndarray,
     return values
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _heading(gx, gy, fx, fy, out):
     """``(gx, gy)`` scaled to length 1, or where it is no longer than the floor the
     fallback ``(fx, fy)`` scaled to length 1 (zero where that is zero), into ``out``."""
@@ -217,33 +229,35 @@ def _heading(gx, gy, fx, fy, out):
 
 
 @njit(cache=True)
-def _tube_gradient(tube, layout, point, lower, weights, gradient):
-    _gradient_point(tube.rows, tube.stored_of, tube.shape, tube.lo, tube.spacing, layout[0],
-                    layout[1], point, tube.defender_axes, lower, weights, gradient, False)
-
-
-@njit(cache=True)
 def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, actions):
-    lower = np.empty(6, dtype=np.int64)
-    weights = np.empty(64, dtype=np.float64)
     gradient = np.empty(2, dtype=np.float64)
+    rows, stored_of, shape, lo, spacing, axes = tube11
+    row_stride, col_stride, corner_rows, corner_cols = _strides(rows, shape)
+    strides, corners = (row_stride, col_stride), (corner_rows, corner_cols)
+    lower = np.empty(4, dtype=np.int64)
+    weights = np.empty(16, dtype=np.float64)
     point = np.empty(4, dtype=np.float64)
-    layout = _layout(tube11)
     for s in range(singles.shape[0]):
         j, i = singles[s, 0], singles[s, 1]
         point[0], point[1] = attackers[i, 0], attackers[i, 1]
         point[2], point[3] = defenders[j, 0], defenders[j, 1]
-        _tube_gradient(tube11, layout, point, lower[:4], weights[:16], gradient)
+        _gradient_point(rows, stored_of, shape, lo, spacing, strides, corners, point, axes,
+                        lower, weights, gradient, False)
         _heading(gradient[0], gradient[1], attackers[i, 0] - defenders[j, 0],
                  attackers[i, 1] - defenders[j, 1], actions[j])
+    rows, stored_of, shape, lo, spacing, axes = tube21
+    row_stride, col_stride, corner_rows, corner_cols = _strides(rows, shape)
+    strides, corners = (row_stride, col_stride), (corner_rows, corner_cols)
+    lower = np.empty(6, dtype=np.int64)
+    weights = np.empty(64, dtype=np.float64)
     point = np.empty(6, dtype=np.float64)
-    layout = _layout(tube21)
     for d in range(doubles.shape[0]):
         j, first, second = doubles[d, 0], doubles[d, 1], doubles[d, 2]
         point[0], point[1] = attackers[first, 0], attackers[first, 1]
         point[2], point[3] = attackers[second, 0], attackers[second, 1]
         point[4], point[5] = defenders[j, 0], defenders[j, 1]
-        _tube_gradient(tube21, layout, point, lower, weights, gradient)
+        _gradient_point(rows, stored_of, shape, lo, spacing, strides, corners, point, axes,
+                        lower, weights, gradient, False)
         fx, fy = attackers[first, 0] - defenders[j, 0], attackers[first, 1] - defenders[j, 1]
         sx, sy = attackers[second, 0] - defenders[j, 0], attackers[second, 1] - defenders[j, 1]
         if math.hypot(sx, sy) < math.hypot(fx, fy):
@@ -254,10 +268,11 @@ def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, a
 @njit(cache=True)
 def _game_slacks(attackers, defenders, games, margins, values11, values21, tube21):
     slack = np.empty(games.shape[0], dtype=np.float64)
+    rows, stored_of, shape, lo, spacing, _ = tube21
+    row_stride, col_stride, corner_rows, corner_cols = _strides(rows, shape)
     lower = np.empty(6, dtype=np.int64)
     weights = np.empty(64, dtype=np.float64)
     point = np.empty(6, dtype=np.float64)
-    layout = _layout(tube21)
     for g in range(games.shape[0]):
         j, k, i, other = games[g, 0], games[g, 1], games[g, 2], games[g, 3]
         if k >= 0:
@@ -266,8 +281,9 @@ def _game_slacks(attackers, defenders, games, margins, values11, values21, tube2
         second = i if other < 0 else other
         slack[g] = min(values11[i, j], values11[second, j]) - margins[0]
         if other >= 0:
-            value = _pair_value(tube21, layout, attackers, defenders, i, other, j, point,
-                                lower, weights, values21)
+            value = _pair_value(rows, stored_of, shape, lo, spacing, row_stride, col_stride,
+                                corner_rows, corner_cols, attackers, defenders, i, other, j,
+                                point, lower, weights, values21)
             slack[g] = min(slack[g], value - margins[1])
     return slack
 
