@@ -62,28 +62,28 @@ def _strides(rows, shape):
 
 
 @njit(cache=True)
-def _value(rows, stored_of, shape, lo, spacing, row_stride, col_stride, corner_rows,
-           corner_cols, point, lower, weights):
-    """The interpolated value at ``point`` (``kernels._interpolate_serial``'s steps)."""
-    row, col = _locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower, weights)
-    return _value_at(rows, stored_of, row, col, corner_rows, corner_cols, weights)
-
-
-@njit(cache=True)
-def _pair_value(rows, stored_of, shape, lo, spacing, row_stride, col_stride, corner_rows,
-                corner_cols, attackers, defenders, i, k, j, point, lower, weights, values21):
-    """The 2 vs 1 value of attackers ``i < k`` against defender ``j``, looked up once
-    (stored in both orders of ``values21``)."""
-    value = values21[i, k, j]
-    if np.isnan(value):
+def _fill_pairs(tube21, attackers, defenders, triples, count, values21):
+    """Look up the 2 vs 1 value of the first ``count`` rows ``(i, k, j)`` of ``triples``
+    (attackers ``i < k``, defender ``j``) where ``values21`` has none yet, into both of
+    its orders. One call per batch: the per-point work calls the interpolation helpers
+    directly (a helper per point costs as much again)."""
+    rows, stored_of, shape, lo, spacing, _ = tube21
+    row_stride, col_stride, corner_rows, corner_cols = _strides(rows, shape)
+    lower = np.empty(6, dtype=np.int64)
+    weights = np.empty(64, dtype=np.float64)
+    point = np.empty(6, dtype=np.float64)
+    for t in range(count):
+        i, k, j = triples[t, 0], triples[t, 1], triples[t, 2]
+        if not np.isnan(values21[i, k, j]):
+            continue
         point[0], point[1] = attackers[i, 0], attackers[i, 1]
         point[2], point[3] = attackers[k, 0], attackers[k, 1]
         point[4], point[5] = defenders[j, 0], defenders[j, 1]
-        value = _value(rows, stored_of, shape, lo, spacing, row_stride, col_stride,
-                       corner_rows, corner_cols, point, lower, weights)
+        row, col = _locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower,
+                                weights)
+        value = _value_at(rows, stored_of, row, col, corner_rows, corner_cols, weights)
         values21[i, k, j] = value
         values21[k, i, j] = value
-    return value
 
 
 @njit(cache=True)
@@ -100,15 +100,20 @@ def _decision_tables(attackers, defenders, active, certified, team_values, tube1
         for j in range(n):
             point[0], point[1] = attackers[i, 0], attackers[i, 1]
             point[2], point[3] = defenders[j, 0], defenders[j, 1]
-            values11[i, j] = _value(rows, stored_of, shape, lo, spacing, row_stride,
-                                    col_stride, corner_rows, corner_cols, point, lower,
+            row, col = _locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower,
                                     weights)
+            values11[i, j] = _value_at(rows, stored_of, row, col, corner_rows, corner_cols,
+                                       weights)
     values21 = np.full((m, m, n), np.nan)
-    rows, stored_of, shape, lo, spacing, _ = tube21
-    row_stride, col_stride, corner_rows, corner_cols = _strides(rows, shape)
-    lower = np.empty(6, dtype=np.int64)
-    weights = np.empty(64, dtype=np.float64)
-    point = np.empty(6, dtype=np.float64)
+    triples = np.empty((max(certified.shape[0], m * (m - 1) // 2 * n), 3), dtype=np.int64)
+    count = 0
+    for g in range(certified.shape[0]):
+        if certified[g, 1] < 0 and certified[g, 3] >= 0 and active[certified[g, 2]] \
+                and active[certified[g, 3]]:
+            triples[count, 0], triples[count, 1] = certified[g, 2], certified[g, 3]
+            triples[count, 2] = certified[g, 0]
+            count += 1
+    _fill_pairs(tube21, attackers, defenders, triples, count, values21)
     left = np.zeros((certified.shape[0], 2), dtype=np.bool_)
     kept = np.zeros(certified.shape[0], dtype=np.bool_)
     program_active = active.copy()
@@ -127,10 +132,7 @@ def _decision_tables(attackers, defenders, active, certified, team_values, tube1
                 if left[g, a]:
                     value = min(value, values11[certified[g, 2 + a], d1])
             if left[g, 0] and left[g, 1]:
-                value = min(value, _pair_value(
-                    rows, stored_of, shape, lo, spacing, row_stride, col_stride, corner_rows,
-                    corner_cols, attackers, defenders, a1, a2, d1, point, lower, weights,
-                    values21))
+                value = min(value, values21[a1, a2, d1])
         if value > 0.0:
             kept[g] = True
             for a in range(2):
@@ -144,19 +146,20 @@ def _decision_tables(attackers, defenders, active, certified, team_values, tube1
         for j in range(n):
             beats[i, j] = values11[i, j] <= 0.0 or busy[j]
     beats_2v1 = np.zeros((m, m, n), dtype=np.bool_)
-    if with_pairs:
-        for i in range(m):
-            for k in range(i + 1, m):
-                if not (program_active[i] and program_active[k]):
-                    continue
+    if not with_pairs:
+        return values11, values21, kept, left, beats, beats_2v1, program_active, busy
+    count = 0
+    for i in range(m):
+        for k in range(i + 1, m):
+            if program_active[i] and program_active[k]:
                 for j in range(n):
                     if not (beats[i, j] or beats[k, j]):
-                        wins = _pair_value(
-                            rows, stored_of, shape, lo, spacing, row_stride, col_stride,
-                            corner_rows, corner_cols, attackers, defenders, i, k, j, point,
-                            lower, weights, values21) <= 0.0
-                        beats_2v1[i, k, j] = wins
-                        beats_2v1[k, i, j] = wins
+                        triples[count, 0], triples[count, 1], triples[count, 2] = i, k, j
+                        count += 1
+    _fill_pairs(tube21, attackers, defenders, triples, count, values21)
+    for t in range(count):
+        i, k, j = triples[t, 0], triples[t, 1], triples[t, 2]
+        beats_2v1[i, k, j] = beats_2v1[k, i, j] = values21[i, k, j] <= 0.0
     return values11, values21, kept, left, beats, beats_2v1, program_active, busy
 
 
@@ -267,12 +270,15 @@ def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, a
 
 @njit(cache=True)
 def _game_slacks(attackers, defenders, games, margins, values11, values21, tube21):
+    triples = np.empty((games.shape[0], 3), dtype=np.int64)
+    count = 0
+    for g in range(games.shape[0]):
+        if games[g, 1] < 0 and games[g, 3] >= 0:
+            triples[count, 0], triples[count, 1] = games[g, 2], games[g, 3]
+            triples[count, 2] = games[g, 0]
+            count += 1
+    _fill_pairs(tube21, attackers, defenders, triples, count, values21)
     slack = np.empty(games.shape[0], dtype=np.float64)
-    rows, stored_of, shape, lo, spacing, _ = tube21
-    row_stride, col_stride, corner_rows, corner_cols = _strides(rows, shape)
-    lower = np.empty(6, dtype=np.int64)
-    weights = np.empty(64, dtype=np.float64)
-    point = np.empty(6, dtype=np.float64)
     for g in range(games.shape[0]):
         j, k, i, other = games[g, 0], games[g, 1], games[g, 2], games[g, 3]
         if k >= 0:
@@ -281,10 +287,7 @@ def _game_slacks(attackers, defenders, games, margins, values11, values21, tube2
         second = i if other < 0 else other
         slack[g] = min(values11[i, j], values11[second, j]) - margins[0]
         if other >= 0:
-            value = _pair_value(rows, stored_of, shape, lo, spacing, row_stride, col_stride,
-                                corner_rows, corner_cols, attackers, defenders, i, other, j,
-                                point, lower, weights, values21)
-            slack[g] = min(slack[g], value - margins[1])
+            slack[g] = min(slack[g], values21[i, other, j] - margins[1])
     return slack
 
 
