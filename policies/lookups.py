@@ -54,11 +54,17 @@ class TubeArrays(NamedTuple):
 
 
 @njit(cache=True)
-def _strides(rows, shape):
-    """A tube's ``_row_strides`` and ``_corner_offsets``: four int64 arrays."""
-    row_stride, col_stride = _row_strides(shape, rows.shape[1])
-    corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
-    return row_stride, col_stride, corner_rows, corner_cols
+def _scratch(tube):
+    """A tube's arrays, its ``(row, element)`` strides (``_row_strides``) and corner
+    offsets (``_corner_offsets``), and scratch arrays for one point: node index, corner
+    weights, coordinates."""
+    rows, stored_of, shape, lo, spacing, axes = tube
+    strides = _row_strides(shape, rows.shape[1])
+    corners = _corner_offsets(strides[0], strides[1])
+    ndim = shape.size
+    return (rows, stored_of, shape, lo, spacing, axes, strides, corners,
+            np.empty(ndim, dtype=np.int64), np.empty(1 << ndim, dtype=np.float64),
+            np.empty(ndim, dtype=np.float64))
 
 
 @njit(cache=True)
@@ -67,11 +73,8 @@ def _fill_pairs(tube21, attackers, defenders, triples, count, values21):
     (attackers ``i < k``, defender ``j``) where ``values21`` has none yet, into both of
     its orders. One call per batch: the per-point work calls the interpolation helpers
     directly (a helper per point costs as much again)."""
-    rows, stored_of, shape, lo, spacing, _ = tube21
-    row_stride, col_stride, corner_rows, corner_cols = _strides(rows, shape)
-    lower = np.empty(6, dtype=np.int64)
-    weights = np.empty(64, dtype=np.float64)
-    point = np.empty(6, dtype=np.float64)
+    rows, stored_of, shape, lo, spacing, _, strides, corners, lower, weights, point = \
+        _scratch(tube21)
     for t in range(count):
         i, k, j = triples[t, 0], triples[t, 1], triples[t, 2]
         if not np.isnan(values21[i, k, j]):
@@ -79,9 +82,9 @@ def _fill_pairs(tube21, attackers, defenders, triples, count, values21):
         point[0], point[1] = attackers[i, 0], attackers[i, 1]
         point[2], point[3] = attackers[k, 0], attackers[k, 1]
         point[4], point[5] = defenders[j, 0], defenders[j, 1]
-        row, col = _locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower,
+        row, col = _locate_cell(point, shape, lo, spacing, strides[0], strides[1], lower,
                                 weights)
-        value = _value_at(rows, stored_of, row, col, corner_rows, corner_cols, weights)
+        value = _value_at(rows, stored_of, row, col, corners[0], corners[1], weights)
         values21[i, k, j] = value
         values21[k, i, j] = value
 
@@ -90,19 +93,16 @@ def _fill_pairs(tube21, attackers, defenders, triples, count, values21):
 def _decision_tables(attackers, defenders, active, certified, team_values, tube11, tube21,
                      with_pairs):
     m, n = attackers.shape[0], defenders.shape[0]
-    rows, stored_of, shape, lo, spacing, _ = tube11
-    row_stride, col_stride, corner_rows, corner_cols = _strides(rows, shape)
-    lower = np.empty(4, dtype=np.int64)
-    weights = np.empty(16, dtype=np.float64)
-    point = np.empty(4, dtype=np.float64)
+    rows, stored_of, shape, lo, spacing, _, strides, corners, lower, weights, point = \
+        _scratch(tube11)
     values11 = np.empty((m, n), dtype=np.float64)
     for i in range(m):
         for j in range(n):
             point[0], point[1] = attackers[i, 0], attackers[i, 1]
             point[2], point[3] = defenders[j, 0], defenders[j, 1]
-            row, col = _locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower,
+            row, col = _locate_cell(point, shape, lo, spacing, strides[0], strides[1], lower,
                                     weights)
-            values11[i, j] = _value_at(rows, stored_of, row, col, corner_rows, corner_cols,
+            values11[i, j] = _value_at(rows, stored_of, row, col, corners[0], corners[1],
                                        weights)
     values21 = np.full((m, m, n), np.nan)
     triples = np.empty((max(certified.shape[0], m * (m - 1) // 2 * n), 3), dtype=np.int64)
@@ -234,12 +234,8 @@ def _heading(gx, gy, fx, fy, out):
 @njit(cache=True)
 def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, actions):
     gradient = np.empty(2, dtype=np.float64)
-    rows, stored_of, shape, lo, spacing, axes = tube11
-    row_stride, col_stride, corner_rows, corner_cols = _strides(rows, shape)
-    strides, corners = (row_stride, col_stride), (corner_rows, corner_cols)
-    lower = np.empty(4, dtype=np.int64)
-    weights = np.empty(16, dtype=np.float64)
-    point = np.empty(4, dtype=np.float64)
+    rows, stored_of, shape, lo, spacing, axes, strides, corners, lower, weights, point = \
+        _scratch(tube11)
     for s in range(singles.shape[0]):
         j, i = singles[s, 0], singles[s, 1]
         point[0], point[1] = attackers[i, 0], attackers[i, 1]
@@ -248,12 +244,8 @@ def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, a
                         lower, weights, gradient, False)
         _heading(gradient[0], gradient[1], attackers[i, 0] - defenders[j, 0],
                  attackers[i, 1] - defenders[j, 1], actions[j])
-    rows, stored_of, shape, lo, spacing, axes = tube21
-    row_stride, col_stride, corner_rows, corner_cols = _strides(rows, shape)
-    strides, corners = (row_stride, col_stride), (corner_rows, corner_cols)
-    lower = np.empty(6, dtype=np.int64)
-    weights = np.empty(64, dtype=np.float64)
-    point = np.empty(6, dtype=np.float64)
+    rows, stored_of, shape, lo, spacing, axes, strides, corners, lower, weights, point = \
+        _scratch(tube21)
     for d in range(doubles.shape[0]):
         j, first, second = doubles[d, 0], doubles[d, 1], doubles[d, 2]
         point[0], point[1] = attackers[first, 0], attackers[first, 1]

@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 
 from policies.certificate import Game, Tubes, restrict, still_winning
+from policies.defenders import _headings
 from policies.lookups import DecisionTables
 from reachavoid_env import GameState
-from reachavoid_env.rules import unit_vectors
 from solvers.hj import ValueFunction
 
 
@@ -46,14 +46,6 @@ def decision_tables(state: GameState, certified: list[Game], tubes: Tubes
         beats_2v1[one, two, j] = beats_2v1[two, one, j] = values <= 0.0
     return DecisionTables(values11, values21, on, left, beats, beats_2v1, program_active,
                           busy)
-
-
-def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
-    still = ~controls.any(axis=1)
-    controls = controls.astype(np.float32)
-    if still.any():
-        controls[still] = unit_vectors(fallbacks[still])
-    return controls
 
 
 def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
