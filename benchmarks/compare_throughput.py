@@ -11,7 +11,8 @@ Every process runs this checkout's ``training_throughput.py`` (the same harness)
 after ``--`` go to ``training_throughput.py``. The table gives, per env, the median
 steps/s of greedy (both checkouts' runs) and of hj in each checkout, and the median and
 range of the per-pair hj / greedy ratios (each hj run against the greedy run just before
-it, in the same process).
+it, in the same process), and the median share of an hj step spent in the defenders'
+``act``.
 """
 
 from __future__ import annotations
@@ -34,6 +35,11 @@ def run_checkout(checkout: Path, options: list[str], out: Path) -> dict[str, lis
     subprocess.run([sys.executable, str(HARNESS), *options, "--json", str(out)], env=env,
                    check=True, stdout=subprocess.DEVNULL)
     return json.loads(out.read_text())
+
+
+def share(timed: list[list[float]]) -> float:
+    """The median share of the step time spent in the defenders' ``act``."""
+    return statistics.median(defenders for _, defenders, _ in timed)
 
 
 def ratio_cell(hj: list[float], greedy: list[float]) -> str:
@@ -62,7 +68,7 @@ def main() -> None:
                 for label, timed in rows.items():
                     runs[side].setdefault(label, []).extend(timed)
     print("\n| env | greedy | hj before | hj after | hj / greedy before | "
-          "hj / greedy after |\n|---|---|---|---|---|---|")
+          "hj / greedy after | hj's act, share of its step |\n|---|---|---|---|---|---|---|")
     for label in runs["after"]:
         if not label.endswith(", hj"):
             continue
@@ -74,7 +80,8 @@ def main() -> None:
               f"{statistics.median(rates['before']['hj']):,.0f} | "
               f"{statistics.median(rates['after']['hj']):,.0f} | "
               f"{ratio_cell(rates['before']['hj'], rates['before']['greedy'])} | "
-              f"{ratio_cell(rates['after']['hj'], rates['after']['greedy'])} |")
+              f"{ratio_cell(rates['after']['hj'], rates['after']['greedy'])} | "
+              f"{share(runs['before'][label]):.0%} -> {share(runs['after'][label]):.0%} |")
 
 
 if __name__ == "__main__":
