@@ -7,7 +7,9 @@ measured error), and stays certified while its value is > 0 (hysteresis: a game 
 with a clear margin is not given up for drifting into the band). The defenders keep
 every certified game (``restrict`` takes its players out of the next program and
 ``joined`` puts the game back), so the certified count falls only when a game's value
-reaches 0.
+reaches 0. In play the check and the restriction run inside the batched lookups
+(``policies.lookups.decision_tables``, tested against ``still_winning`` and
+``restrict``); ``game_rows`` and ``kept_games`` carry the games there and back.
 
 A game's value is what the program reads: ``V11`` for one defender against one attacker;
 the smallest of ``V21`` and both ``V11`` for one defender against a pair (constraints c4
@@ -117,6 +119,42 @@ def _index_of(games: tuple[Game, ...]) -> _GameIndex:
                       np.flatnonzero(rows[:, 1] != rows[:, 2]), np.array(teams, dtype=np.int64),
                       players.T, np.array([i for game in games for i in game.attackers],
                                           dtype=np.int64))
+
+
+@functools.cache
+def no_team_values(games: int) -> np.ndarray:
+    """The team values (``policies.lookups.decision_tables``) of ``games`` certified
+    games none of which is a team: read for none (read-only)."""
+    values = np.full(games, np.nan)
+    values.setflags(write=False)
+    return values
+
+
+@functools.lru_cache(maxsize=1024)
+def game_rows(games: tuple[Game, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """``games`` as ``policies.lookups.decision_tables`` takes them: int64 rows
+    ``(j, k, i, l)``, -1 for a second defender or attacker a game does not have; and the
+    positions of the teams (made once per distinct list, read-only)."""
+    rows = np.full((len(games), 4), -1, dtype=np.int64)
+    for g, game in enumerate(games):
+        rows[g, :len(game.defenders)] = game.defenders
+        rows[g, 2:2 + len(game.attackers)] = game.attackers
+    teams = np.flatnonzero(rows[:, 1] >= 0)
+    rows.setflags(write=False)
+    teams.setflags(write=False)
+    return rows, teams
+
+
+def kept_games(certified: list[Game], kept: np.ndarray, left: np.ndarray) -> list[Game]:
+    """The ``certified`` games still on (``kept`` and ``left`` from
+    ``policies.lookups.decision_tables``), without the attackers that left."""
+    games = []
+    for game, on, present in zip(certified, kept.tolist(), left.tolist(), strict=True):
+        here = present[:len(game.attackers)]
+        if on:
+            games.append(game if all(here) else Game(game.defenders, tuple(
+                i for i, stays in zip(game.attackers, here, strict=True) if stays)))
+    return games
 
 
 def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,

@@ -12,7 +12,15 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from policies.certificate import Game, Tubes, games_of, joined
+from policies.certificate import (
+    Game,
+    Tubes,
+    game_rows,
+    games_of,
+    joined,
+    kept_games,
+    no_team_values,
+)
 from policies.lookups import DecisionTables, TubeArrays, decision_controls, decision_tables
 from policies.tubes import tube_1v1, tube_1v2, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario
@@ -71,42 +79,6 @@ def pair_states(attackers: np.ndarray, defenders: np.ndarray) -> np.ndarray:
     states[..., :2] = attackers[:, None, :]
     states[..., 2:] = defenders[None, :, :]
     return states
-
-
-@functools.cache
-def _no_team_values(games: int) -> np.ndarray:
-    """``decision_tables``' team values of ``games`` certified games none of which is a
-    team (read for none; read-only)."""
-    values = np.full(games, np.nan)
-    values.setflags(write=False)
-    return values
-
-
-@functools.lru_cache(maxsize=1024)
-def _game_rows(games: tuple[Game, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """``games`` as ``decision_tables`` takes them: int64 rows ``(j, k, i, l)``, -1 for
-    a second defender or attacker a game does not have; and the positions of the teams
-    (made once per distinct list, read-only)."""
-    rows = np.full((len(games), 4), -1, dtype=np.int64)
-    for g, game in enumerate(games):
-        rows[g, :len(game.defenders)] = game.defenders
-        rows[g, 2:2 + len(game.attackers)] = game.attackers
-    teams = np.flatnonzero(rows[:, 1] >= 0)
-    rows.setflags(write=False)
-    teams.setflags(write=False)
-    return rows, teams
-
-
-def _kept_games(certified: list[Game], kept: np.ndarray, left: np.ndarray) -> list[Game]:
-    """The ``certified`` games still on (``decision_tables``), without the attackers that
-    left."""
-    games = []
-    for game, on, present in zip(certified, kept.tolist(), left.tolist(), strict=True):
-        here = present[:len(game.attackers)]
-        if on:
-            games.append(game if all(here) else Game(game.defenders, tuple(
-                i for i, stays in zip(game.attackers, here, strict=True) if stays)))
-    return games
 
 
 @functools.lru_cache(maxsize=1024)
@@ -289,7 +261,7 @@ class _AssignmentDefender(ABC):
         certify = self.margin_cells > 0.0
         certified = self._certified if certify else []
         tables = self._tables(state, active, certified)
-        kept = _kept_games(certified, tables.kept, tables.left)
+        kept = kept_games(certified, tables.kept, tables.left)
         assignment = self._solve(self.solver, state, tables)
         if kept:
             last = self._joined
@@ -303,7 +275,7 @@ class _AssignmentDefender(ABC):
             shadows = np.array(self._idle_targets(state, list(idle), tables.values11),
                                dtype=np.int64)
             singles = np.concatenate([singles, shadows.reshape(-1, 2)])
-        rows, teams = _game_rows(tuple(fresh) if certify else ())
+        rows, teams = game_rows(tuple(fresh) if certify else ())
         slack = decision_controls(attackers, defenders, singles, doubles, rows, self._margins,
                                   tables.values11, tables.values21, *self._tube_arrays,
                                   actions)
@@ -337,8 +309,8 @@ class _AssignmentDefender(ABC):
                 ) -> DecisionTables:
         """``decision_tables`` of ``state`` with the ``certified`` games of the last
         decision (the 1 vs 2 values of their teams looked up first)."""
-        rows, teams = _game_rows(tuple(certified))
-        team_values = _no_team_values(len(rows))
+        rows, teams = game_rows(tuple(certified))
+        team_values = no_team_values(len(rows))
         if len(teams):
             team_values = np.full(len(rows), np.nan)
             team_values[teams] = self.vf12.value(team_states(
