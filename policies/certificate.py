@@ -65,60 +65,30 @@ class Tubes:
         if not games:
             return np.empty(0)
         m11, m21, m12 = self.margins if margins is None else margins
-        index = _index_of(tuple(games))
         slack = np.empty(len(games))
+        pairs, teams = [], []
+        for g, game in enumerate(games):
+            if len(game.defenders) == 2:
+                teams.append(g)
+                continue
+            slack[g] = min(values11[i, game.defenders[0]] for i in game.attackers) - m11
+            if len(game.attackers) == 2:
+                pairs.append(g)
         attackers, defenders = state.attacker_positions, state.defender_positions
-        if len(index.alone):
-            first, second, alone = index.first, index.second, index.defender
-            slack[index.alone] = np.minimum(values11[first, alone],
-                                            values11[second, alone]) - m11
-        pairs = index.pairs
-        if len(pairs):
+        if pairs:
+            first, second, alone = np.array([(*games[g].attackers, games[g].defenders[0])
+                                             for g in pairs]).T
             if values21 is None:
                 values21 = np.full((len(attackers), len(attackers), len(defenders)), np.nan)
-            pair = index.alone[pairs]
-            values = values21_at(values21, first[pairs], second[pairs], alone[pairs],
-                                 self.vf21, attackers, defenders)
-            slack[pair] = np.minimum(slack[pair], values - m21)
-        if len(index.teams):
-            one, two, attacker = index.team_players
-            slack[index.teams] = self.vf12.value(np.concatenate(
-                [defenders[one], defenders[two], attackers[attacker]], axis=1)) - m12
+            values = values21_at(values21, first, second, alone, self.vf21, attackers,
+                                 defenders)
+            slack[pairs] = np.minimum(slack[pairs], values - m21)
+        if teams:
+            one, two, attacker = np.array([(*games[g].defenders, games[g].attackers[0])
+                                           for g in teams]).T
+            slack[teams] = self.vf12.value(np.concatenate([defenders[one], defenders[two],
+                                                           attackers[attacker]], axis=1)) - m12
         return slack
-
-
-@dataclass(frozen=True)
-class _GameIndex:
-    """A list of games as index arrays. ``alone``: the positions of the one-defender
-    games, whose ``defender``, ``first`` and ``second`` attacker (the same for one
-    attacker) follow; ``pairs``: those with two attackers, as positions in ``alone``;
-    ``teams``: the positions of the team games and their ``team_players`` (``j``, ``k``,
-    attacker); ``attackers``: every game's attackers."""
-
-    alone: np.ndarray
-    defender: np.ndarray
-    first: np.ndarray
-    second: np.ndarray
-    pairs: np.ndarray
-    teams: np.ndarray
-    team_players: np.ndarray
-    attackers: np.ndarray
-
-
-@functools.lru_cache(maxsize=1024)
-def _index_of(games: tuple[Game, ...]) -> _GameIndex:
-    """``games`` as index arrays (made once per distinct list: games recur step after
-    step)."""
-    alone = [g for g, game in enumerate(games) if len(game.defenders) == 1]
-    teams = [g for g, game in enumerate(games) if len(game.defenders) == 2]
-    rows = np.array([(games[g].defenders[0], games[g].attackers[0], games[g].attackers[-1])
-                     for g in alone], dtype=np.int64).reshape(-1, 3)
-    players = np.array([(*games[g].defenders, games[g].attackers[0]) for g in teams],
-                       dtype=np.int64).reshape(-1, 3)
-    return _GameIndex(np.array(alone, dtype=np.int64), *rows.T,
-                      np.flatnonzero(rows[:, 1] != rows[:, 2]), np.array(teams, dtype=np.int64),
-                      players.T, np.array([i for game in games for i in game.attackers],
-                                          dtype=np.int64))
 
 
 @functools.cache
@@ -165,13 +135,11 @@ def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
     if not certified:
         return []
     active = state.active_attackers
-    games = certified
-    if not active[_index_of(tuple(certified)).attackers].all():
-        games = []
-        for game in certified:
-            left = tuple(i for i in game.attackers if active[i])
-            if left:
-                games.append(Game(game.defenders, left))
+    games = []
+    for game in certified:
+        left = tuple(i for i in game.attackers if active[i])
+        if left:
+            games.append(Game(game.defenders, left))
     keep = tubes.slack(games, state, values11, (0.0, 0.0, 0.0), values21) > 0.0
     return [game for game, on in zip(games, keep, strict=True) if on]
 
