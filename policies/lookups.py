@@ -47,10 +47,11 @@ class TubeArrays(NamedTuple):
 
     @classmethod
     def of(cls, vf: ValueFunction) -> TubeArrays:
-        rows, stored_of = vf._rows
-        shape, lo, spacing = vf.grid.kernel_arrays
-        axes = vf._player_axes(vf.defenders[0].name)[1]
-        return cls(rows, stored_of, shape, lo, spacing, axes)
+        """``vf``'s arrays (views, not copies: the tube stays memory-mapped), the axes
+        those of its first defender."""
+        k = vf.players.index(vf.defenders[0])
+        return cls(np.asarray(vf.stored_values()), vf.stored_of, *vf.grid.kernel_arrays,
+                   np.array([2 * k, 2 * k + 1], dtype=np.int64))
 
 
 @njit(cache=True)
