@@ -20,17 +20,26 @@ is at least 1,000 steps/s for ``attackers`` on ``paper_8v4`` with ``hj`` on one 
 
     taskset -c 0 .venv/bin/python benchmarks/training_throughput.py [--steps 3000]
 
+With both ``greedy`` and ``hj`` (deciding every step), their runs of each env alternate
+(greedy, hj, greedy, hj, ... ``--repeats`` pairs, same process): the machine's drift
+between runs hits both alike, and each pair gives one hj / greedy ratio; the median ratio
+is printed with its range over the pairs. ``--json FILE`` writes every run's rate.
+Scripts under ``benchmarks/`` import the installed package: to time a checkout, put it
+first on the path (``PYTHONPATH=$PWD``).
+
 ``hj`` defenders load (or solve and cache) their tubes at ``--grid1`` / ``--grid2`` first.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import platform
 import statistics
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -44,7 +53,6 @@ EPISODE_STEPS = 1000
 CLOCK = time.process_time
 """CPU time of this process (``--clock wall`` for wall time): on a shared machine the CPU
 time of a one-core run is the steadier figure, and every row is timed alike."""
-RATES: dict[str, float] = {}
 
 
 class Timed:
@@ -117,24 +125,43 @@ def run_single(env: SingleAttackerEnv, actions: np.ndarray, learners: Timed | No
     return CLOCK() - start, in_play / len(actions)
 
 
-def measure(label: str, run: Callable[..., tuple[float, float]], env: Any,
-            actions: np.ndarray, defenders: Timed | None, repeats: int,
-            learners: Timed | None = None) -> None:
-    rates, shares, in_play = [], [], []
-    for _ in range(repeats):
+class Rows:
+    """Every timed run's rate, defenders' share and attackers in play, by row label."""
+
+    def __init__(self) -> None:
+        self.runs: dict[str, list[tuple[float, float, float]]] = {}
+
+    def time(self, label: str, run: Callable[..., tuple[float, float]], env: Any,
+             actions: np.ndarray, defenders: Timed | None,
+             learners: Timed | None = None) -> None:
+        """One timed run of ``env``, added to ``label``'s row."""
         for timed in (defenders, learners):
             if timed is not None:
                 timed.seconds = 0.0
         seconds, attackers = run(env, actions, learners)
         if learners is not None:
             seconds -= learners.seconds
-        rates.append(len(actions) / seconds)
-        shares.append(defenders.seconds / seconds if defenders is not None else 0.0)
-        in_play.append(attackers)
-    RATES[label] = statistics.median(rates)
-    share = f"defenders {statistics.median(shares):>4.0%}" if defenders is not None else ""
-    print(f"{label:<42} best {max(rates):>7,.0f}/s  median {statistics.median(rates):>7,.0f}/s"
-          f"  {share:<15} attackers in play {statistics.mean(in_play):.1f}", flush=True)
+        share = defenders.seconds / seconds if defenders is not None else 0.0
+        self.runs.setdefault(label, []).append((len(actions) / seconds, share, attackers))
+
+    def rates(self, label: str) -> list[float]:
+        return [rate for rate, _, _ in self.runs[label]]
+
+    def report(self, label: str) -> None:
+        rates = self.rates(label)
+        shares = [share for _, share, _ in self.runs[label]]
+        share = f"defenders {statistics.median(shares):>4.0%}" if max(shares) > 0 else ""
+        in_play = statistics.mean(attackers for _, _, attackers in self.runs[label])
+        print(f"{label:<52} best {max(rates):>7,.0f}/s  median "
+              f"{statistics.median(rates):>7,.0f}/s  {share:<15} attackers in play "
+              f"{in_play:.1f}", flush=True)
+
+
+def ratio_line(kind: str, hj: list[float], greedy: list[float]) -> str:
+    """The median and range of the per-pair hj / greedy ratios."""
+    ratios = [h / g for h, g in zip(hj, greedy, strict=True)]
+    return (f"  {kind}: hj / greedy = {statistics.median(ratios):.0%} (median of "
+            f"{len(ratios)} pairs, range {min(ratios):.0%}-{max(ratios):.0%})")
 
 
 def main() -> None:
@@ -151,6 +178,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3, help="timed runs per figure")
     parser.add_argument("--clock", choices=["cpu", "wall"], default="cpu",
                         help="time CPU seconds of this process or wall seconds")
+    parser.add_argument("--json", help="write every run's steps/s to this file")
     args = parser.parse_args()
     global CLOCK
     CLOCK = time.process_time if args.clock == "cpu" else time.perf_counter
@@ -159,35 +187,63 @@ def main() -> None:
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores "
           f"(this process may run on {cores}), Python {platform.python_version()}; load "
           f"average {', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    rows = Rows()
     for name in args.scenarios:
-        scenario = load_scenario(name)
-        players = scenario.num_attackers + scenario.num_defenders
-        actions = random_actions(args.steps, players, seed=0)
-        print(f"\n{name} ({scenario.num_attackers} vs {scenario.num_defenders})")
-        game = ReachAvoidEnv(scenario=scenario, max_cycles=EPISODE_STEPS)
-        measure("game, all random", run_game, game, actions, None, args.repeats)
-        shortest = Timed(attacker_factory("shortest-path")(scenario))
-        for defenders in args.defenders:
-            options = ({"grid1": args.grid1, "grid2": args.grid2, "progress": False}
-                       if defenders == "hj" else {})
-            policy = Timed(defender_factory(defenders, **options)(scenario))
-            for every in args.every if defenders == "hj" else [1]:
-                label = defenders + (f", every {every}" if every > 1 else "")
-                kwargs = {"scenario": scenario, "max_cycles": EPISODE_STEPS,
-                          "scripted_every": every}
-                env = AttackerParallelEnv(policy, **kwargs)
-                measure(f"attackers random, {label}", run_attackers, env, actions, policy,
-                        args.repeats)
-                measure(f"attackers shortest-path, {label}", run_attackers, env, actions,
-                        policy, args.repeats, learners=shortest)
-                single = SingleAttackerEnv(policy, teammates=attacker_factory()(scenario),
-                                           **kwargs)
-                measure(f"single, {label}", run_single, single, actions, policy,
-                        args.repeats)
-        if {"greedy", "hj"} <= set(args.defenders):
-            for kind in ("attackers random", "attackers shortest-path", "single"):
-                print(f"  {kind}: hj / greedy = "
-                      f"{RATES[f'{kind}, hj'] / RATES[f'{kind}, greedy']:.0%} (medians)")
+        time_scenario(name, args, rows)
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows.runs, indent=1) + "\n")
+
+
+def time_scenario(name: str, args: argparse.Namespace, rows: Rows) -> None:
+    """Every row of scenario ``name``: the game alone, then each env with each defender
+    policy (greedy and hj alternating, run by run)."""
+    scenario = load_scenario(name)
+    players = scenario.num_attackers + scenario.num_defenders
+    actions = random_actions(args.steps, players, seed=0)
+    print(f"\n{name} ({scenario.num_attackers} vs {scenario.num_defenders})")
+    game = ReachAvoidEnv(scenario=scenario, max_cycles=EPISODE_STEPS)
+    for _ in range(args.repeats):
+        rows.time(f"{name}: game, all random", run_game, game, actions, None)
+    rows.report(f"{name}: game, all random")
+    shortest = Timed(attacker_factory("shortest-path")(scenario))
+    configs = [(defenders, every) for defenders in args.defenders
+               for every in (args.every if defenders == "hj" else [1])]
+    paired = {("greedy", 1), ("hj", 1)} <= set(configs)
+    envs = {}
+    for defenders, every in configs:
+        options = ({"grid1": args.grid1, "grid2": args.grid2, "progress": False}
+                   if defenders == "hj" else {})
+        policy = Timed(defender_factory(defenders, **options)(scenario))
+        kwargs = {"scenario": scenario, "max_cycles": EPISODE_STEPS,
+                  "scripted_every": every}
+        envs[defenders, every] = (policy, AttackerParallelEnv(policy, **kwargs),
+                                  SingleAttackerEnv(policy, teammates=attacker_factory()(
+                                      scenario), **kwargs))
+    for kind, run in (("attackers random", run_attackers),
+                      ("attackers shortest-path", run_attackers), ("single", run_single)):
+        groups = ([[("greedy", 1), ("hj", 1)]] if paired else []) + [
+            [config] for config in configs
+            if not paired or config not in (("greedy", 1), ("hj", 1))]
+        for group in groups:
+            for defenders, every in group:  # untimed: compiles, maps the tubes in
+                policy, attackers_env, single_env = envs[defenders, every]
+                run(single_env if kind == "single" else attackers_env,
+                    actions[:len(actions) // 10], shortest if kind.endswith("path") else None)
+            for _ in range(args.repeats):
+                for defenders, every in group:
+                    policy, attackers_env, single_env = envs[defenders, every]
+                    rows.time(f"{name}: {kind}, {_label(defenders, every)}", run,
+                              single_env if kind == "single" else attackers_env, actions,
+                              policy, shortest if kind.endswith("shortest-path") else None)
+            for defenders, every in group:
+                rows.report(f"{name}: {kind}, {_label(defenders, every)}")
+            if len(group) == 2:
+                print(ratio_line(kind, rows.rates(f"{name}: {kind}, hj"),
+                                 rows.rates(f"{name}: {kind}, greedy")))
+
+
+def _label(defenders: str, every: int) -> str:
+    return defenders + (f", every {every}" if every > 1 else "")
 
 
 if __name__ == "__main__":

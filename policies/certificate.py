@@ -7,7 +7,9 @@ measured error), and stays certified while its value is > 0 (hysteresis: a game 
 with a clear margin is not given up for drifting into the band). The defenders keep
 every certified game (``restrict`` takes its players out of the next program and
 ``joined`` puts the game back), so the certified count falls only when a game's value
-reaches 0.
+reaches 0. In play the check and the restriction run inside the batched lookups
+(``policies.lookups.decision_tables``, tested against ``still_winning`` and
+``restrict``); ``game_rows`` and ``kept_games`` carry the games there and back.
 
 A game's value is what the program reads: ``V11`` for one defender against one attacker;
 the smallest of ``V21`` and both ``V11`` for one defender against a pair (constraints c4
@@ -16,10 +18,12 @@ and c5); ``V12`` for a team of two defenders against one attacker.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
+from policies.lookups import values21_at
 from reachavoid_env import GameState
 from solvers.assignment import Assignment
 from solvers.hj import ValueFunction
@@ -51,10 +55,13 @@ class Tubes:
     margins: tuple[float, float, float]
 
     def slack(self, games: list[Game], state: GameState, values11: np.ndarray,
-              margins: tuple[float, float, float] | None = None) -> np.ndarray:
+              margins: tuple[float, float, float] | None = None,
+              values21: np.ndarray | None = None) -> np.ndarray:
         """``(len(games),)``: the smallest ``value - margin`` over what makes each game a
-        defender win (``margins`` default: the tubes'; zeros for "still winning"); one
-        lookup per 6D tube."""
+        defender win (``margins`` default: the tubes'; zeros for "still winning"); the
+        2 vs 1 values from the step's table ``values21 (M, M, N)`` where it holds them
+        (``policies.lookups.decision_tables``; the NaN ones looked up and stored), the rest
+        in one lookup per 6D tube."""
         if not games:
             return np.empty(0)
         m11, m21, m12 = self.margins if margins is None else margins
@@ -71,8 +78,10 @@ class Tubes:
         if pairs:
             first, second, alone = np.array([(*games[g].attackers, games[g].defenders[0])
                                              for g in pairs]).T
-            values = self.vf21.value(np.concatenate([attackers[first], attackers[second],
-                                                     defenders[alone]], axis=1))
+            if values21 is None:
+                values21 = np.full((len(attackers), len(attackers), len(defenders)), np.nan)
+            values = values21_at(values21, first, second, alone, self.vf21, attackers,
+                                 defenders)
             slack[pairs] = np.minimum(slack[pairs], values - m21)
         if teams:
             one, two, attacker = np.array([(*games[g].defenders, games[g].attackers[0])
@@ -82,10 +91,47 @@ class Tubes:
         return slack
 
 
+@functools.cache
+def no_team_values(games: int) -> np.ndarray:
+    """The team values (``policies.lookups.decision_tables``) of ``games`` certified
+    games none of which is a team: read for none (read-only)."""
+    values = np.full(games, np.nan)
+    values.setflags(write=False)
+    return values
+
+
+@functools.lru_cache(maxsize=1024)
+def game_rows(games: tuple[Game, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """``games`` as ``policies.lookups.decision_tables`` takes them: int64 rows
+    ``(j, k, i, l)``, -1 for a second defender or attacker a game does not have; and the
+    positions of the teams (made once per distinct list, read-only)."""
+    rows = np.full((len(games), 4), -1, dtype=np.int64)
+    for g, game in enumerate(games):
+        rows[g, :len(game.defenders)] = game.defenders
+        rows[g, 2:2 + len(game.attackers)] = game.attackers
+    teams = np.flatnonzero(rows[:, 1] >= 0)
+    rows.setflags(write=False)
+    teams.setflags(write=False)
+    return rows, teams
+
+
+def kept_games(certified: list[Game], kept: np.ndarray, left: np.ndarray) -> list[Game]:
+    """The ``certified`` games still on (``kept`` and ``left`` from
+    ``policies.lookups.decision_tables``), without the attackers that left."""
+    games = []
+    for game, on, present in zip(certified, kept.tolist(), left.tolist(), strict=True):
+        here = present[:len(game.attackers)]
+        if on:
+            games.append(game if all(here) else Game(game.defenders, tuple(
+                i for i, stays in zip(game.attackers, here, strict=True) if stays)))
+    return games
+
+
 def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
-                  tubes: Tubes) -> list[Game]:
+                  tubes: Tubes, values21: np.ndarray | None = None) -> list[Game]:
     """The certified games of the last decision that are still on: attackers that left
-    (captured) are dropped from their game, and a game stays while its value is > 0."""
+    (captured) are dropped from their game, and a game stays while its value is > 0
+    (``values21`` as in ``Tubes.slack``)."""
     if not certified:
         return []
     active = state.active_attackers
@@ -94,7 +140,7 @@ def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
         left = tuple(i for i in game.attackers if active[i])
         if left:
             games.append(Game(game.defenders, left))
-    keep = tubes.slack(games, state, values11, margins=(0.0, 0.0, 0.0)) > 0.0
+    keep = tubes.slack(games, state, values11, (0.0, 0.0, 0.0), values21) > 0.0
     return [game for game, on in zip(games, keep, strict=True) if on]
 
 
@@ -106,12 +152,10 @@ def restrict(beats: np.ndarray, active: np.ndarray, fixed: list[Game]
     busy = np.zeros(beats.shape[1], dtype=bool)
     if not fixed:
         return beats, active, busy
-    beats, active = beats.copy(), active.copy()
-    for game in fixed:
-        active[list(game.attackers)] = False
-        busy[list(game.defenders)] = True
-    beats[:, busy] = True
-    return beats, active, busy
+    active = active.copy()
+    active[[i for game in fixed for i in game.attackers]] = False
+    busy[[j for game in fixed for j in game.defenders]] = True
+    return beats | busy, active, busy
 
 
 def joined(rest: Assignment, fixed: list[Game], num_defenders: int) -> Assignment:

@@ -12,7 +12,16 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from policies.certificate import Game, Tubes, games_of, joined, restrict, still_winning
+from policies.certificate import (
+    Game,
+    Tubes,
+    game_rows,
+    games_of,
+    joined,
+    kept_games,
+    no_team_values,
+)
+from policies.lookups import DecisionTables, TubeArrays, decision_controls, decision_tables
 from policies.tubes import tube_1v1, tube_1v2, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario
 from reachavoid_env.rules import unit_vectors
@@ -72,10 +81,27 @@ def pair_states(attackers: np.ndarray, defenders: np.ndarray) -> np.ndarray:
     return states
 
 
-@functools.cache
-def _attacker_pairs(m: int) -> tuple[np.ndarray, np.ndarray]:
-    """Index pairs ``i < k`` of ``m`` attackers (cached: ``triu_indices`` is slow)."""
-    return np.triu_indices(m, k=1)
+@functools.lru_cache(maxsize=1024)
+def _roles(assignment: Assignment) -> tuple[np.ndarray, np.ndarray, tuple[int, ...],
+                                            tuple[Game, ...]]:
+    """What each defender of ``assignment`` plays: int64 rows ``(defender, attacker)``
+    alone against one, ``(defender, first, second)`` against two; the idle defenders (in
+    no game); and its games (``games_of``). Made once per distinct assignment: answers
+    recur step after step."""
+    in_team = {d for _, j, k in assignment.shared for d in (j, k)}
+    singles, doubles, idle = [], [], []
+    for j, mine in enumerate(assignment.by_defender):
+        if j in in_team:
+            continue
+        if len(mine) == 2:
+            doubles.append((j, *mine))
+        elif len(mine) == 1:
+            singles.append((j, mine[0]))
+        else:
+            idle.append(j)
+    return (np.array(singles, dtype=np.int64).reshape(-1, 2),
+            np.array(doubles, dtype=np.int64).reshape(-1, 3), tuple(idle),
+            tuple(games_of(assignment)))
 
 
 def triple_states(attackers: np.ndarray, pairs: np.ndarray, defenders: np.ndarray) -> np.ndarray:
@@ -148,14 +174,15 @@ class _AssignmentDefender(ABC):
         self._nominal_solver = AssignmentSolver(method)
         self._assignment: Assignment | None = None
         self._certified: list[Game] = []
-        self._step: tuple[GameState, np.ndarray, bool] | None = None
+        self._joined: tuple[Assignment, list[Game], Assignment] | None = None
+        self._step: tuple[GameState, bool] | None = None
         self._nominal: int | None = None
 
     def reset(self, scenario: Scenario) -> None:
         _check_tube(self.vf11, scenario, "vf11")
         self.solver.reset()
         self._nominal_solver.reset()
-        self._assignment = self._step = self._nominal = None
+        self._assignment = self._step = self._nominal = self._joined = None
         self._certified = []
 
     @property
@@ -182,11 +209,12 @@ class _AssignmentDefender(ABC):
         matching size for the baseline) with every value > 0 a defender win."""
         if self._assignment is None:
             return 0
-        state, values11, fixed_any = self._step
+        state, fixed_any = self._step
         if not fixed_any:
             return self._assignment.captures
         if self._nominal is None:
-            self._nominal = self._assign(self._nominal_solver, state, values11, []).captures
+            tables = self._tables(state, state.active_attackers, [])
+            self._nominal = self._solve(self._nominal_solver, state, tables).captures
         return self._nominal
 
     def margin(self, vf: ValueFunction) -> float:
@@ -217,9 +245,10 @@ class _AssignmentDefender(ABC):
                               f"{self.nominal_captures} nominal",))
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
-        """One decision: the 1 vs 1 table, the assignment keeping the certified games, the
-        certificate, then every assigned or shadowing defender's optimal control, looked up
-        in one batch per tube."""
+        """One decision: the step's tables and the certified games still on (one lookup),
+        the assignment keeping those games, the certificate, then every assigned or
+        shadowing defender's optimal control (one lookup for the 1 vs 1 and 2 vs 1 games,
+        one for teams)."""
         active = state.active_attackers
         names = state.defender_names
         actions = np.zeros((len(names), 2), dtype=np.float32)
@@ -229,43 +258,34 @@ class _AssignmentDefender(ABC):
             self._certified = []
             return dict(zip(names, actions, strict=True))
         attackers, defenders = state.attacker_positions, state.defender_positions
-        values11 = self.vf11.value(pair_states(attackers, defenders))
         certify = self.margin_cells > 0.0
-        tubes = self.tubes
-        kept = still_winning(self._certified, state, values11, tubes) if certify else []
-        assignment = self._assign(self.solver, state, values11, kept)
-        self._assignment, self._step = assignment, (state, values11, bool(kept))
-        fresh = [game for game in games_of(assignment) if game not in kept]
+        certified = self._certified if certify else []
+        tables = self._tables(state, active, certified)
+        kept = kept_games(certified, tables.kept, tables.left)
+        assignment = self._solve(self.solver, state, tables)
+        if kept:
+            last = self._joined
+            if last is None or last[0] is not assignment or last[1] != kept:
+                self._joined = last = (assignment, kept, joined(assignment, kept, len(names)))
+            assignment = last[2]
+        self._assignment, self._step = assignment, (state, bool(kept))
+        singles, doubles, idle, games = _roles(assignment)
+        fresh = [game for game in games if game not in kept]
+        if idle:
+            shadows = np.array(self._idle_targets(state, list(idle), tables.values11),
+                               dtype=np.int64)
+            singles = np.concatenate([singles, shadows.reshape(-1, 2)])
+        rows, teams = game_rows(tuple(fresh) if certify else ())
+        slack = decision_controls(attackers, defenders, singles, doubles, rows, self._margins,
+                                  tables.values11, tables.values21, *self._tube_arrays,
+                                  actions)
         if certify:
-            clear = tubes.slack(fresh, state, values11) > 0.0
-            fresh = [game for game, on in zip(fresh, clear, strict=True) if on]
+            if len(teams):
+                slack[teams] = self.tubes.slack([fresh[g] for g in teams], state,
+                                                tables.values11)
+            fresh = [game for game, on in zip(fresh, (slack > 0.0).tolist(), strict=True)
+                     if on]
         self._certified = kept + fresh
-        in_team = {d for _, j, k in assignment.shared for d in (j, k)}
-        singles, doubles, idle = [], [], []
-        for j in range(len(names)):
-            mine = assignment.by_defender[j]
-            if j in in_team:
-                continue
-            if len(mine) == 2:
-                doubles.append((j, *mine))
-            elif len(mine) == 1:
-                singles.append((j, mine[0]))
-            else:
-                idle.append(j)
-        shadows = self._idle_targets(state, idle, values11) if idle else []
-        if singles or shadows:
-            j, i = np.array(singles + shadows).T
-            controls = self.vf11.defender_control(np.concatenate([attackers[i], defenders[j]],
-                                                                 axis=1))
-            actions[j] = _headings(controls, attackers[i] - defenders[j])
-        if doubles:
-            j, first, second = np.array(doubles).T
-            states = np.concatenate([attackers[first], attackers[second], defenders[j]], axis=1)
-            controls = self.vf21.defender_control(states)
-            gaps = np.stack([attackers[first] - defenders[j], attackers[second] - defenders[j]])
-            nearer = gaps[np.argmin(np.hypot(gaps[..., 0], gaps[..., 1]), axis=0),
-                          np.arange(len(j))]
-            actions[j] = _headings(controls, nearer)
         if assignment.shared:
             teams = np.array(assignment.shared)
             states = team_states(attackers, defenders, teams)
@@ -275,21 +295,36 @@ class _AssignmentDefender(ABC):
                                        attackers[teams[:, 0]] - defenders[j])
         return dict(zip(names, actions, strict=True))
 
-    def _assign(self, solver: AssignmentSolver, state: GameState, values11: np.ndarray,
-                fixed: list[Game]) -> Assignment:
-        """The paper's program on this step's tables (``values11 (M, N)`` and the higher
-        games' tubes, every value > 0 a defender win) for the players outside the
-        ``fixed`` games, which are then put back."""
-        beats, active, busy = restrict(values11 <= 0.0, state.active_attackers, fixed)
-        rest = self._solve(solver, state, beats, active, busy)
-        return joined(rest, fixed, len(state.defender_names)) if fixed else rest
+    @functools.cached_property
+    def _margins(self) -> np.ndarray:
+        """The tubes' certificate margins as ``decision_controls`` takes them."""
+        return np.array(self.tubes.margins, dtype=np.float64)
+
+    @functools.cached_property
+    def _tube_arrays(self) -> tuple[TubeArrays, TubeArrays | None]:
+        """The 1 vs 1 and 2 vs 1 tubes as the batched lookups take them."""
+        return TubeArrays.of(self.vf11), None if self.vf21 is None else TubeArrays.of(self.vf21)
+
+    def _tables(self, state: GameState, active: np.ndarray, certified: list[Game]
+                ) -> DecisionTables:
+        """``decision_tables`` of ``state`` with the ``certified`` games of the last
+        decision (the 1 vs 2 values of their teams looked up first)."""
+        rows, teams = game_rows(tuple(certified))
+        team_values = no_team_values(len(rows))
+        if len(teams):
+            team_values = np.full(len(rows), np.nan)
+            team_values[teams] = self.vf12.value(team_states(
+                state.attacker_positions, state.defender_positions, rows[teams][:, [2, 0, 1]]))
+        return decision_tables(state.attacker_positions, state.defender_positions, active,
+                               rows, team_values, *self._tube_arrays)
 
     @abstractmethod
-    def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               active: np.ndarray, busy: np.ndarray) -> Assignment:
-        """The assignment of the ``active`` attackers from the 1 vs 1 table ``beats (M, N)``
-        (attacker ``i`` beats defender ``j``), reading the higher games' tubes where they
-        bind; ``busy`` defenders take nothing."""
+    def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
+               ) -> Assignment:
+        """The assignment of the program's active attackers (``tables.active``) from its
+        1 vs 1 table ``tables.beats`` (attacker ``i`` beats defender ``j``) and 2 vs 1
+        table, reading the 1 vs 2 tube where it binds; ``tables.busy`` defenders take
+        nothing."""
 
     @abstractmethod
     def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray
@@ -354,42 +389,20 @@ class HJDefenderPolicy(_AssignmentDefender):
         super().reset(scenario)
         _check_tube(self.vf21, scenario, "vf21")
 
-    def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               active: np.ndarray, busy: np.ndarray) -> Assignment:
-        return solver.solve(beats, self._beats_2v1(state, beats, active), active)
-
-    def _beats_2v1(self, state: GameState, beats: np.ndarray, active: np.ndarray
-                   ) -> np.ndarray:
-        """The 2 vs 1 table ``(M, M, N)``. (c5) binds only pairs of attackers that the
-        defender beats one by one, so the tube is read for those triples alone, in one
-        lookup."""
-        m, n = beats.shape
-        beats_2v1 = np.zeros((m, m, n), dtype=bool)
-        candidates = active[:, None] & ~beats
-        first, second = _attacker_pairs(m)
-        pair, j = np.nonzero(candidates[first] & candidates[second])     # (pairs, N)
-        if len(j):
-            one, two = first[pair], second[pair]
-            attackers, defenders = state.attacker_positions, state.defender_positions
-            wins = self.vf21.value(np.concatenate([attackers[one], attackers[two],
-                                                   defenders[j]], axis=1)) <= 0.0
-            beats_2v1[one, two, j] = wins
-            beats_2v1[two, one, j] = wins
-        return beats_2v1
+    def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
+               ) -> Assignment:
+        return solver.solve(tables.beats, tables.beats_2v1, tables.active)
 
     def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray
                       ) -> list[tuple[int, int]]:
         if self.idle == "stand":
             return []
-        active = state.active_attackers
-        taken = np.zeros(len(active), dtype=bool)
-        taken[[i for i, _ in self._assignment.pairs]] = True
-        taken[[i for i, *_ in self._assignment.shared]] = True
-        pool = np.flatnonzero(active & ~taken)
-        if len(pool) == 0:
-            pool = np.flatnonzero(active)
-        best = pool[np.argmax(values11[np.ix_(pool, idle)], axis=0)]
-        return [(j, int(i)) for j, i in zip(idle, best, strict=True)]
+        active = state.active_attackers.tolist()
+        taken = {i for i, _ in self._assignment.pairs} | {i for i, *_ in self._assignment.shared}
+        pool = ([i for i, on in enumerate(active) if on and i not in taken]
+                or [i for i, on in enumerate(active) if on])
+        values = values11.tolist()
+        return [(j, max(pool, key=lambda i, j=j: values[i][j])) for j in idle]
 
 
 class HJPairsDefenderPolicy(HJDefenderPolicy):
@@ -422,10 +435,11 @@ class HJPairsDefenderPolicy(HJDefenderPolicy):
         super().reset(scenario)
         _check_tube(self.vf12, scenario, "vf12")
 
-    def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               active: np.ndarray, busy: np.ndarray) -> Assignment:
-        return solver.solve(beats, self._beats_2v1(state, beats, active), active,
-                            beats_1v2=self._beats_1v2(state, beats, active, busy))
+    def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
+               ) -> Assignment:
+        return solver.solve(tables.beats, tables.beats_2v1, tables.active,
+                            beats_1v2=self._beats_1v2(state, tables.beats, tables.active,
+                                                      tables.busy))
 
     def _beats_1v2(self, state: GameState, beats: np.ndarray, active: np.ndarray,
                    busy: np.ndarray) -> np.ndarray:
@@ -474,9 +488,9 @@ class MatchingDefenderPolicy(_AssignmentDefender):
         return cls(tube_1v1(scenario, grid1, progress), unmatched=unmatched,
                    margin_cells=margin_cells)
 
-    def _solve(self, solver: AssignmentSolver, state: GameState, beats: np.ndarray,
-               active: np.ndarray, busy: np.ndarray) -> Assignment:
-        return solver.solve(beats, None, active)
+    def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
+               ) -> Assignment:
+        return solver.solve(tables.beats, None, tables.active)
 
     def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray
                       ) -> list[tuple[int, int]]:

@@ -1,0 +1,88 @@
+"""Training throughput of two checkouts side by side: ``training_throughput.py`` run in
+fresh processes, alternating between the checkouts (A, B, A, B, ... ``--rounds`` each),
+each process timing greedy and hj runs alternately; then one table of medians.
+
+    git worktree add /tmp/base main
+    taskset -c 0 .venv/bin/python benchmarks/compare_throughput.py /tmp/base . \\
+        --rounds 3 -- --scenarios paper_8v4 --every 1 --steps 3000 --repeats 5
+
+Every process runs this checkout's ``training_throughput.py`` (the same harness) with
+``PYTHONPATH`` set to the checkout it times, so only the library code differs. Arguments
+after ``--`` go to ``training_throughput.py``. The table gives, per env, the median
+steps/s of greedy (both checkouts' runs) and of hj in each checkout, and the median and
+range of the per-pair hj / greedy ratios (each hj run against the greedy run just before
+it, in the same process), and the median share of an hj step spent in the defenders'
+``act``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+HARNESS = Path(__file__).with_name("training_throughput.py")
+
+
+def run_checkout(checkout: Path, options: list[str], out: Path) -> dict[str, list]:
+    """One fresh process of the harness timing ``checkout``; its rows (``--json``)."""
+    env = dict(os.environ, PYTHONPATH=str(checkout.resolve()))
+    subprocess.run([sys.executable, str(HARNESS), *options, "--json", str(out)], env=env,
+                   check=True, stdout=subprocess.DEVNULL)
+    return json.loads(out.read_text())
+
+
+def share(timed: list[list[float]]) -> float:
+    """The median share of the step time spent in the defenders' ``act``."""
+    return statistics.median(defenders for _, defenders, _ in timed)
+
+
+def ratio_cell(hj: list[float], greedy: list[float]) -> str:
+    ratios = [h / g for h, g in zip(hj, greedy, strict=True)]
+    return f"{statistics.median(ratios):.0%} ({min(ratios):.0%}-{max(ratios):.0%})"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("before", type=Path, help="checkout of the code before")
+    parser.add_argument("after", type=Path, help="checkout of the code after")
+    parser.add_argument("--rounds", type=int, default=3, help="processes per checkout")
+    ours, options = sys.argv[1:], []
+    if "--" in ours:
+        cut = ours.index("--")
+        ours, options = ours[:cut], ours[cut + 1:]
+    args = parser.parse_args(ours)
+    runs: dict[str, dict[str, list]] = {"before": {}, "after": {}}
+    with tempfile.TemporaryDirectory() as scratch:
+        for round_ in range(args.rounds):
+            for side, checkout in (("before", args.before), ("after", args.after)):
+                load = os.getloadavg()[0]
+                rows = run_checkout(checkout, options, Path(scratch) / f"{side}.json")
+                print(f"round {round_ + 1}, {side} ({checkout}): done, load average at "
+                      f"start {load:.2f}", flush=True)
+                for label, timed in rows.items():
+                    runs[side].setdefault(label, []).extend(timed)
+    print("\n| env | greedy | hj before | hj after | hj / greedy before | "
+          "hj / greedy after | hj's act, share of its step |\n|---|---|---|---|---|---|---|")
+    for label in runs["after"]:
+        if not label.endswith(", hj"):
+            continue
+        kind = label.removesuffix(", hj")
+        rates = {side: {name: [rate for rate, _, _ in runs[side][f"{kind}, {name}"]]
+                        for name in ("greedy", "hj")} for side in runs}
+        greedy = rates["before"]["greedy"] + rates["after"]["greedy"]
+        print(f"| {kind} | {statistics.median(greedy):,.0f} | "
+              f"{statistics.median(rates['before']['hj']):,.0f} | "
+              f"{statistics.median(rates['after']['hj']):,.0f} | "
+              f"{ratio_cell(rates['before']['hj'], rates['before']['greedy'])} | "
+              f"{ratio_cell(rates['after']['hj'], rates['after']['greedy'])} | "
+              f"{share(runs['before'][label]):.0%} -> {share(runs['after'][label]):.0%} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,87 @@
+"""Pure-numpy twins of ``lookups``, for tests: the same tables and headings from
+``ValueFunction.value`` and ``defender_control`` called per batch of points and the
+certificate's own functions (the defenders' step-by-step computation before the batched
+kernels)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from policies.certificate import Game, Tubes, restrict, still_winning
+from policies.defenders import _headings
+from policies.lookups import DecisionTables
+from reachavoid_env import GameState
+from solvers.hj import ValueFunction
+
+
+def decision_tables(state: GameState, certified: list[Game], tubes: Tubes
+                    ) -> DecisionTables:
+    """``lookups.decision_tables`` the step-by-step way: the 1 vs 1 table from the tube's
+    ``value``, ``still_winning`` and ``restrict`` (``policies.certificate``), and the
+    2 vs 1 value of every candidate pair of the restricted program in one lookup."""
+    attackers, defenders = state.attacker_positions, state.defender_positions
+    active = state.active_attackers
+    m, n = len(attackers), len(defenders)
+    states = np.concatenate([np.repeat(attackers, n, axis=0), np.tile(defenders, (m, 1))],
+                            axis=1)
+    values11 = tubes.vf11.value(states).reshape(m, n)
+    values21 = np.full((m, m, n), np.nan)
+    kept = still_winning(certified, state, values11, tubes, values21) if certified else []
+    left = np.zeros((len(certified), 2), dtype=bool)
+    on = np.zeros(len(certified), dtype=bool)
+    for g, game in enumerate(certified):
+        left[g, :len(game.attackers)] = active[list(game.attackers)]
+        still = tuple(i for i in game.attackers if active[i])
+        on[g] = Game(game.defenders, still) in kept
+    beats, program_active, busy = restrict(values11 <= 0.0, active, kept)
+    beats_2v1 = np.zeros((m, m, n), dtype=bool)
+    candidates = program_active[:, None] & ~beats
+    first, second = np.triu_indices(m, k=1)
+    pair, j = np.nonzero(candidates[first] & candidates[second])
+    if len(j) and tubes.vf21 is not None:
+        one, two = first[pair], second[pair]
+        values = tubes.vf21.value(np.concatenate([attackers[one], attackers[two],
+                                                  defenders[j]], axis=1))
+        values21[one, two, j] = values21[two, one, j] = values
+        beats_2v1[one, two, j] = beats_2v1[two, one, j] = values <= 0.0
+    return DecisionTables(values11, values21, on, left, beats, beats_2v1, program_active,
+                          busy)
+
+
+def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
+                      doubles: np.ndarray, games: np.ndarray, margins: np.ndarray,
+                      values11: np.ndarray, values21: np.ndarray, vf11: ValueFunction,
+                      vf21: ValueFunction | None, actions: np.ndarray) -> np.ndarray:
+    """``lookups.decision_controls`` from the tubes' ``defender_control`` and ``value``."""
+    _defender_headings(attackers, defenders, singles, doubles, vf11, vf21, actions)
+    slack = np.full(len(games), np.nan)
+    for g, (j, k, i, other) in enumerate(games):
+        if k >= 0:
+            continue
+        second = i if other < 0 else other
+        slack[g] = np.minimum(values11[i, j], values11[second, j]) - margins[0]
+        if other >= 0:
+            value = values21[i, other, j]
+            if np.isnan(value):
+                value = vf21.value(np.concatenate([attackers[i], attackers[other],
+                                                   defenders[j]]))
+                values21[i, other, j] = values21[other, i, j] = value
+            slack[g] = np.minimum(slack[g], value - margins[1])
+    return slack
+
+
+def _defender_headings(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
+                       doubles: np.ndarray, vf11: ValueFunction, vf21: ValueFunction | None,
+                       actions: np.ndarray) -> None:
+    if len(singles):
+        j, i = singles.T
+        controls = vf11.defender_control(np.concatenate([attackers[i], defenders[j]], axis=1))
+        actions[j] = _headings(controls, attackers[i] - defenders[j])
+    if len(doubles):
+        j, first, second = doubles.T
+        states = np.concatenate([attackers[first], attackers[second], defenders[j]], axis=1)
+        controls = vf21.defender_control(states)
+        gaps = np.stack([attackers[first] - defenders[j], attackers[second] - defenders[j]])
+        nearer = gaps[np.argmin(np.hypot(gaps[..., 0], gaps[..., 1]), axis=0),
+                      np.arange(len(j))]
+        actions[j] = _headings(controls, nearer)

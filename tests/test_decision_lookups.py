@@ -1,0 +1,138 @@
+"""The defenders' batched lookups (``policies.lookups``) against the step-by-step
+computation they replace (``policies.lookups_reference``): equal bit for bit, table by
+table and action by action, over played 8v4 episodes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import reachavoid_env
+from policies import HJDefenderPolicy, RandomAttacker, ShortestPathAttacker, lookups
+from policies import defenders as defenders_module
+from policies import lookups_reference as reference
+
+
+class StepByStepDefender(HJDefenderPolicy):
+    """``HJDefenderPolicy`` with the reference tables (its headings: ``step_by_step``)."""
+
+    def _tables(self, state, active, certified):
+        return reference.decision_tables(state, certified, self.tubes)
+
+
+def step_by_step(monkeypatch, vf11, vf21):
+    """Route the policies' controls and slacks through the reference
+    (``decision_controls``)."""
+    def controls(*arrays):
+        *inputs, _, _, actions = arrays
+        return reference.decision_controls(*inputs, vf11, vf21, actions)
+    monkeypatch.setattr(defenders_module, "decision_controls", controls)
+
+
+def play(seed: int, attackers, decide) -> None:
+    """A seeded 8v4 episode (600 steps at most), the defenders' actions from
+    ``decide(scenario, step, state)``."""
+    scenario = reachavoid_env.builtin_scenario("paper_2v1").with_players(8, 4)
+    env = reachavoid_env.parallel_env(scenario=scenario, max_cycles=600)
+    env.reset(seed=seed)
+    attackers.reset(env.unwrapped.scenario)
+    step = 0
+    while env.agents:
+        state = env.unwrapped.game_state()
+        actions = {**attackers.act(state), **decide(env.unwrapped.scenario, step, state)}
+        env.step({a: actions[a] for a in env.agents})
+        step += 1
+
+
+def assert_same_tables(ours, theirs):
+    for name, mine, expected in zip(ours._fields, ours, theirs, strict=True):
+        assert mine.dtype == expected.dtype and mine.shape == expected.shape, name
+        assert np.array_equal(mine, expected, equal_nan=True), name
+
+
+@pytest.mark.parametrize("seed, attackers, margin", [
+    (3, ShortestPathAttacker(), 1.0), (4, RandomAttacker(seed=4), 1.0),
+    (5, ShortestPathAttacker(), 0.0)])
+def test_tables_and_headings_match_step_by_step(coarse_tubes, seed, attackers, margin):
+    """Before every decision of the episode: ``decision_tables`` with the policy's
+    certified games equals the reference; the headings of every defender against every
+    attacker alone and against every pair, and the slacks of all these games, equal the
+    reference's."""
+    vf11, vf21 = coarse_tubes
+    policy = HJDefenderPolicy(vf11, vf21, margin_cells=margin)
+    tubes = lookups.TubeArrays.of(vf11), lookups.TubeArrays.of(vf21)
+    kept_steps = 0
+
+    def decide(scenario, step, state):
+        nonlocal kept_steps
+        if step == 0:
+            policy.reset(scenario)
+        certified = policy.certified_games if margin > 0 else []
+        ours = policy._tables(state, state.active_attackers, certified)
+        assert_same_tables(ours, reference.decision_tables(state, certified, policy.tubes))
+        kept_steps += bool(ours.kept.any())
+        m, n = len(state.attacker_positions), len(state.defender_positions)
+        every = np.arange(n)
+        none1, none2 = np.empty((0, 2), np.int64), np.empty((0, 3), np.int64)
+        groups = [(np.stack([every, np.full(n, i)], axis=1), none2) for i in range(m)] + [
+            (none1, np.stack([every, np.full(n, i), np.full(n, k)], axis=1))
+            for i in range(m) for k in range(i + 1, m)]
+        games = np.concatenate(
+            [np.stack([singles[:, 0], np.full(len(singles), -1), *singles[:, 1:].T,
+                       np.full(len(singles), -1)], axis=1) for singles, _ in groups[:m]]
+            + [np.insert(doubles, 1, -1, axis=1) for _, doubles in groups[m:]]
+            + [np.array([[0, 1, 0, -1]])])        # a team: not read here (NaN)
+        margins = np.array(policy.tubes.margins)
+        for g, (singles, doubles) in enumerate(groups):    # each defender once per call
+            mine, expected = (np.zeros((n, 2), np.float32) for _ in range(2))
+            table, expected_table = ours.values21.copy(), ours.values21.copy()
+            rows = games if g == 0 else games[:0]
+            slack = lookups.decision_controls(
+                state.attacker_positions, state.defender_positions, singles, doubles, rows,
+                margins, ours.values11, table, *tubes, mine)
+            expected_slack = reference.decision_controls(
+                state.attacker_positions, state.defender_positions, singles, doubles, rows,
+                margins, ours.values11, expected_table, vf11, vf21, expected)
+            assert np.array_equal(mine, expected), (step, singles, doubles)
+            assert np.array_equal(slack, expected_slack, equal_nan=True), step
+            assert np.array_equal(table, expected_table, equal_nan=True), step
+        return policy.act(state)
+
+    play(seed, attackers, decide)
+    assert margin == 0 or kept_steps > 0, "no certified game was ever checked"
+
+
+@pytest.mark.parametrize("seed, attackers, margin", [
+    (7, ShortestPathAttacker(), 1.0), (8, RandomAttacker(seed=8), 1.0),
+    (9, ShortestPathAttacker(), 0.0)])
+def test_actions_match_step_by_step(coarse_tubes, monkeypatch, seed, attackers, margin):
+    """Played side by side on the same states, the batched policy and the step-by-step
+    one give bit-identical actions, assignments, certified games, capture counts and
+    solver counts."""
+    vf11, vf21 = coarse_tubes
+    fast = HJDefenderPolicy(vf11, vf21, margin_cells=margin)
+    slow = StepByStepDefender(vf11, vf21, margin_cells=margin)
+    batched = defenders_module.decision_controls
+
+    def decide(scenario, step, state):
+        if step == 0:
+            fast.reset(scenario)
+            slow.reset(scenario)
+        ours = fast.act(state)
+        with monkeypatch.context() as patch:
+            step_by_step(patch, vf11, vf21)
+            assert defenders_module.decision_controls is not batched
+            theirs = slow.act(state)
+        assert ours.keys() == theirs.keys()
+        for name in ours:
+            assert ours[name].dtype == theirs[name].dtype == np.float32
+            assert np.array_equal(ours[name], theirs[name]), (step, name)
+        assert fast.last_assignment == slow.last_assignment
+        assert fast.certified_games == slow.certified_games
+        assert (fast.guaranteed_captures, fast.nominal_captures) == (
+            slow.guaranteed_captures, slow.nominal_captures)
+        return ours
+
+    play(seed, attackers, decide)
+    counts = [(p.solver.solves, p.solver.reuses, p.solver.kept) for p in (fast, slow)]
+    assert counts[0] == counts[1]
