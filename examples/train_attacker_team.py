@@ -46,7 +46,8 @@ the same starts learned - shortest-path, and with another teacher learned - teac
 teacher - shortest-path. ``--teams shortest-path,random`` without
 ``--evaluate-only`` evaluates the scripted teams only, with nothing trained.
 
-Writes into ``--out``: ``model.zip``, ``curve.csv`` (one row per PPO rollout: agent
+Writes into ``--out``: ``model.zip``, ``cloned.zip`` (the policy after the cloning, before
+PPO; with ``--imitate-steps``), ``curve.csv`` (one row per PPO rollout: agent
 steps, wall seconds, attacker episodes ended, their arrival/capture/time-out rates and
 mean return), ``report.json`` (settings, throughput, evaluation); ``--plot`` (default
 ``OUT/curve.png``) and ``--video`` (default ``OUT/learned.mp4``, the learned team on the
@@ -375,6 +376,8 @@ def train(args: argparse.Namespace, scenario: Scenario,
                        "collect_seconds": round(collected - start, 1),
                        "fit_seconds": round(time.perf_counter() - collected, 1)}
             print("cloning: " + ", ".join(f"{k} {v}" for k, v in cloning.items()), flush=True)
+            with atomic_write(args.out / "cloned.zip", "wb") as handle:
+                model.save(handle)
         if args.timesteps:
             model.learn(args.timesteps, callback=curve, progress_bar=sys.stderr.isatty())
     finally:
