@@ -4,9 +4,11 @@ the same seeded starts.
 
 Needs the ``rl`` extra (torch, stable-baselines3, supersuit).
 
-    python examples/train_attacker_team.py --imitate-steps 100000 --timesteps 3000000 \\
-        --max-minutes 45 --learning-rate 1e-4 --clip-range 0.1 --out runs/attacker_team
-    python examples/train_attacker_team.py --evaluate-only runs/attacker_team/model.zip
+    python examples/train_attacker_team.py --imitate-from hj --imitate-steps 150000 \\
+        --imitate-epochs 40 --timesteps 6000000 --max-minutes 45 --learning-rate 1e-4 \\
+        --clip-range 0.1 --out runs/attacker_team
+    python examples/train_attacker_team.py --imitate-from hj \\
+        --evaluate-only runs/attacker_team/model.zip
 
 The game is ``paper_6v2`` with random starts every episode. The attacker-only env
 (``policies.training.make_attackers_parallel_env``) goes through SuperSuit's chain
