@@ -4,9 +4,11 @@ the same seeded starts.
 
 Needs the ``rl`` extra (torch, stable-baselines3, supersuit).
 
-    python examples/train_attacker_team.py --imitate-steps 100000 --timesteps 3000000 \\
-        --max-minutes 45 --learning-rate 1e-4 --clip-range 0.1 --out runs/attacker_team
-    python examples/train_attacker_team.py --evaluate-only runs/attacker_team/model.zip
+    python examples/train_attacker_team.py --imitate-from hj --imitate-steps 150000 \\
+        --imitate-epochs 40 --timesteps 6000000 --max-minutes 45 --learning-rate 1e-4 \\
+        --clip-range 0.1 --out runs/attacker_team
+    python examples/train_attacker_team.py --imitate-from hj \\
+        --evaluate-only runs/attacker_team/model.zip
 
 The game is ``paper_6v2`` with random starts every episode. The attacker-only env
 (``policies.training.make_attackers_parallel_env``) goes through SuperSuit's chain
@@ -19,10 +21,12 @@ HJ tubes are solved once at ``--grid1``/``--grid2`` nodes per axis (coarse by de
 31/15) and cached on disk.
 
 **Behaviour-cloning warm start** (``--imitate-steps N``, default 0: PPO from scratch): before
-PPO, the scripted ``shortest-path`` team plays the training env (same observations, same
-``--action-repeat`` hold, the same shaped reward) until N agent steps are recorded, one per
-live attacker and env step, starting from seed ``--seed`` + 1,000,000 (far from the
-evaluation seeds); the script is asked at each decision step, as the learner is. The PPO
+PPO, the scripted team ``--imitate-from`` (default ``shortest-path``; ``hj``: the 1 vs 1
+HJ-optimal control against the most dangerous defender, on the defenders' ``--grid1``
+tube) plays the training env (same observations, same ``--action-repeat`` hold, the same
+shaped reward) until N agent steps are recorded, one per live attacker and env step,
+starting from seed ``--seed`` + 1,000,000 (far from the evaluation seeds); the script is
+asked at each decision step, as the learner is. The PPO
 policy's action mean is then fitted to the script's actions and its value head to the
 discounted (``gamma`` of PPO) shaped returns, by mean-squared error, for
 ``--imitate-epochs`` passes of Adam (``--imitate-learning-rate``); the log standard
@@ -35,14 +39,17 @@ skips PPO and evaluates the cloned policy alone. For the fine-tuning, ``--learni
 ``--episodes`` starts ``reset(seed=k)``, k = 0, 1, ..., of the attacker-only env against
 the same defenders, without shaping; each team decides at its own rate (the learned one
 every ``--action-repeat`` game steps, as trained; the scripted ``shortest-path`` and
-``random`` teams of ``policies.registry`` every game step). Per team: the arrival rate
+``random`` teams of ``policies.registry``, and the ``--imitate-from`` team, every game
+step; ``--teams`` takes any of ``policies.registry.ATTACKERS``). Per team: the arrival rate
 (the mean over episodes of the fraction of attackers that arrive) and the mean number
 captured, each with a 95% bootstrap interval over episodes (the episodes are the
-independent units; the attackers of one episode are not), and the paired difference
-learned - shortest-path over the same starts. ``--teams shortest-path,random`` without
+independent units; the attackers of one episode are not), and the paired differences over
+the same starts learned - shortest-path, and with another teacher learned - teacher and
+teacher - shortest-path. ``--teams shortest-path,random`` without
 ``--evaluate-only`` evaluates the scripted teams only, with nothing trained.
 
-Writes into ``--out``: ``model.zip``, ``curve.csv`` (one row per PPO rollout: agent
+Writes into ``--out``: ``model.zip``, ``cloned.zip`` (the policy after the cloning, before
+PPO; with ``--imitate-steps``), ``curve.csv`` (one row per PPO rollout: agent
 steps, wall seconds, attacker episodes ended, their arrival/capture/time-out rates and
 mean return), ``report.json`` (settings, throughput, evaluation); ``--plot`` (default
 ``OUT/curve.png``) and ``--video`` (default ``OUT/learned.mp4``, the learned team on the
@@ -69,7 +76,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecMonitor
 from tqdm import tqdm
 
-from policies.registry import make_policy
+from policies.registry import ATTACKERS, accepted_options, make_policy
 from policies.training import (
     add_defender_arguments,
     add_reward_arguments,
@@ -85,7 +92,9 @@ from reachavoid_env.integrations.supersuit import sb3_vec_env
 from reachavoid_env.video import RecordEpisode
 from reachavoid_env.wrappers import AttackerParallelEnv
 
-TEAMS = ("learned", "shortest-path", "random")
+TEAMS = ("learned", *ATTACKERS)
+"""``learned`` and every scripted attacker team of ``policies.registry.ATTACKERS``."""
+DEFAULT_TEAMS = ("learned", "shortest-path", "random")
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
@@ -109,8 +118,10 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--ent-coef", type=float, default=0.0,
                         help="PPO entropy coefficient (default: %(default)s)")
     parser.add_argument("--imitate-steps", type=int, default=0,
-                        help="agent steps of the shortest-path team to clone before PPO; "
+                        help="agent steps of the --imitate-from team to clone before PPO; "
                              "0: none (default: %(default)s)")
+    parser.add_argument("--imitate-from", default="shortest-path", choices=ATTACKERS,
+                        help="the scripted team to clone (default: %(default)s)")
     parser.add_argument("--imitate-epochs", type=int, default=20,
                         help="passes over the cloned steps (default: %(default)s)")
     parser.add_argument("--imitate-learning-rate", type=float, default=1e-3,
@@ -120,9 +131,10 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     add_reward_arguments(parser)
     parser.add_argument("--episodes", type=int, default=200,
                         help="evaluation starts, seeds 0..N-1 (default: %(default)s)")
-    parser.add_argument("--teams", default=",".join(TEAMS),
+    parser.add_argument("--teams", default=None,
                         help=f"teams to evaluate, comma-separated from {', '.join(TEAMS)} "
-                             "(default: all)")
+                             f"(default: {','.join(DEFAULT_TEAMS)}, and the --imitate-from "
+                             "team when it is another)")
     parser.add_argument("--seed", type=int, default=0, help="seed (default: %(default)s)")
     parser.add_argument("--out", type=Path, default=Path("runs/attacker_team"),
                         help="output folder (default: %(default)s)")
@@ -150,7 +162,11 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         value = getattr(args, name)
         if value is not None and not value > 0:
             parser.error(f"--{name.replace('_', '-')}: must be positive")
-    args.teams = tuple(args.teams.split(","))
+    if args.teams is None:
+        args.teams = DEFAULT_TEAMS + ((args.imitate_from,) if args.imitate_from
+                                      not in DEFAULT_TEAMS else ())
+    else:
+        args.teams = tuple(args.teams.split(","))
     unknown = [team for team in args.teams if team not in TEAMS]
     if unknown:
         parser.error(f"--teams: unknown team {unknown[0]!r} (choose from {', '.join(TEAMS)})")
@@ -261,10 +277,10 @@ def discounted(rewards: Sequence[float], gamma: float) -> list[float]:
 
 def collect_demonstrations(args: argparse.Namespace, scenario: Scenario, gamma: float,
                            ) -> Demonstrations:
-    """``args.imitate_steps`` rows of the shortest-path team playing whole episodes of the
-    training env (the last episode is finished and its rows cut at the count)."""
+    """``args.imitate_steps`` rows of the ``--imitate-from`` team playing whole episodes of
+    the training env (the last episode is finished and its rows cut at the count)."""
     env = game(args, scenario, **reward_options(args))
-    teacher = ScriptedTeam(make_policy("attackers", "shortest-path", scenario))
+    teacher = scripted_team(args.imitate_from, args, scenario)
     observations: list[np.ndarray] = []
     actions: list[np.ndarray] = []
     returns: list[float] = []
@@ -352,7 +368,8 @@ def train(args: argparse.Namespace, scenario: Scenario,
             collected = time.perf_counter()
             losses = imitate(model, demonstrations, args.imitate_epochs, args.batch_size,
                              args.imitate_learning_rate, args.imitate_log_std)
-            cloning = {"agent_steps": len(demonstrations.actions),
+            cloning = {"teacher": args.imitate_from,
+                       "agent_steps": len(demonstrations.actions),
                        "episodes": demonstrations.episodes,
                        "scripted_arrival_rate": round(demonstrations.arrival_rate, 4),
                        "epochs": args.imitate_epochs,
@@ -361,6 +378,8 @@ def train(args: argparse.Namespace, scenario: Scenario,
                        "collect_seconds": round(collected - start, 1),
                        "fit_seconds": round(time.perf_counter() - collected, 1)}
             print("cloning: " + ", ".join(f"{k} {v}" for k, v in cloning.items()), flush=True)
+            with atomic_write(args.out / "cloned.zip", "wb") as handle:
+                model.save(handle)
         if args.timesteps:
             model.learn(args.timesteps, callback=curve, progress_bar=sys.stderr.isatty())
     finally:
@@ -478,12 +497,19 @@ class TeamResult:
                 "mean_arrived": float(np.mean(self.arrived))}
 
 
+def scripted_team(name: str, args: argparse.Namespace, scenario: Scenario) -> ScriptedTeam:
+    """The scripted attackers ``name`` (``policies.registry.ATTACKERS``): ``random`` seeded
+    with ``--seed``, ``hj`` on the defenders' 1 vs 1 tube (``--grid1``)."""
+    options = accepted_options("attackers", name, seed=args.seed, grid1=args.grid1,
+                               progress=False)
+    return ScriptedTeam(make_policy("attackers", name, scenario, **options))
+
+
 def make_team(name: str, model: PPO | None, args: argparse.Namespace,
               scenario: Scenario) -> Team:
     if name == "learned":
         return LearnedTeam(model, args.action_repeat)
-    options = {"seed": args.seed} if name == "random" else {}
-    return ScriptedTeam(make_policy("attackers", name, scenario, **options))
+    return scripted_team(name, args, scenario)
 
 
 def evaluate(args: argparse.Namespace, scenario: Scenario, model: PPO | None,
@@ -566,14 +592,21 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     results = evaluate(args, scenario, model, args.teams)
     report["evaluation"] = {"seeds": [0, args.episodes - 1],
                             **{name: result.summary() for name, result in results.items()}}
-    if {"learned", "shortest-path"} <= results.keys():
-        report["evaluation"]["learned_minus_shortest_path"] = paired_difference(
-            results["learned"], results["shortest-path"])
+    for first, second in (("learned", "shortest-path"), ("learned", args.imitate_from),
+                          (args.imitate_from, "shortest-path")):
+        if first != second and {first, second} <= results.keys():
+            key = f"{first}_minus_{second}".replace("-", "_")
+            report["evaluation"][key] = paired_difference(results[first], results[second])
     for name, result in results.items():
         summary = result.summary()
         low, high = summary["arrival_rate_ci95"]
         print(f"{name:>13}: arrival {summary['arrival_rate']:.3f} [{low:.3f}, {high:.3f}], "
               f"mean captured {summary['mean_captured']:.2f}", flush=True)
+    for key, difference in report["evaluation"].items():
+        if "_minus_" in key:
+            low, high = difference["arrival_rate_ci95"]
+            print(f"{key}: arrival {difference['arrival_rate']:+.4f} [{low:+.4f}, "
+                  f"{high:+.4f}]", flush=True)
     if model is not None and not args.no_video:
         report["video"] = {"path": str(args.video), "seed": 0,
                            "frames": record(args, scenario, model, seed=0)}

@@ -151,3 +151,52 @@ def test_demonstrations_line_up_with_their_returns(tmp_path):
     lengths = np.linalg.norm(demonstrations.actions, axis=1)
     assert np.all((np.abs(lengths - 1.0) < 1e-4) | (lengths == 0.0))
     assert recipe.discounted([1.0, 0.0, 2.0], 0.5) == pytest.approx([1.5, 1.0, 2.0])
+
+
+def test_the_hj_team_is_cloned_and_evaluated_beside_the_clone(tmp_path):
+    """``--imitate-from hj``: the demonstrations are the HJ attackers' actions (on the
+    defenders' 1 vs 1 tube), the teacher joins the evaluated teams with the paired
+    differences learned - teacher and teacher - shortest-path, and the policy after the
+    cloning is saved as ``cloned.zip``."""
+    from policies.attackers import HJAttacker, ShortestPathAttacker
+    from policies.tubes import tube_1v1
+
+    recipe = example("train_attacker_team")
+    args = recipe.parse_args(["--defenders", "greedy", "--grid1", "11", "--imitate-steps",
+                              "6", "--imitate-from", "hj", "--out", str(tmp_path)])
+    assert args.teams == ("learned", "shortest-path", "random", "hj")
+    scenario = recipe.team_scenario(args)
+    demonstrations = recipe.collect_demonstrations(args, scenario, 0.9)
+    env = recipe.game(args, scenario)
+    env.reset(seed=args.seed + recipe.IMITATION_SEED_OFFSET)
+    first_steps = []                # the rows start with attacker_0's first step
+    for teacher in (HJAttacker(tube_1v1(scenario, 11, progress=False)),
+                    ShortestPathAttacker()):
+        teacher.reset(scenario)
+        first_steps.append(teacher.act(env.game_state())["attacker_0"])
+    np.testing.assert_allclose(demonstrations.actions[0], first_steps[0], atol=1e-6)
+    assert np.abs(first_steps[0] - first_steps[1]).max() > 0.05
+
+    report = recipe.main([*TINY, "--timesteps", "0", "--imitate-steps", "60",
+                          "--imitate-from", "hj", "--no-video", "--out", str(tmp_path)])
+    assert report["imitation"]["teacher"] == "hj"
+    evaluation = report["evaluation"]
+    assert {"learned", "shortest-path", "random", "hj"} <= evaluation.keys()
+    for first, second in (("learned", "shortest-path"), ("learned", "hj"),
+                          ("hj", "shortest-path")):
+        difference = evaluation[f"{first}_minus_{second}".replace("-", "_")]
+        assert difference["arrival_rate"] == pytest.approx(
+            evaluation[first]["arrival_rate"] - evaluation[second]["arrival_rate"])
+    cloned = recipe.PPO.load(tmp_path / "cloned.zip", device="cpu")
+    trained = recipe.PPO.load(tmp_path / "model.zip", device="cpu")
+    for name, values in cloned.policy.state_dict().items():
+        np.testing.assert_array_equal(values, trained.policy.state_dict()[name])
+
+
+def test_teams_are_any_scripted_attackers(tmp_path):
+    recipe = example("train_attacker_team")
+    assert recipe.parse_args(["--out", str(tmp_path)]).teams == recipe.DEFAULT_TEAMS
+    report = recipe.main(["--defenders", "greedy", "--teams", "straight,shortest-path",
+                          "--episodes", "2", "--out", str(tmp_path)])
+    assert {"straight", "shortest-path"} <= report["evaluation"].keys()
+    assert "learned_minus_shortest_path" not in report["evaluation"]
