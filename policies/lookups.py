@@ -24,11 +24,11 @@ from numba import njit
 
 from solvers.hj import ValueFunction
 from solvers.hj.kernels import (
-    _corner_offsets,
-    _gradient_point,
-    _locate_cell,
-    _row_strides,
-    _value_at,
+    corner_offsets,
+    gradient_point,
+    locate_cell,
+    row_strides,
+    value_at,
 )
 
 HEADING_FLOOR = 1e-9
@@ -56,12 +56,12 @@ class TubeArrays(NamedTuple):
 
 @njit(cache=True)
 def _scratch(tube):
-    """A tube's arrays, its ``(row, element)`` strides (``_row_strides``) and corner
-    offsets (``_corner_offsets``), and scratch arrays for one point: node index, corner
+    """A tube's arrays, its ``(row, element)`` strides (``row_strides``) and corner
+    offsets (``corner_offsets``), and scratch arrays for one point: node index, corner
     weights, coordinates."""
     rows, stored_of, shape, lo, spacing, axes = tube
-    strides = _row_strides(shape, rows.shape[1])
-    corners = _corner_offsets(strides[0], strides[1])
+    strides = row_strides(shape, rows.shape[1])
+    corners = corner_offsets(strides[0], strides[1])
     ndim = shape.size
     return (rows, stored_of, shape, lo, spacing, axes, strides, corners,
             np.empty(ndim, dtype=np.int64), np.empty(1 << ndim, dtype=np.float64),
@@ -83,9 +83,9 @@ def _fill_pairs(tube21, attackers, defenders, triples, count, values21):
         point[0], point[1] = attackers[i, 0], attackers[i, 1]
         point[2], point[3] = attackers[k, 0], attackers[k, 1]
         point[4], point[5] = defenders[j, 0], defenders[j, 1]
-        row, col = _locate_cell(point, shape, lo, spacing, strides[0], strides[1], lower,
+        row, col = locate_cell(point, shape, lo, spacing, strides[0], strides[1], lower,
                                 weights)
-        value = _value_at(rows, stored_of, row, col, corners[0], corners[1], weights)
+        value = value_at(rows, stored_of, row, col, corners[0], corners[1], weights)
         values21[i, k, j] = value
         values21[k, i, j] = value
 
@@ -101,9 +101,9 @@ def _decision_tables(attackers, defenders, active, certified, team_values, tube1
         for j in range(n):
             point[0], point[1] = attackers[i, 0], attackers[i, 1]
             point[2], point[3] = defenders[j, 0], defenders[j, 1]
-            row, col = _locate_cell(point, shape, lo, spacing, strides[0], strides[1], lower,
+            row, col = locate_cell(point, shape, lo, spacing, strides[0], strides[1], lower,
                                     weights)
-            values11[i, j] = _value_at(rows, stored_of, row, col, corners[0], corners[1],
+            values11[i, j] = value_at(rows, stored_of, row, col, corners[0], corners[1],
                                        weights)
     values21 = np.full((m, m, n), np.nan)
     triples = np.empty((max(certified.shape[0], m * (m - 1) // 2 * n), 3), dtype=np.int64)
@@ -241,7 +241,7 @@ def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, a
         j, i = singles[s, 0], singles[s, 1]
         point[0], point[1] = attackers[i, 0], attackers[i, 1]
         point[2], point[3] = defenders[j, 0], defenders[j, 1]
-        _gradient_point(rows, stored_of, shape, lo, spacing, strides, corners, point, axes,
+        gradient_point(rows, stored_of, shape, lo, spacing, strides, corners, point, axes,
                         lower, weights, gradient, False)
         _heading(gradient[0], gradient[1], attackers[i, 0] - defenders[j, 0],
                  attackers[i, 1] - defenders[j, 1], actions[j])
@@ -252,7 +252,7 @@ def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, a
         point[0], point[1] = attackers[first, 0], attackers[first, 1]
         point[2], point[3] = attackers[second, 0], attackers[second, 1]
         point[4], point[5] = defenders[j, 0], defenders[j, 1]
-        _gradient_point(rows, stored_of, shape, lo, spacing, strides, corners, point, axes,
+        gradient_point(rows, stored_of, shape, lo, spacing, strides, corners, point, axes,
                         lower, weights, gradient, False)
         fx, fy = attackers[first, 0] - defenders[j, 0], attackers[first, 1] - defenders[j, 1]
         sx, sy = attackers[second, 0] - defenders[j, 0], attackers[second, 1] - defenders[j, 1]

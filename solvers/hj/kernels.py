@@ -268,6 +268,9 @@ def interpolate_rows(coarse, coarse_stored_of, coarse_shape, coarse_stride, lo, 
 # ---------------------------------------------------------------------------------------
 # interpolation (values stored as rows: ``values[stored_of[flat // m], flat % m]``)
 # ---------------------------------------------------------------------------------------
+# The per-point helpers (``row_strides``, ``corner_offsets``, ``locate_cell``,
+# ``value_at``, ``gradient_point``) are public: ``policies.lookups`` builds its batched
+# decision kernels from them, so its values are those of ``ValueFunction`` bit for bit.
 
 @njit(cache=True)
 def _cell(x, lo, h, n):
@@ -296,7 +299,7 @@ def _corner(corner, base, frac, strides):
 
 
 @njit(cache=True)
-def _row_strides(shape, m):
+def row_strides(shape, m):
     """Strides of each axis in rows and in a row's elements (the other one zero) when the
     trailing axes that make up a row hold ``m`` elements, C order."""
     ndim = shape.size
@@ -317,7 +320,7 @@ def _row_strides(shape, m):
 
 
 @njit(cache=True)
-def _corner_offsets(row_stride, col_stride):
+def corner_offsets(row_stride, col_stride):
     """Row and element offsets of every cell corner from its lowest corner (bit ``k`` of
     the corner number: the upper node on axis ``k``)."""
     ndim = row_stride.size
@@ -332,7 +335,7 @@ def _corner_offsets(row_stride, col_stride):
 
 
 @njit(cache=True)
-def _locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower, weights):
+def locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower, weights):
     """Lowest corner ``(row, element)`` of ``point``'s cell, clamped into the grid; fills
     ``lower`` (node index per axis) and ``weights`` (the multilinear weight of every
     corner, the products over axes 0, 1, ... in that order)."""
@@ -355,7 +358,7 @@ def _locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower, weigh
 
 
 @njit(cache=True)
-def _value_at(values, stored_of, row, col, corner_rows, corner_cols, weights):
+def value_at(values, stored_of, row, col, corner_rows, corner_cols, weights):
     total = 0.0
     for corner in range(weights.size):
         weight = weights[corner]
@@ -400,57 +403,57 @@ _PARALLEL_FROM = 4096
 
 @njit(cache=True)
 def _interpolate_serial(values, stored_of, shape, lo, spacing, points):
-    row_stride, col_stride = _row_strides(shape, values.shape[1])
-    corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
+    row_stride, col_stride = row_strides(shape, values.shape[1])
+    corner_rows, corner_cols = corner_offsets(row_stride, col_stride)
     lower = np.empty(shape.size, dtype=np.int64)
     weights = np.empty(1 << shape.size, dtype=np.float64)
     result = np.empty(points.shape[0], dtype=np.float64)
     for q in range(points.shape[0]):
-        row, col = _locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
+        row, col = locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
                                 weights)
-        result[q] = _value_at(values, stored_of, row, col, corner_rows, corner_cols, weights)
+        result[q] = value_at(values, stored_of, row, col, corner_rows, corner_cols, weights)
     return result
 
 
 @njit(cache=True, parallel=True)
 def _interpolate_parallel(values, stored_of, shape, lo, spacing, points):
-    row_stride, col_stride = _row_strides(shape, values.shape[1])
-    corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
+    row_stride, col_stride = row_strides(shape, values.shape[1])
+    corner_rows, corner_cols = corner_offsets(row_stride, col_stride)
     result = np.empty(points.shape[0], dtype=np.float64)
     for q in prange(points.shape[0]):
         lower = np.empty(shape.size, dtype=np.int64)
         weights = np.empty(1 << shape.size, dtype=np.float64)
-        row, col = _locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
+        row, col = locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
                                 weights)
-        result[q] = _value_at(values, stored_of, row, col, corner_rows, corner_cols, weights)
+        result[q] = value_at(values, stored_of, row, col, corner_rows, corner_cols, weights)
     return result
 
 
 @njit(cache=True)
-def _gradient_point(values, stored_of, shape, lo, spacing, strides, corners, point, axes,
+def gradient_point(values, stored_of, shape, lo, spacing, strides, corners, point, axes,
                     lower, weights, gradient, with_value):
     """Gradient along ``axes`` at one ``point`` into ``gradient``; returns the value there
     (``with_value``, else 0).
-    ``strides`` and ``corners``: ``_row_strides`` and ``_corner_offsets`` of the grid."""
+    ``strides`` and ``corners``: ``row_strides`` and ``corner_offsets`` of the grid."""
     row_stride, col_stride = strides
-    row, col = _locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower, weights)
+    row, col = locate_cell(point, shape, lo, spacing, row_stride, col_stride, lower, weights)
     _gradient_at(values, stored_of, row, col, shape, spacing, row_stride, col_stride,
                  corners[0], corners[1], lower, weights, axes, gradient)
     if not with_value:
         return 0.0
-    return _value_at(values, stored_of, row, col, corners[0], corners[1], weights)
+    return value_at(values, stored_of, row, col, corners[0], corners[1], weights)
 
 
 @njit(cache=True)
 def _gradient_serial(values, stored_of, shape, lo, spacing, points, axes, with_value):
-    row_stride, col_stride = _row_strides(shape, values.shape[1])
-    corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
+    row_stride, col_stride = row_strides(shape, values.shape[1])
+    corner_rows, corner_cols = corner_offsets(row_stride, col_stride)
     lower = np.empty(shape.size, dtype=np.int64)
     weights = np.empty(1 << shape.size, dtype=np.float64)
     gradient = np.empty((points.shape[0], axes.size), dtype=np.float64)
     value = np.empty(points.shape[0] if with_value else 0, dtype=np.float64)
     for q in range(points.shape[0]):
-        v = _gradient_point(values, stored_of, shape, lo, spacing, (row_stride, col_stride),
+        v = gradient_point(values, stored_of, shape, lo, spacing, (row_stride, col_stride),
                             (corner_rows, corner_cols), points[q], axes, lower, weights,
                             gradient[q], with_value)
         if with_value:
@@ -460,14 +463,14 @@ def _gradient_serial(values, stored_of, shape, lo, spacing, points, axes, with_v
 
 @njit(cache=True, parallel=True)
 def _gradient_parallel(values, stored_of, shape, lo, spacing, points, axes, with_value):
-    row_stride, col_stride = _row_strides(shape, values.shape[1])
-    corner_rows, corner_cols = _corner_offsets(row_stride, col_stride)
+    row_stride, col_stride = row_strides(shape, values.shape[1])
+    corner_rows, corner_cols = corner_offsets(row_stride, col_stride)
     gradient = np.empty((points.shape[0], axes.size), dtype=np.float64)
     value = np.empty(points.shape[0] if with_value else 0, dtype=np.float64)
     for q in prange(points.shape[0]):
         lower = np.empty(shape.size, dtype=np.int64)
         weights = np.empty(1 << shape.size, dtype=np.float64)
-        v = _gradient_point(values, stored_of, shape, lo, spacing, (row_stride, col_stride),
+        v = gradient_point(values, stored_of, shape, lo, spacing, (row_stride, col_stride),
                             (corner_rows, corner_cols), points[q], axes, lower, weights,
                             gradient[q], with_value)
         if with_value:
