@@ -32,7 +32,19 @@ discounted (``gamma`` of PPO) shaped returns, by mean-squared error, for
 ``--imitate-epochs`` passes of Adam (``--imitate-learning-rate``); the log standard
 deviation of the actions is then set to ``--imitate-log-std`` (-1: std 0.37, against SB3's
 initial 1, so that PPO's exploration does not drown the cloned paths). ``--timesteps 0``
-skips PPO and evaluates the cloned policy alone. For the fine-tuning, ``--learning-rate``,
+skips PPO and evaluates the cloned policy alone.
+
+**DAgger** (``--dagger-rounds K``, default 0): after that cloning, K rounds in which the
+cloned policy (its deterministic action mean, held ``--action-repeat`` game steps as in
+training) plays ``--dagger-steps`` agent steps of the training env (round k from seed
+``--seed`` + 1,000,000 + k) while the teacher is asked for its action in every state the
+policy visits; those rows (the teacher's action as label, the discounted shaped return of
+the game the policy played as value target) join the demonstrations, and the policy is
+fitted again on all of them for ``--dagger-epochs`` (default ``--imitate-epochs``) passes.
+Each round reports the steps collected, the policy's arrival rate in them, its action MSE
+against the teacher's labels there before the refit and the fit's MSE after.
+``--net-arch 256,256`` sets the hidden layers of the policy and value networks (SB3's
+64,64 by default). For the fine-tuning, ``--learning-rate``,
 ``--clip-range`` and ``--ent-coef`` are PPO's (defaults: SB3's 3e-4, 0.2, 0).
 
 **Evaluation** (``evaluate``; alone with ``--evaluate-only MODEL``): every team plays the
@@ -48,8 +60,8 @@ the same starts learned - shortest-path, and with another teacher learned - teac
 teacher - shortest-path. ``--teams shortest-path,random`` without
 ``--evaluate-only`` evaluates the scripted teams only, with nothing trained.
 
-Writes into ``--out``: ``model.zip``, ``cloned.zip`` (the policy after the cloning, before
-PPO; with ``--imitate-steps``), ``curve.csv`` (one row per PPO rollout: agent
+Writes into ``--out``: ``model.zip``, ``cloned.zip`` (the policy after the cloning and the DAgger
+rounds, before PPO; with ``--imitate-steps``), ``curve.csv`` (one row per PPO rollout: agent
 steps, wall seconds, attacker episodes ended, their arrival/capture/time-out rates and
 mean return), ``report.json`` (settings, throughput, evaluation); ``--plot`` (default
 ``OUT/curve.png``) and ``--video`` (default ``OUT/learned.mp4``, the learned team on the
