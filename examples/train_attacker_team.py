@@ -32,7 +32,19 @@ discounted (``gamma`` of PPO) shaped returns, by mean-squared error, for
 ``--imitate-epochs`` passes of Adam (``--imitate-learning-rate``); the log standard
 deviation of the actions is then set to ``--imitate-log-std`` (-1: std 0.37, against SB3's
 initial 1, so that PPO's exploration does not drown the cloned paths). ``--timesteps 0``
-skips PPO and evaluates the cloned policy alone. For the fine-tuning, ``--learning-rate``,
+skips PPO and evaluates the cloned policy alone.
+
+**DAgger** (``--dagger-rounds K``, default 0): after that cloning, K rounds in which the
+cloned policy (its deterministic action mean, held ``--action-repeat`` game steps as in
+training) plays ``--dagger-steps`` agent steps of the training env (round k from seed
+``--seed`` + 1,000,000 + k) while the teacher is asked for its action in every state the
+policy visits; those rows (the teacher's action as label, the discounted shaped return of
+the game the policy played as value target) join the demonstrations, and the policy is
+fitted again on all of them for ``--dagger-epochs`` (default ``--imitate-epochs``) passes.
+Each round reports the steps collected, the policy's arrival rate in them, its action MSE
+against the teacher's labels there before the refit and the fit's MSE after.
+``--net-arch 256,256`` sets the hidden layers of the policy and value networks (SB3's
+64,64 by default). For the fine-tuning, ``--learning-rate``,
 ``--clip-range`` and ``--ent-coef`` are PPO's (defaults: SB3's 3e-4, 0.2, 0).
 
 **Evaluation** (``evaluate``; alone with ``--evaluate-only MODEL``): every team plays the
@@ -48,8 +60,8 @@ the same starts learned - shortest-path, and with another teacher learned - teac
 teacher - shortest-path. ``--teams shortest-path,random`` without
 ``--evaluate-only`` evaluates the scripted teams only, with nothing trained.
 
-Writes into ``--out``: ``model.zip``, ``cloned.zip`` (the policy after the cloning, before
-PPO; with ``--imitate-steps``), ``curve.csv`` (one row per PPO rollout: agent
+Writes into ``--out``: ``model.zip``, ``cloned.zip`` (the policy after the cloning and the DAgger
+rounds, before PPO; with ``--imitate-steps``), ``curve.csv`` (one row per PPO rollout: agent
 steps, wall seconds, attacker episodes ended, their arrival/capture/time-out rates and
 mean return), ``report.json`` (settings, throughput, evaluation); ``--plot`` (default
 ``OUT/curve.png``) and ``--video`` (default ``OUT/learned.mp4``, the learned team on the
@@ -126,6 +138,17 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="passes over the cloned steps (default: %(default)s)")
     parser.add_argument("--imitate-learning-rate", type=float, default=1e-3,
                         help="Adam learning rate of the cloning (default: %(default)s)")
+    parser.add_argument("--dagger-rounds", type=int, default=0,
+                        help="DAgger rounds after the cloning (default: %(default)s)")
+    parser.add_argument("--dagger-steps", type=int, default=50_000,
+                        help="agent steps the policy plays per DAgger round "
+                             "(default: %(default)s)")
+    parser.add_argument("--dagger-epochs", type=int, default=None,
+                        help="passes over all the labelled steps after each DAgger round "
+                             "(default: --imitate-epochs)")
+    parser.add_argument("--net-arch", default=None,
+                        help="hidden layer sizes of the policy and value networks, "
+                             "comma-separated, e.g. 256,256 (default: SB3's 64,64)")
     parser.add_argument("--imitate-log-std", type=float, default=-1.0,
                         help="log std of the actions after cloning (default: %(default)s)")
     add_reward_arguments(parser)
@@ -155,7 +178,12 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                  "imitate_epochs", "video_every", "video_width"):
         if getattr(args, name) < 1:
             parser.error(f"--{name.replace('_', '-')}: must be a positive integer")
-    for name in ("timesteps", "imitate_steps"):
+    if args.dagger_epochs is None:
+        args.dagger_epochs = args.imitate_epochs
+    for name in ("dagger_steps", "dagger_epochs"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name.replace('_', '-')}: must be a positive integer")
+    for name in ("timesteps", "imitate_steps", "dagger_rounds"):
         if getattr(args, name) < 0:
             parser.error(f"--{name.replace('_', '-')}: must be a non-negative integer")
     for name in ("max_minutes", "learning_rate", "clip_range", "imitate_learning_rate"):
@@ -170,6 +198,15 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     unknown = [team for team in args.teams if team not in TEAMS]
     if unknown:
         parser.error(f"--teams: unknown team {unknown[0]!r} (choose from {', '.join(TEAMS)})")
+    if args.dagger_rounds and not args.imitate_steps:
+        parser.error("--dagger-rounds: needs --imitate-steps")
+    if args.net_arch is not None:
+        try:
+            args.net_arch = [int(size) for size in args.net_arch.split(",")]
+        except ValueError:
+            args.net_arch = []
+        if not args.net_arch or min(args.net_arch) < 1:
+            parser.error("--net-arch: positive integers separated by commas")
     if args.evaluate_only is not None and not args.evaluate_only.is_file():
         parser.error(f"--evaluate-only: no such file {str(args.evaluate_only)!r}")
     args.plot = args.plot or args.out / "curve.png"
@@ -265,6 +302,15 @@ class Demonstrations:
     episodes: int
     arrival_rate: float         # fraction of the attackers of those episodes that arrived
 
+    def __add__(self, other: Demonstrations) -> Demonstrations:
+        """Both sets' rows (the aggregate DAgger fits); the arrival rate over both."""
+        episodes = self.episodes + other.episodes
+        return Demonstrations(
+            *(np.concatenate([getattr(self, key), getattr(other, key)])
+              for key in ("observations", "actions", "returns")), episodes,
+            (self.arrival_rate * self.episodes + other.arrival_rate * other.episodes)
+            / episodes)
+
 
 def discounted(rewards: Sequence[float], gamma: float) -> list[float]:
     """Returns-to-go ``G_t = r_t + gamma G_{t+1}`` of one attacker's rewards."""
@@ -276,33 +322,40 @@ def discounted(rewards: Sequence[float], gamma: float) -> list[float]:
 
 
 def collect_demonstrations(args: argparse.Namespace, scenario: Scenario, gamma: float,
-                           ) -> Demonstrations:
-    """``args.imitate_steps`` rows of the ``--imitate-from`` team playing whole episodes of
-    the training env (the last episode is finished and its rows cut at the count)."""
+                           player: Team | None = None, steps: int | None = None,
+                           seed: int | None = None, desc: str = "cloning") -> Demonstrations:
+    """``steps`` (default ``args.imitate_steps``) rows of ``player`` (default: the
+    ``--imitate-from`` team itself) playing whole episodes of the training env, from
+    ``reset(seed=seed)`` (default ``--seed`` + ``IMITATION_SEED_OFFSET``) and then the env's
+    random stream; the last episode is finished and its rows cut at the count. Each row is
+    labelled with the ``--imitate-from`` team's action in that state, whoever plays, and
+    with the discounted return of the rewards that followed it in the game played."""
+    steps = args.imitate_steps if steps is None else steps
     env = game(args, scenario, **reward_options(args))
     teacher = scripted_team(args.imitate_from, args, scenario)
     observations: list[np.ndarray] = []
     actions: list[np.ndarray] = []
     returns: list[float] = []
     arrived = episodes = 0
-    progress = tqdm(total=args.imitate_steps, desc="cloning", unit="step",
-                    disable=not sys.stderr.isatty())
-    seed: int | None = args.seed + IMITATION_SEED_OFFSET
-    while len(actions) < args.imitate_steps:
-        seen, _ = env.reset(seed=seed)
-        seed = None             # later episodes continue the env's random stream
+    progress = tqdm(total=steps, desc=desc, unit="step", disable=not sys.stderr.isatty())
+    next_seed: int | None = args.seed + IMITATION_SEED_OFFSET if seed is None else seed
+    while len(actions) < steps:
+        seen, _ = env.reset(seed=next_seed)
+        next_seed = None        # later episodes continue the env's random stream
         teacher.reset(env)
+        if player is not None:
+            player.reset(env)
         played: dict[str, list[tuple[np.ndarray, np.ndarray, float]]] = {
             name: [] for name in env.agents}
         while env.agents:
-            chosen = teacher.act(seen, env)
-            after, rewards, *_ = env.step(chosen)
-            for name, action in chosen.items():
-                played[name].append((seen[name], action, rewards[name]))
-            progress.update(len(chosen))
+            labels = teacher.act(seen, env)
+            after, rewards, *_ = env.step(labels if player is None else player.act(seen, env))
+            for name, label in labels.items():
+                played[name].append((seen[name], label, rewards[name]))
+            progress.update(len(labels))
             seen = after
-        for steps in played.values():
-            seen_by_step, chosen_by_step, rewards_by_step = zip(*steps, strict=True)
+        for steps_of_one in played.values():
+            seen_by_step, chosen_by_step, rewards_by_step = zip(*steps_of_one, strict=True)
             observations.extend(seen_by_step)
             actions.extend(chosen_by_step)
             returns.extend(discounted(rewards_by_step, gamma))
@@ -310,10 +363,9 @@ def collect_demonstrations(args: argparse.Namespace, scenario: Scenario, gamma: 
         episodes += 1
     progress.close()
     env.close()
-    count = args.imitate_steps
-    return Demonstrations(np.asarray(observations[:count], dtype=np.float32),
-                          np.asarray(actions[:count], dtype=np.float32),
-                          np.asarray(returns, dtype=np.float32)[:count], episodes,
+    return Demonstrations(np.asarray(observations[:steps], dtype=np.float32),
+                          np.asarray(actions[:steps], dtype=np.float32),
+                          np.asarray(returns, dtype=np.float32)[:steps], episodes,
                           arrived / (episodes * scenario.num_attackers))
 
 
@@ -348,6 +400,60 @@ def imitate(model: PPO, demonstrations: Demonstrations, epochs: int, batch_size:
             "value_mse": float(np.mean(value_losses))}
 
 
+def action_error(model: PPO, demonstrations: Demonstrations) -> float:
+    """Mean-squared error of ``model``'s action mean against the recorded actions."""
+    with torch.no_grad():
+        means = model.policy.get_distribution(
+            torch.as_tensor(demonstrations.observations)).distribution.mean
+        return float(torch.nn.functional.mse_loss(
+            means, torch.as_tensor(demonstrations.actions)))
+
+
+def clone(args: argparse.Namespace, scenario: Scenario, model: PPO) -> dict[str, Any]:
+    """Fit ``model`` to ``--imitate-steps`` of the ``--imitate-from`` team, then run
+    ``--dagger-rounds`` of DAgger: the fitted policy (deterministic, as ``LearnedTeam``)
+    plays ``--dagger-steps`` in the training env, the teacher labels every state it
+    visits, and the policy is fitted again (``--dagger-epochs``) on all the labelled rows
+    so far. Returns what was done, per round."""
+    start = time.perf_counter()
+    demonstrations = collect_demonstrations(args, scenario, model.gamma)
+    collected = time.perf_counter()
+    losses = imitate(model, demonstrations, args.imitate_epochs, args.batch_size,
+                     args.imitate_learning_rate, args.imitate_log_std)
+    cloning: dict[str, Any] = {
+        "teacher": args.imitate_from, "agent_steps": len(demonstrations.actions),
+        "episodes": demonstrations.episodes,
+        "scripted_arrival_rate": round(demonstrations.arrival_rate, 4),
+        "epochs": args.imitate_epochs, "learning_rate": args.imitate_learning_rate,
+        "log_std": args.imitate_log_std, **losses,
+        "collect_seconds": round(collected - start, 1),
+        "fit_seconds": round(time.perf_counter() - collected, 1)}
+    print("cloning: " + ", ".join(f"{k} {v}" for k, v in cloning.items()), flush=True)
+    rounds = []
+    for number in range(1, args.dagger_rounds + 1):
+        start = time.perf_counter()
+        visited = collect_demonstrations(
+            args, scenario, model.gamma, player=LearnedTeam(model, hold=1),
+            steps=args.dagger_steps, seed=args.seed + IMITATION_SEED_OFFSET + number,
+            desc=f"DAgger {number}")
+        collected = time.perf_counter()
+        demonstrations = demonstrations + visited
+        learner_error = action_error(model, visited)
+        losses = imitate(model, demonstrations, args.dagger_epochs, args.batch_size,
+                         args.imitate_learning_rate, args.imitate_log_std)
+        rounds.append({"round": number, "agent_steps": len(visited.actions),
+                       "episodes": visited.episodes,
+                       "learner_arrival_rate": round(visited.arrival_rate, 4),
+                       "learner_action_mse": round(learner_error, 5),
+                       "aggregate_steps": len(demonstrations.actions), **losses,
+                       "collect_seconds": round(collected - start, 1),
+                       "fit_seconds": round(time.perf_counter() - collected, 1)})
+        print("DAgger: " + ", ".join(f"{k} {v}" for k, v in rounds[-1].items()), flush=True)
+    if rounds:
+        cloning["dagger"] = {"epochs": args.dagger_epochs, "rounds": rounds}
+    return cloning
+
+
 # ---- training ---------------------------------------------------------------------------
 
 def train(args: argparse.Namespace, scenario: Scenario,
@@ -358,26 +464,13 @@ def train(args: argparse.Namespace, scenario: Scenario,
                                   copies=args.copies))
     model = PPO("MlpPolicy", envs, n_steps=args.n_steps, batch_size=args.batch_size,
                 learning_rate=args.learning_rate, clip_range=args.clip_range,
-                ent_coef=args.ent_coef, seed=args.seed, device="cpu", verbose=0)
+                ent_coef=args.ent_coef, seed=args.seed, device="cpu", verbose=0,
+                policy_kwargs=None if args.net_arch is None else {"net_arch": args.net_arch})
     curve = TrainingCurve(None if args.max_minutes is None else 60.0 * args.max_minutes)
     cloning: dict[str, Any] | None = None
     try:
         if args.imitate_steps:
-            start = time.perf_counter()
-            demonstrations = collect_demonstrations(args, scenario, model.gamma)
-            collected = time.perf_counter()
-            losses = imitate(model, demonstrations, args.imitate_epochs, args.batch_size,
-                             args.imitate_learning_rate, args.imitate_log_std)
-            cloning = {"teacher": args.imitate_from,
-                       "agent_steps": len(demonstrations.actions),
-                       "episodes": demonstrations.episodes,
-                       "scripted_arrival_rate": round(demonstrations.arrival_rate, 4),
-                       "epochs": args.imitate_epochs,
-                       "learning_rate": args.imitate_learning_rate,
-                       "log_std": args.imitate_log_std, **losses,
-                       "collect_seconds": round(collected - start, 1),
-                       "fit_seconds": round(time.perf_counter() - collected, 1)}
-            print("cloning: " + ", ".join(f"{k} {v}" for k, v in cloning.items()), flush=True)
+            cloning = clone(args, scenario, model)
             with atomic_write(args.out / "cloned.zip", "wb") as handle:
                 model.save(handle)
         if args.timesteps:
@@ -578,7 +671,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
             "game_steps_per_s": round(game_steps / seconds, 1) if seconds else None,
             "copies": args.copies, "n_steps": args.n_steps, "batch_size": args.batch_size,
             "learning_rate": args.learning_rate, "clip_range": args.clip_range,
-            "ent_coef": args.ent_coef, "stopped_by_time": model.num_timesteps < args.timesteps}
+            "ent_coef": args.ent_coef, "net_arch": args.net_arch,
+            "stopped_by_time": model.num_timesteps < args.timesteps}
         if cloning is not None:
             report["imitation"] = cloning
         print("training: " + ", ".join(f"{k} {v}" for k, v in report["training"].items()),

@@ -200,3 +200,64 @@ def test_teams_are_any_scripted_attackers(tmp_path):
                           "--episodes", "2", "--out", str(tmp_path)])
     assert {"straight", "shortest-path"} <= report["evaluation"].keys()
     assert "learned_minus_shortest_path" not in report["evaluation"]
+
+
+def test_dagger_rounds_refit_a_wider_network_on_the_learner_states(tmp_path):
+    """``--dagger-rounds 1``: after the cloning, the policy (``--net-arch 32,32``) plays the
+    training env, the teacher labels the states it visits, the policy is refitted on all
+    the rows, and that refitted policy is ``cloned.zip``; the report records the round."""
+    recipe = example("train_attacker_team")
+    report = recipe.main([*TINY, "--timesteps", "0", "--imitate-steps", "60",
+                          "--imitate-epochs", "2", "--dagger-rounds", "1", "--dagger-steps",
+                          "40", "--net-arch", "32,32", "--teams", "learned", "--no-video",
+                          "--out", str(tmp_path)])
+    dagger = report["imitation"]["dagger"]
+    assert dagger["epochs"] == 2 and len(dagger["rounds"]) == 1
+    played = dagger["rounds"][0]
+    assert played["round"] == 1 and played["agent_steps"] == 40
+    assert played["aggregate_steps"] == 100 and played["episodes"] >= 1
+    assert 0.0 <= played["learner_arrival_rate"] <= 1.0
+    assert played["action_mse"] >= 0.0 and played["learner_action_mse"] >= 0.0
+    assert report["training"]["net_arch"] == [32, 32]
+    cloned = recipe.PPO.load(tmp_path / "cloned.zip", device="cpu")
+    assert cloned.policy.net_arch == [32, 32]
+    trained = recipe.PPO.load(tmp_path / "model.zip", device="cpu")
+    for name, values in cloned.policy.state_dict().items():
+        np.testing.assert_array_equal(values, trained.policy.state_dict()[name])
+
+
+def test_dagger_rows_are_the_learner_states_labelled_by_the_teacher(tmp_path):
+    """With a player, the rows are the states the player visits, each with the teacher's
+    action there, not the player's."""
+    recipe = example("train_attacker_team")
+    args = recipe.parse_args(["--defenders", "greedy", "--out", str(tmp_path)])
+    scenario = recipe.team_scenario(args)
+
+    class Still:
+        def reset(self, env):
+            pass
+
+        def act(self, observations, env):
+            return {name: np.zeros(2, dtype=np.float32) for name in env.agents}
+
+    taught = recipe.collect_demonstrations(args, scenario, 0.9, steps=30, seed=5)
+    still = recipe.collect_demonstrations(args, scenario, 0.9, player=Still(), steps=30,
+                                          seed=5)
+    # the rows start with attacker_0's steps: the same first state and label, then the
+    # states where the player, not the teacher, has moved it
+    np.testing.assert_array_equal(still.observations[0], taught.observations[0])
+    np.testing.assert_array_equal(still.actions[0], taught.actions[0])
+    assert not np.array_equal(still.observations[1, :2], taught.observations[1, :2])
+    lengths = np.linalg.norm(still.actions, axis=1)
+    assert np.all((np.abs(lengths - 1.0) < 1e-4) | (lengths == 0.0))
+    both = taught + still
+    assert len(both.actions) == 60 and both.episodes == taught.episodes + still.episodes
+
+
+def test_dagger_arguments_are_checked(tmp_path, capsys):
+    recipe = example("train_attacker_team")
+    for argv in (["--dagger-rounds", "1"], ["--net-arch", "64,x"], ["--net-arch", "0"]):
+        with pytest.raises(SystemExit) as stopped:
+            recipe.parse_args([*argv, "--out", str(tmp_path)])
+        assert stopped.value.code == 2
+    assert "--dagger-rounds: needs --imitate-steps" in capsys.readouterr().err
