@@ -39,7 +39,8 @@ class Losses(Callback):
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--scenario", default="paper_2v1")
     parser.add_argument("--max-cycles", type=int, default=300, help="steps per episode")
     parser.add_argument("--frames", type=int, default=60_000, help="total env steps")

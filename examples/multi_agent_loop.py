@@ -6,12 +6,16 @@ velocity in ``[-1, 1]``). Plug a trained network in here, one per attacker or sh
 
     python examples/multi_agent_loop.py --scenario paper_6v2 --defenders hj
     python examples/multi_agent_loop.py --scenario paper_1v1 --policy runs/attacker/model.zip \
-        --action-repeat 10
+        --video runs/attacker/loop.mp4
 
 ``--policy toward-target`` (default) steers each attacker straight at the target from its
 observation alone; ``random`` draws uniform actions; a ``.zip`` path loads a
 Stable-Baselines3 PPO model (trained by ``train_attacker_sb3.py`` on a scenario with the
-same numbers of players) and shares it among all attackers.
+same numbers of players), shares it among all attackers and, unless ``--action-repeat`` is
+given, holds its actions as long as in training. Starts are random (``--starts random``,
+episode ``k`` seeded with ``--seed`` + k), as in training; ``--video`` records the first
+episode in real time. (``reachavoid play --attackers sb3:MODEL.zip`` plays a model
+against any defenders without this loop.)
 """
 
 from __future__ import annotations
@@ -25,8 +29,11 @@ import pettingzoo
 
 import policies  # noqa: F401  (registers reachavoid/Attackers-v0)
 from policies.attackers import target_centres
+from policies.learned import load_sb3
 from policies.training import PETTINGZOO_ID, add_defender_arguments, defender_options
-from reachavoid_env import AttackerStatus, Scenario
+from reachavoid_env import AttackerStatus, Scenario, load_scenario
+from reachavoid_env.environment import STARTS
+from reachavoid_env.video import RecordEpisode
 
 Hook = Callable[[np.ndarray], np.ndarray]
 
@@ -52,11 +59,10 @@ def uniform_random(seed: int) -> Hook:
     return lambda obs: rng.uniform(-1.0, 1.0, 2).astype(np.float32)
 
 
-def sb3_model(path: str) -> Hook:
-    from stable_baselines3 import PPO
-
-    model = PPO.load(path, device="cpu")
-    return lambda obs: model.predict(obs, deterministic=True)[0]
+def sb3_model(path: str) -> tuple[Hook, int]:
+    """The saved model's deterministic action, and the action repeat it was trained with."""
+    policy = load_sb3(path)
+    return lambda obs: policy.predict(obs[None])[0], policy.action_repeat
 
 
 def play(env: pettingzoo.ParallelEnv, hooks: Mapping[str, Hook], seed: int,
@@ -73,39 +79,50 @@ def play(env: pettingzoo.ParallelEnv, hooks: Mapping[str, Hook], seed: int,
             if terminations[agent] or truncations[agent]:
                 status = AttackerStatus.from_code(infos[agent]["status"])
                 outcome[agent] = "timeout" if truncations[agent] else status.value
-    return {"steps": env.game_state().step, "returns": returns, "outcome": outcome}
+    return {"steps": env.unwrapped.game_state().step, "returns": returns,
+            "outcome": outcome}
 
 
 def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     add_defender_arguments(parser, scenario="paper_6v2")
     parser.add_argument("--policy", default="toward-target",
                         help="toward-target, random, or a Stable-Baselines3 PPO .zip")
-    parser.add_argument("--action-repeat", type=int, default=1,
-                        help="env steps per hook call; match the training's (10 for "
-                             "train_attacker_sb3.py)")
-    parser.add_argument("--episodes", type=int, default=3)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--action-repeat", type=int, default=None,
+                        help="env steps per hook call (default: the model's, else 1)")
+    parser.add_argument("--starts", choices=STARTS, default="random",
+                        help="the scenario's start positions or random ones every episode")
+    parser.add_argument("--episodes", type=int, default=3, help="episodes to play")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    parser.add_argument("--video", default=None, metavar="OUT.mp4|OUT.gif",
+                        help="record the first episode (real time)")
     args = parser.parse_args(argv)
 
-    options = defender_options(args)
-    env = pettingzoo.make("parallel", PETTINGZOO_ID, scenario=args.scenario,
-                          defenders=args.defenders, defender_options=options,
-                          action_repeat=args.action_repeat)
-    scenario = env.game.base_scenario
+    repeat = args.action_repeat
     if args.policy == "toward-target":
-        shared = toward_target(scenario)
+        shared = toward_target(load_scenario(args.scenario))
     elif args.policy == "random":
         shared = uniform_random(args.seed)
     elif args.policy.endswith(".zip"):
-        shared = sb3_model(args.policy)
+        shared, trained_repeat = sb3_model(args.policy)
+        repeat = repeat or trained_repeat
     else:
         parser.error(f"--policy: expected toward-target, random or a .zip file, "
                      f"got {args.policy!r}")
+    env = pettingzoo.make("parallel", PETTINGZOO_ID, scenario=args.scenario,
+                          defenders=args.defenders, defender_options=defender_options(args),
+                          action_repeat=repeat or 1, starts=args.starts,
+                          render_mode=None if args.video is None else "rgb_array")
     hooks = dict.fromkeys(env.possible_agents, shared)
     results = []
     for episode in range(args.episodes):
-        result = play(env, hooks, seed=args.seed + episode)
+        if episode == 0 and args.video is not None:
+            with RecordEpisode(env, args.video) as recorded:
+                result = play(recorded, hooks, seed=args.seed)
+            print(f"video: {args.video} ({recorded.frames} frames)")
+        else:
+            result = play(env, hooks, seed=args.seed + episode)
         outcomes = list(result["outcome"].values())
         print(f"episode {episode}: {result['steps']} steps, arrived "
               f"{outcomes.count('arrived')}, captured {outcomes.count('captured')}, "

@@ -9,7 +9,7 @@ Writes ``paper_6v2_greedy.mp4`` and ``paper_6v2_loop.gif``; works without a disp
 
 from __future__ import annotations
 
-import sys
+import argparse
 from pathlib import Path
 
 import reachavoid_env
@@ -45,6 +45,11 @@ def with_own_loop(folder: Path) -> None:
 
 
 if __name__ == "__main__":
-    out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path.cwd()
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("out", nargs="?", type=Path, default=Path.cwd(),
+                        help="folder for the two videos (default: the current folder)")
+    out = parser.parse_args().out
+    if not out.is_dir():
+        parser.error(f"out: folder {str(out)!r} does not exist")
     with_run_episode(out)
     with_own_loop(out)

@@ -53,7 +53,8 @@ def build_config(scenario: str = "paper_6v2", defenders: str = "hj",
 
 
 def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     add_defender_arguments(parser, scenario="paper_6v2")
     parser.add_argument("--iterations", type=int, default=5)
     parser.add_argument("--batch", type=int, default=2000, help="train batch (agent steps)")

@@ -20,7 +20,7 @@ from typing import Any
 import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.logger import KVWriter, Logger
-from stable_baselines3.common.vec_env import VecMonitor
+from stable_baselines3.common.vec_env import VecEnv
 
 from policies.training import add_defender_arguments, add_reward_arguments, attackers_from_args
 from reachavoid_env.integrations.supersuit import sb3_vec_env
@@ -38,7 +38,8 @@ class Records(KVWriter):
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     add_defender_arguments(parser, scenario="paper_6v2")
     parser.add_argument("--copies", type=int, default=2, help="game copies in the vector env")
     parser.add_argument("--timesteps", type=int, default=100_000, help="agent steps")
@@ -48,10 +49,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     return parser.parse_args(argv)
 
 
-def make_vec_env(args: argparse.Namespace) -> VecMonitor:
+def make_vec_env(args: argparse.Namespace) -> VecEnv:
     """The vector env, with SB3's episode statistics (one episode per slot and game)."""
-    game = attackers_from_args(args)
-    return VecMonitor(sb3_vec_env(game, copies=args.copies))
+    return sb3_vec_env(attackers_from_args(args), copies=args.copies)
 
 
 def main(argv: Sequence[str] | None = None) -> tuple[PPO, list[dict[str, Any]]]:

@@ -37,7 +37,8 @@ LOSSES = ("loss_objective", "loss_critic", "loss_entropy")
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     add_defender_arguments(parser, scenario="paper_2v1")
     parser.add_argument("--iterations", type=int, default=20)
     parser.add_argument("--frames", type=int, default=2000, help="env steps per iteration")

@@ -3,7 +3,8 @@ against a random attacker on the same seeded starts, and record a video of it.
 
 Needs the ``rl`` extra (``pip install -e '.[rl]'``: torch and stable-baselines3).
 
-    python examples/train_attacker_sb3.py --timesteps 30000 --out runs/attacker
+    python examples/train_attacker_sb3.py --out runs/attacker
+    python examples/train_attacker_sb3.py --evaluate-only runs/attacker/model.zip
 
 By default the game is ``paper_1v1`` with random starts (``--fixed-starts`` keeps the
 scenario's), one env step is held for ``--action-repeat 10`` steps of the game (0.05 s),
@@ -12,20 +13,27 @@ play at the time limit scores -1 like a capture (``--timeout-reward -1``: in the
 only arrival wins, so hiding from the defenders earns nothing). The defenders' HJ tubes
 are solved once (``--grid1``/``--grid2`` nodes per axis) and cached on disk.
 
-Writes into ``--out``: ``model.zip`` (the PPO policy), ``report.json`` (arrival, capture
-and timeout rates over ``--episodes`` evaluation episodes of the trained attacker, a
-random one and the paper's scripted shortest-path one, all from the same seeded starts)
-and ``trained.mp4`` (one episode, real time).
+Training prints a line every ``--print-seconds`` (agent steps, wall time, and over the
+training episodes ended since the last line: mean return and arrival rate) and stops at
+``--timesteps`` or after ``--max-minutes``, whichever comes first. Then the trained
+attacker, a random one and the paper's scripted shortest-path one play the same
+``--episodes`` seeded starts, and a closing table gives their arrival, capture and
+time-out rates (95% Wilson intervals) and the trained attacker's paired difference in
+arrival rate to the other two (95% bootstrap intervals over the seeds).
+
+Writes into ``--out``: ``model.zip`` (the PPO policy), ``curve.csv`` (one row per PPO
+rollout), ``report.json`` (the closing table) and ``trained.mp4`` (one episode, real time).
+``--evaluate-only MODEL.zip`` skips training and evaluates (and records) a saved model.
 Ctrl-C leaves no half-written file.
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import json
-import os
 import sys
-import tempfile
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -33,9 +41,11 @@ from typing import Any
 import numpy as np
 import torch
 from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
+from policies.learned import TRAINING_ATTRIBUTE
 from policies.training import (
     add_defender_arguments,
     add_reward_arguments,
@@ -45,38 +55,56 @@ from policies.training import (
     make_attacker_env,
     reward_options,
 )
+from reachavoid.evaluation import bootstrap_interval, wilson_interval
 from reachavoid_env import AttackerStatus, Scenario, load_scenario
+from reachavoid_env.files import atomic_write
 from reachavoid_env.video import VideoWriter
 from reachavoid_env.wrappers import SingleAttackerEnv
 
 EVAL_SEED = 10_000  # evaluation episode k starts from reset(seed=EVAL_SEED + k)
+OUTCOMES = ("arrived", "captured", "timeout")
 
 Act = Callable[[np.ndarray, SingleAttackerEnv], np.ndarray]
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        epilog="Needs the rl extra (torch, stable-baselines3). Writes model.zip, curve.csv, "
+               "report.json and trained.mp4 into --out.")
     add_defender_arguments(parser, scenario="paper_1v1")
     parser.add_argument("--fixed-starts", action="store_true",
                         help="keep the scenario's start positions (default: random starts "
                              "every episode)")
-    parser.add_argument("--timesteps", type=int, default=30_000,
+    parser.add_argument("--timesteps", type=int, default=150_000,
                         help="PPO training steps (default: %(default)s)")
+    parser.add_argument("--max-minutes", type=float, default=None,
+                        help="stop training after this much wall time (default: no limit)")
     parser.add_argument("--envs", type=int, default=4,
                         help="parallel training envs (default: %(default)s)")
     parser.add_argument("--subprocess", action="store_true",
                         help="run the training envs in subprocesses (SubprocVecEnv)")
     add_reward_arguments(parser)
-    parser.add_argument("--episodes", type=int, default=100,
+    parser.add_argument("--episodes", type=int, default=200,
                         help="evaluation episodes per attacker (default: %(default)s)")
     parser.add_argument("--seed", type=int, default=0, help="seed (default: %(default)s)")
+    parser.add_argument("--print-seconds", type=float, default=30.0,
+                        help="wall seconds between progress lines (default: %(default)s)")
     parser.add_argument("--out", type=Path, default=Path("runs/attacker"),
                         help="output folder (default: %(default)s)")
+    parser.add_argument("--evaluate-only", type=Path, default=None, metavar="MODEL.zip",
+                        help="skip training: evaluate (and record) this saved model")
     parser.add_argument("--no-video", action="store_true", help="skip the video")
     args = parser.parse_args(argv)
     for name in ("timesteps", "envs", "action_repeat", "episodes"):
         if getattr(args, name) < 1:
             parser.error(f"--{name.replace('_', '-')}: must be a positive integer")
+    for name in ("max_minutes", "print_seconds"):
+        if getattr(args, name) is not None and not getattr(args, name) > 0:
+            parser.error(f"--{name.replace('_', '-')}: must be a positive number")
+    if args.evaluate_only is not None and not args.evaluate_only.is_file():
+        parser.error(f"--evaluate-only: {str(args.evaluate_only)!r} is not a file")
     return args
 
 
@@ -92,19 +120,78 @@ def env_kwargs(args: argparse.Namespace, scenario: Scenario) -> dict[str, Any]:
             "defender_options": defender_options(args), **reward_options(args)}
 
 
-def evaluate(kwargs: dict[str, Any], act: Act, episodes: int) -> dict[str, float]:
-    """Arrival, capture and timeout rates of ``act`` over the seeded evaluation starts."""
+class Progress(BaseCallback):
+    """One row per PPO rollout (agent steps, wall seconds, and over the training episodes
+    that ended in it: count, mean return, arrival rate); a printed line every
+    ``print_seconds``; stops training after ``max_seconds``."""
+
+    def __init__(self, print_seconds: float, max_seconds: float | None) -> None:
+        super().__init__()
+        self.print_seconds, self.max_seconds = print_seconds, max_seconds
+        self.rows: list[dict[str, float]] = []
+        self._returns: list[float] = []
+        self._arrived: list[bool] = []
+
+    def _on_training_start(self) -> None:
+        self.start = self.printed = time.perf_counter()
+
+    def _on_step(self) -> bool:
+        for info in self.locals["infos"]:
+            if "episode" in info:    # Monitor's summary, on the step that ends an episode
+                self._returns.append(float(info["episode"]["r"]))
+                self._arrived.append(bool(info.get("is_success", False)))
+        return self.max_seconds is None or time.perf_counter() - self.start < self.max_seconds
+
+    def _on_rollout_end(self) -> None:
+        now = time.perf_counter()
+        row = {"timesteps": self.num_timesteps, "seconds": round(now - self.start, 1),
+               "episodes": len(self._returns),
+               "mean_return": float(np.mean(self._returns)) if self._returns else float("nan"),
+               "arrived_rate": float(np.mean(self._arrived)) if self._arrived else float("nan")}
+        self.rows.append(row)
+        self._returns, self._arrived = [], []
+        if now - self.printed >= self.print_seconds:
+            self.printed = now
+            recent = self.rows[-10:]
+            print(f"{row['timesteps']:>9,} steps {row['seconds'] / 60:5.1f} min  last "
+                  f"{sum(r['episodes'] for r in recent)} episodes: return "
+                  f"{np.nanmean([r['mean_return'] for r in recent]):+.3f}, arrived "
+                  f"{np.nanmean([r['arrived_rate'] for r in recent]):.1%}", flush=True)
+
+
+def evaluate(kwargs: dict[str, Any], act: Act, episodes: int) -> list[str]:
+    """How the attacker ``act`` ended (one of ``OUTCOMES``) from each seeded evaluation
+    start, in seed order."""
     env = make_attacker_env(**kwargs)
-    counts = {"arrived": 0, "captured": 0, "timeout": 0}
+    outcomes = []
     for k in range(episodes):
         obs, _ = env.reset(seed=EVAL_SEED + k)
         terminated = truncated = False
         while not (terminated or truncated):
             obs, _, terminated, truncated, info = env.step(act(obs, env))
         status = AttackerStatus.from_code(info["status"])
-        counts["timeout" if status is AttackerStatus.ACTIVE else status.value] += 1
+        outcomes.append("timeout" if status is AttackerStatus.ACTIVE else status.value)
     env.close()
-    return {f"{key}_rate": value / episodes for key, value in counts.items()}
+    return outcomes
+
+
+def rates(outcomes: list[str]) -> dict[str, Any]:
+    """Each outcome's rate and 95% Wilson interval."""
+    summary: dict[str, Any] = {}
+    for outcome in OUTCOMES:
+        count = outcomes.count(outcome)
+        summary[f"{outcome}_rate"] = count / len(outcomes)
+        summary[f"{outcome}_ci"] = [round(x, 4) for x in wilson_interval(count, len(outcomes))]
+    return summary
+
+
+def paired_arrival_difference(first: list[str], second: list[str]) -> dict[str, Any]:
+    """Arrival rate of ``first`` minus ``second`` on the same seeds, with a 95% bootstrap
+    interval over the seeds."""
+    differences = [float(a == "arrived") - float(b == "arrived")
+                   for a, b in zip(first, second, strict=True)]
+    low, high = bootstrap_interval(differences)
+    return {"difference": float(np.mean(differences)), "ci": [round(low, 4), round(high, 4)]}
 
 
 def random_act(seed: int) -> Act:
@@ -133,11 +220,11 @@ def model_act(model: PPO) -> Act:
 
 
 def record(kwargs: dict[str, Any], model: PPO, path: Path, seed: int) -> int:
-    """One episode of the trained attacker to ``path`` in real time; returns the frames."""
+    """One episode of the trained attacker to ``path`` in real time (the env's
+    ``render_fps``: one frame per agent step); returns the frames."""
     env = make_attacker_env(**kwargs, render_mode="rgb_array")
-    fps = 1.0 / (env.game.base_scenario.dt * kwargs["action_repeat"])
     obs, _ = env.reset(seed=seed)
-    with VideoWriter(path, fps) as writer:
+    with VideoWriter(path, env.metadata["render_fps"]) as writer:
         writer.append(env.render())
         terminated = truncated = False
         while not (terminated or truncated):
@@ -147,19 +234,34 @@ def record(kwargs: dict[str, Any], model: PPO, path: Path, seed: int) -> int:
     return writer.frames
 
 
-def write_json(path: Path, data: dict[str, Any]) -> None:
-    with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".tmp", delete=False) as f:
-        json.dump(data, f, indent=2)
-    os.replace(f.name, path)
-
-
-def save_model(model: PPO, path: Path) -> None:
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.zip")
+def train(args: argparse.Namespace, kwargs: dict[str, Any]) -> tuple[PPO, Progress]:
+    vec_cls = SubprocVecEnv if args.subprocess else DummyVecEnv
+    train_envs = make_vec_env(make_attacker_env, n_envs=args.envs, seed=args.seed,
+                              env_kwargs=kwargs, vec_env_cls=vec_cls)
+    model = PPO("MlpPolicy", train_envs, n_steps=256, batch_size=256, seed=args.seed,
+                device="cpu", verbose=0)
+    progress = Progress(args.print_seconds,
+                        None if args.max_minutes is None else 60.0 * args.max_minutes)
     try:
-        model.save(tmp)
-        os.replace(tmp, path)
+        model.learn(args.timesteps, callback=progress, progress_bar=sys.stderr.isatty())
     finally:
-        tmp.unlink(missing_ok=True)
+        train_envs.close()
+    return model, progress
+
+
+def print_table(report: dict[str, Any]) -> None:
+    print(f"{report['episodes']} seeded starts (seeds {report['eval_seeds'][0]}.."
+          f"{report['eval_seeds'][1]}), {report['scenario']}, {report['defenders']} defenders")
+    print(f"  {'attacker':<14} {'arrived [95% CI]':<22} {'captured':>9} {'timeout':>9}")
+    for name in ("trained", "random", "shortest-path"):
+        row = report[name]
+        low, high = row["arrived_ci"]
+        print(f"  {name:<14} {row['arrived_rate']:6.1%} [{low:.1%}, {high:.1%}]   "
+              f"{row['captured_rate']:9.1%} {row['timeout_rate']:9.1%}")
+    for other in ("random", "shortest-path"):
+        paired = report[f"trained_minus_{other}"]
+        print(f"  trained - {other}: {paired['difference']:+.1%} "
+              f"[{paired['ci'][0]:+.1%}, {paired['ci'][1]:+.1%}] (paired)")
 
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
@@ -171,34 +273,45 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     if args.defenders == "hj":
         print("loading (or solving and caching) the defenders' HJ tubes ...", flush=True)
         defender_factory("hj", grid1=args.grid1, grid2=args.grid2)(scenario)
-    vec_cls = SubprocVecEnv if args.subprocess else DummyVecEnv
-    train_envs = make_vec_env(make_attacker_env, n_envs=args.envs, seed=args.seed,
-                              env_kwargs=kwargs, vec_env_cls=vec_cls)
-    model = PPO("MlpPolicy", train_envs, n_steps=256, batch_size=256, seed=args.seed,
-                device="cpu", verbose=0)
-    model.learn(args.timesteps, progress_bar=sys.stderr.isatty())
-    train_envs.close()
-    save_model(model, args.out / "model.zip")
-
     report: dict[str, Any] = {
         "scenario": scenario.name, "defenders": args.defenders,
         "grids": [args.grid1, args.grid2] if args.defenders == "hj" else None,
-        "timesteps": args.timesteps, "seed": args.seed, "action_repeat": args.action_repeat,
+        "seed": args.seed, "action_repeat": args.action_repeat,
         "shaping": args.shaping, "timeout_reward": args.timeout_reward,
         "episodes": args.episodes,
         "eval_seeds": [EVAL_SEED, EVAL_SEED + args.episodes - 1],
     }
-    for name, act in (("trained", model_act(model)), ("random", random_act(args.seed)),
-                      ("shortest-path", scripted_act("shortest-path"))):
-        report[name] = evaluate(kwargs, act, args.episodes)
-        print(f"{name:>13}: " + ", ".join(f"{k} {v:.2f}" for k, v in report[name].items()),
-              flush=True)
+    if args.evaluate_only is None:
+        model, progress = train(args, kwargs)
+        setattr(model, TRAINING_ATTRIBUTE, {"action_repeat": args.action_repeat,
+                                            "scenario": scenario.name})
+        with atomic_write(args.out / "model.zip", "wb") as handle:
+            model.save(handle)
+        with atomic_write(args.out / "curve.csv", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=list(progress.rows[0]))
+            writer.writeheader()
+            writer.writerows(progress.rows)
+        report.update(timesteps=model.num_timesteps,
+                      training_seconds=progress.rows[-1]["seconds"])
+    else:
+        model = PPO.load(args.evaluate_only, device="cpu")
+        report.update(model=str(args.evaluate_only))
+    outcomes = {name: evaluate(kwargs, act, args.episodes)
+                for name, act in (("trained", model_act(model)),
+                                  ("random", random_act(args.seed)),
+                                  ("shortest-path", scripted_act("shortest-path")))}
+    report.update({name: rates(found) for name, found in outcomes.items()})
+    for other in ("random", "shortest-path"):
+        report[f"trained_minus_{other}"] = paired_arrival_difference(outcomes["trained"],
+                                                                      outcomes[other])
+    print_table(report)
     if not args.no_video:
         frames = record(kwargs, model, args.out / "trained.mp4", EVAL_SEED)
         report["video"] = {"path": str(args.out / "trained.mp4"), "frames": frames}
-    write_json(args.out / "report.json", report)
-    print(f"wrote {args.out / 'model.zip'}, {args.out / 'report.json'}"
-          + ("" if args.no_video else f", {args.out / 'trained.mp4'}"))
+    with atomic_write(args.out / "report.json") as handle:
+        json.dump(report, handle, indent=2)
+    print(f"wrote into {args.out}/: " + ", ".join(
+        sorted(p.name for p in args.out.iterdir() if not p.name.startswith("."))))
     return report
 
 

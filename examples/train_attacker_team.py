@@ -85,9 +85,9 @@ import torch
 from matplotlib.figure import Figure
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
-from stable_baselines3.common.vec_env import VecMonitor
 from tqdm import tqdm
 
+from policies.learned import TRAINING_ATTRIBUTE, ObservationPolicy
 from policies.registry import ATTACKERS, accepted_options, make_policy
 from policies.training import (
     add_defender_arguments,
@@ -110,7 +110,8 @@ DEFAULT_TEAMS = ("learned", "shortest-path", "random")
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     add_defender_arguments(parser, scenario="paper_6v2")
     parser.add_argument("--timesteps", type=int, default=1_000_000,
                         help="PPO agent steps, one per attacker slot and env step; 0: no PPO "
@@ -230,11 +231,14 @@ def game(args: argparse.Namespace, scenario: Scenario, **env_kwargs: Any) -> Att
 class TrainingCurve(BaseCallback):
     """One row per PPO rollout: agent steps so far, wall seconds, and over the attacker
     episodes (slots) that ended in the rollout, how they ended and their mean return.
-    Stops training after ``max_seconds`` of wall time."""
+    Prints the latest row every ``print_seconds``; stops training after ``max_seconds`` of
+    wall time."""
 
-    def __init__(self, max_seconds: float | None = None) -> None:
+    def __init__(self, max_seconds: float | None = None, print_seconds: float = 30.0) -> None:
         super().__init__()
         self.max_seconds = max_seconds
+        self.print_seconds = print_seconds
+        self._printed = 0.0
         self.rows: list[dict[str, float]] = []
         self.start: float | None = None
 
@@ -284,6 +288,10 @@ class TrainingCurve(BaseCallback):
                           "mean_return": float(np.mean(self._returns)) if self._returns
                           else float("nan")})
         self._ended, self._returns = [], []
+        if self.seconds - self._printed >= self.print_seconds:
+            self._printed = self.seconds
+            print("PPO: " + ", ".join(f"{key} {value:.4g}" for key, value
+                                      in self.rows[-1].items()), flush=True)
 
 
 # ---- behaviour cloning ------------------------------------------------------------------
@@ -411,7 +419,7 @@ def action_error(model: PPO, demonstrations: Demonstrations) -> float:
 
 def clone(args: argparse.Namespace, scenario: Scenario, model: PPO) -> dict[str, Any]:
     """Fit ``model`` to ``--imitate-steps`` of the ``--imitate-from`` team, then run
-    ``--dagger-rounds`` of DAgger: the fitted policy (deterministic, as ``LearnedTeam``)
+    ``--dagger-rounds`` of DAgger: the fitted policy (deterministic, as ``learned_team``)
     plays ``--dagger-steps`` in the training env, the teacher labels every state it
     visits, and the policy is fitted again (``--dagger-epochs``) on all the labelled rows
     so far. Returns what was done, per round."""
@@ -433,7 +441,7 @@ def clone(args: argparse.Namespace, scenario: Scenario, model: PPO) -> dict[str,
     for number in range(1, args.dagger_rounds + 1):
         start = time.perf_counter()
         visited = collect_demonstrations(
-            args, scenario, model.gamma, player=LearnedTeam(model, hold=1),
+            args, scenario, model.gamma, player=learned_team(model, hold=1),
             steps=args.dagger_steps, seed=args.seed + IMITATION_SEED_OFFSET + number,
             desc=f"DAgger {number}")
         collected = time.perf_counter()
@@ -460,8 +468,7 @@ def train(args: argparse.Namespace, scenario: Scenario,
           ) -> tuple[PPO, TrainingCurve, dict[str, Any] | None]:
     """PPO on the training env, from the cloned script with ``--imitate-steps``; returns the
     model, its curve and what the cloning did (None without it)."""
-    envs = VecMonitor(sb3_vec_env(game(args, scenario, **reward_options(args)),
-                                  copies=args.copies))
+    envs = sb3_vec_env(game(args, scenario, **reward_options(args)), copies=args.copies)
     model = PPO("MlpPolicy", envs, n_steps=args.n_steps, batch_size=args.batch_size,
                 learning_rate=args.learning_rate, clip_range=args.clip_range,
                 ent_coef=args.ent_coef, seed=args.seed, device="cpu", verbose=0,
@@ -534,28 +541,12 @@ class ScriptedTeam:
         return {name: chosen[name] for name in env.agents}
 
 
-class LearnedTeam:
-    """The shared policy: every live attacker decides every ``hold`` game steps from its
-    own observation, and holds its action in between (``action_repeat`` in training)."""
-
-    def __init__(self, model: PPO, hold: int) -> None:
-        self.model = model
-        self.hold = hold
-        self._held: dict[str, np.ndarray] = {}
-        self._since = hold
-
-    def reset(self, env: AttackerParallelEnv) -> None:
-        self._held, self._since = {}, self.hold
-
-    def act(self, observations: dict[str, np.ndarray],
-            env: AttackerParallelEnv) -> dict[str, np.ndarray]:
-        if self._since >= self.hold:
-            names = env.agents
-            actions, _ = self.model.predict(np.stack([observations[name] for name in names]),
-                                            deterministic=True)
-            self._held, self._since = dict(zip(names, actions, strict=True)), 0
-        self._since += 1
-        return {name: self._held[name] for name in env.agents}
+def learned_team(model: PPO, hold: int) -> ScriptedTeam:
+    """The shared policy as a ``reachavoid_env.Policy`` (``policies.learned``): every live
+    attacker decides every ``hold`` game steps from its own observation, and holds its
+    action in between (``action_repeat`` in training)."""
+    return ScriptedTeam(ObservationPolicy(
+        lambda batch: model.predict(batch, deterministic=True)[0], action_repeat=hold))
 
 
 def play(env: AttackerParallelEnv, team: Team, seed: int) -> tuple[int, int]:
@@ -601,7 +592,7 @@ def scripted_team(name: str, args: argparse.Namespace, scenario: Scenario) -> Sc
 def make_team(name: str, model: PPO | None, args: argparse.Namespace,
               scenario: Scenario) -> Team:
     if name == "learned":
-        return LearnedTeam(model, args.action_repeat)
+        return learned_team(model, args.action_repeat)
     return scripted_team(name, args, scenario)
 
 
@@ -633,7 +624,7 @@ def record(args: argparse.Namespace, scenario: Scenario, model: PPO, seed: int) 
     env = game(args, scenario, render_mode="rgb_array", render_width=args.video_width)
     fps = 1.0 / (scenario.dt * args.video_every)
     with RecordEpisode(env, args.video, fps=fps, every=args.video_every) as recorded:
-        play(recorded, LearnedTeam(model, args.action_repeat), seed)
+        play(recorded, learned_team(model, args.action_repeat), seed)
     return recorded.frames
 
 
@@ -660,6 +651,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         report["model"] = str(args.evaluate_only)
     elif "learned" in args.teams:
         model, curve, cloning = train(args, scenario)
+        setattr(model, TRAINING_ATTRIBUTE, {"action_repeat": args.action_repeat,
+                                            "scenario": scenario.name})
         with atomic_write(args.out / "model.zip", "wb") as handle:
             model.save(handle)
         game_steps = model.num_timesteps // scenario.num_attackers * args.action_repeat

@@ -19,6 +19,7 @@ from policies.defenders import (
     IdleDefender,
     MatchingDefenderPolicy,
 )
+from policies.learned import SB3_PREFIX, sb3_named_policy
 from reachavoid_env import Policy, Scenario
 
 
@@ -67,9 +68,12 @@ TABLES = {"defenders": DEFENDERS, "attackers": ATTACKERS}
 
 
 def named_policy(side: str, name: str) -> NamedPolicy:
-    """The table entry of ``name`` on ``side`` (``"defenders"`` or ``"attackers"``)."""
+    """The table entry of ``name`` on ``side`` (``"defenders"`` or ``"attackers"``), or of a
+    saved model ``sb3:PATH``."""
     if side not in TABLES:
         raise ValueError(f"side: expected 'defenders' or 'attackers', got {side!r}")
+    if name.startswith(SB3_PREFIX):   # a saved Stable-Baselines3 model (policies/learned.py)
+        return sb3_named_policy(side, name)
     if name not in TABLES[side]:
         raise ValueError(f"{side}: unknown policy {name!r} (choices: {', '.join(TABLES[side])})")
     return TABLES[side][name]

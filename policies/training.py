@@ -7,17 +7,23 @@ made from strings (on the command line, in a registry id, in a subprocess):
     env = make_attacker_env("paper_2v1", defenders="hj",
                             defender_options={"grid1": 31, "grid2": 15})
 
-Importing ``policies`` (or this module) registers, for Gymnasium:
+Importing ``policies`` (or this module) registers, for Gymnasium (``make_attacker_env``,
+one learning attacker):
 
-- ``reachavoid/Attacker-v0``: ``make_attacker_env`` (``scenario=`` keyword, default
-  ``paper_2v1``);
+- ``reachavoid/Attacker-v0`` (``scenario=`` keyword, default ``paper_2v1``);
 - ``reachavoid/Attacker-<builtin>-v0`` for every built-in scenario, e.g.
-  ``reachavoid/Attacker-paper_2v1-v0``;
+  ``reachavoid/Attacker-paper_2v1-v0`` (the scenario's starts);
+- ``reachavoid/Attacker-<builtin>-random-v0``: the same map and player counts with
+  random starts at every reset (``starts="random"``), e.g.
+  ``reachavoid/Attacker-paper_6v2-random-v0`` for 6 vs 2;
 
-and for PettingZoo (``pettingzoo.make("parallel", ...)``) ``reachavoid/Attackers-v0``:
-``make_attackers_parallel_env``. Without importing anything first, Gymnasium's
-``"module:id"`` form loads them: ``gymnasium.make("policies:reachavoid/Attacker-paper_2v1-v0")``.
-Keyword arguments of ``gymnasium.make`` / ``make_vec`` go to ``make_attacker_env``.
+and for PettingZoo (``pettingzoo.make("parallel", ...)``, ``make_attackers_parallel_env``,
+every attacker learning) ``reachavoid/Attackers-v0`` (``scenario=`` keyword) and
+``reachavoid/Attackers-<builtin>-v0`` / ``reachavoid/Attackers-<builtin>-random-v0``
+likewise. Every id takes ``starts="random"`` as a keyword too. Without importing anything
+first, Gymnasium's ``"module:id"`` form loads them:
+``gymnasium.make("policies:reachavoid/Attacker-paper_2v1-random-v0")``. Keyword arguments of
+``gymnasium.make`` / ``make_vec`` / ``pettingzoo.make`` go to the factory.
 
 Defenders default to ``"hj"``, the paper's HJ + MIP defenders
 (``HJDefenderPolicy.for_scenario``): the first env of a game solves its HJ tubes and
@@ -134,9 +140,10 @@ def make_attacker_env(scenario: str | Scenario = "paper_2v1", defenders: Any = "
     ``defenders`` / ``teammates``: a policy name (``DEFENDERS`` / ``ATTACKERS``, built with
     ``defender_options`` / ``teammate_options``), a policy object or a factory
     ``scenario -> policy``. Teammates play only where the scenario has more than one
-    attacker. ``env_kwargs``: ``attacker``, ``max_cycles``, ``render_mode``, ``shaping``,
-    ``timeout_reward``, ``action_repeat``, ``scripted_every``, ``render_width``,
-    ``info_format`` (``SingleAttackerEnv``).
+    attacker. ``env_kwargs``: ``starts`` (``"random"``: new starts at every reset),
+    ``attacker``, ``max_cycles``, ``render_mode``, ``shaping``, ``timeout_reward``,
+    ``action_repeat``, ``scripted_every``, ``render_width``, ``info_format``
+    (``SingleAttackerEnv``).
     """
     return SingleAttackerEnv(
         _source(defenders, defender_options, "defenders", "defender"), scenario=scenario,
@@ -148,8 +155,9 @@ def make_attackers_parallel_env(scenario: str | Scenario = "paper_2v1", defender
                                 **env_kwargs: Any) -> AttackerParallelEnv:
     """An ``AttackerParallelEnv``: every attacker learns, ``defenders`` (a name, a policy or
     a factory, as in ``make_attacker_env``) moves the defenders. ``env_kwargs``:
-    ``max_cycles``, ``render_mode``, ``shaping``, ``timeout_reward``, ``action_repeat``,
-    ``scripted_every``, ``render_width``, ``info_format`` (``AttackerParallelEnv``)."""
+    ``starts`` (``"random"``: new starts at every reset), ``max_cycles``, ``render_mode``,
+    ``shaping``, ``timeout_reward``, ``action_repeat``, ``scripted_every``,
+    ``render_width``, ``info_format`` (``AttackerParallelEnv``)."""
     return AttackerParallelEnv(_source(defenders, defender_options, "defenders", "defender"),
                                scenario=scenario, **env_kwargs)
 
@@ -158,21 +166,37 @@ GYM_ID = "reachavoid/Attacker-v0"
 PETTINGZOO_ID = "reachavoid/Attackers-v0"
 
 
-def gym_id(scenario: str) -> str:
-    """The Gymnasium id of the single-attacker env of built-in ``scenario``."""
-    return f"reachavoid/Attacker-{scenario}-v0"
+def gym_id(scenario: str, starts: str = "scenario") -> str:
+    """The Gymnasium id of the single-attacker env of built-in ``scenario`` (``starts``:
+    ``"scenario"`` or ``"random"``, as ``ReachAvoidEnv``)."""
+    return f"reachavoid/Attacker-{scenario}{_STARTS_SUFFIX[starts]}-v0"
+
+
+def pettingzoo_id(scenario: str, starts: str = "scenario") -> str:
+    """The PettingZoo id of the attacker-only env of built-in ``scenario``."""
+    return f"reachavoid/Attackers-{scenario}{_STARTS_SUFFIX[starts]}-v0"
+
+
+_STARTS_SUFFIX = {"scenario": "", "random": "-random"}
+
+
+def _ids(default_id: str, id_of: Any) -> dict[str, dict[str, str]]:
+    """``default_id`` (no keywords) and ``id_of(builtin, starts)`` of every built-in and
+    starts, with their keywords."""
+    return {default_id: {}} | {id_of(name, starts): {"scenario": name, "starts": starts}
+                               for name in builtin_names() for starts in _STARTS_SUFFIX}
 
 
 def register_envs() -> None:
     """Register the ids listed in the module docstring (again: a no-op)."""
-    entry_point = "policies.training:make_attacker_env"
-    ids = {GYM_ID: {}} | {gym_id(name): {"scenario": name} for name in builtin_names()}
-    for env_id, kwargs in ids.items():
+    for env_id, kwargs in _ids(GYM_ID, gym_id).items():
         if env_id not in gymnasium.registry:
-            gymnasium.register(id=env_id, entry_point=entry_point, kwargs=kwargs)
-    if PETTINGZOO_ID not in pettingzoo.parallel_registry:
-        pettingzoo.register("parallel", PETTINGZOO_ID,
-                            entry_point="policies.training:make_attackers_parallel_env")
+            gymnasium.register(id=env_id, entry_point="policies.training:make_attacker_env",
+                               kwargs=kwargs)
+    for env_id, kwargs in _ids(PETTINGZOO_ID, pettingzoo_id).items():
+        if env_id not in pettingzoo.parallel_registry:
+            pettingzoo.register("parallel", env_id, kwargs=kwargs,
+                                entry_point="policies.training:make_attackers_parallel_env")
 
 
 register_envs()

@@ -21,7 +21,14 @@ from typing import Any, NoReturn
 
 import reachavoid_env
 from policies.defenders import CERTIFICATE_CELLS
-from policies.registry import ATTACKERS, DEFENDERS, NamedPolicy, accepted_options, make_policy
+from policies.registry import (
+    ATTACKERS,
+    DEFENDERS,
+    NamedPolicy,
+    accepted_options,
+    make_policy,
+    named_policy,
+)
 from reachavoid import paper as paper_table
 from reachavoid.evaluation import compare_defenders, write_csv
 from reachavoid.rollout import EpisodeResult, run_episode
@@ -89,8 +96,10 @@ def build_parser() -> argparse.ArgumentParser:
     play = commands.add_parser("play", help="play one episode and print the outcome",
                                description="Play one episode of a scenario.")
     _scenario_option(play, "paper_6v2", "a built-in scenario name or a TOML scenario file")
-    play.add_argument("--attackers", choices=ATTACKERS, default="shortest-path",
-                      help=f"attacker policy (default: %(default)s). {_choices_help(ATTACKERS)}")
+    play.add_argument("--attackers", type=_attacker_name, default="shortest-path",
+                      metavar="NAME|sb3:MODEL.zip",
+                      help=f"attacker policy (default: %(default)s). {_choices_help(ATTACKERS)}"
+                           f"; sb3:PATH: a saved Stable-Baselines3 model")
     play.add_argument("--defenders", choices=DEFENDERS, default="hj",
                       help=f"defender policy (default: %(default)s). {_choices_help(DEFENDERS)}")
     _grid_options(play)
@@ -134,8 +143,10 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--defenders", default="hj,matching", metavar="A,B",
                        help=f"comma-separated defender methods (default: %(default)s); "
                             f"from {', '.join(DEFENDERS)}")
-    bench.add_argument("--attackers", choices=ATTACKERS, default="shortest-path",
-                       help="attacker policy (default: %(default)s)")
+    bench.add_argument("--attackers", type=_attacker_name, default="shortest-path",
+                       metavar="NAME|sb3:MODEL.zip",
+                       help=f"attacker policy (default: %(default)s): {', '.join(ATTACKERS)}, "
+                            f"or sb3:PATH, a saved Stable-Baselines3 model")
     bench.add_argument("--episodes", type=int, default=200,
                        help="episodes per method (default: %(default)s)")
     _seed_option(bench, "episode k uses seed SEED + k")
@@ -224,11 +235,23 @@ def _load(source: str) -> Scenario:
         raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}") from None
 
 
+def _attacker_name(value: str) -> str:
+    """``--attackers``: a name of ``ATTACKERS`` or ``sb3:PATH`` (checked here)."""
+    try:
+        named_policy("attackers", value)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    return value
+
+
 def _policy(side: str, name: str, scenario: Scenario, args: argparse.Namespace) -> Any:
     """The named policy, given whichever of --seed, --grid1, --grid2 it takes."""
     options = accepted_options(side, name, seed=args.seed, grid1=args.grid1, grid2=args.grid2,
                                margin_cells=args.margin_cells, progress=args.progress)
-    return make_policy(side, name, scenario, **options)
+    try:
+        return make_policy(side, name, scenario, **options)
+    except ValueError as err:   # a model that does not fit the scenario
+        raise UsageError(str(err)) from None
 
 
 # -- commands -------------------------------------------------------------------------------
@@ -326,6 +349,7 @@ def _bench(args: argparse.Namespace) -> int:
     if args.csv:
         writable_file(args.csv, "--csv")
     scenario = _load(args.scenario).with_players(int(match[1]), int(match[2]))
+    _policy("attackers", args.attackers, scenario, args)   # a model must fit the config
     comparison = compare_defenders(scenario, methods, args.attackers, args.episodes,
                                    seed=args.seed, backend=args.backend, workers=args.workers,
                                    address=args.address, progress=args.progress,

@@ -19,12 +19,14 @@ from pettingzoo.utils import ClipOutOfBoundsWrapper, OrderEnforcingWrapper, para
 
 from reachavoid_env import checks, rules
 from reachavoid_env.game_state import AttackerStatus, GameState, Overlay
+from reachavoid_env.observations import Normaliser, agent_rows, player_table
 from reachavoid_env.scenario import MAX_STEPS, Scenario, ScenarioError, load_scenario
 from reachavoid_env.world import World
 
 _STATUSES = tuple(AttackerStatus)   # index = AttackerStatus.code
 _CAPTURED, _ARRIVED = AttackerStatus.CAPTURED.code, AttackerStatus.ARRIVED.code
 INFO_FORMATS = ("numeric", "readable")
+STARTS = ("scenario", "random")
 _PLAYER_FIELD = re.compile(r"players\.(attacker|defender)s\[(\d+)\]")
 _RESET_OPTIONS = ("scenario", "attackers", "defenders")
 
@@ -40,7 +42,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     **Actions** (every agent): ``Box(-1, 1, (2,), float32)``, the desired velocity as a
     fraction of the player's speed. Vectors longer than 1 are scaled to length 1.
 
-    **Observations** (every agent): ``Box(-1, 1, (2 + 3 (M + N),), float32)``, positions
+    **Observations** (every agent; ``reachavoid_env.observations.observe`` computes the
+    same from a ``GameState``): ``Box(-1, 1, (2 + 3 (M + N),), float32)``, positions
     normalised to the domain (``-1`` at ``xmin``/``ymin``, ``+1`` at ``xmax``/``ymax``)::
 
         [own x, own y,
@@ -77,6 +80,12 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     ``info_format="readable"`` ``status`` is an ``AttackerStatus`` and ``captured_by``
     (the defender's name) appears only on the step of the capture.
 
+    **Starts**: ``starts="scenario"`` (the default) plays the scenario's start positions
+    (drawn at random only where the scenario gives none); ``starts="random"`` draws every
+    player's start at every reset, uniformly over the map's free space
+    (``Scenario.with_players`` with the scenario's player counts), from the env's
+    generator, so ``reset(seed=s)`` gives the same starts for the same ``s``.
+
     ``reset(seed=, options=)`` options (all optional, for this episode only):
     ``{"scenario": Scenario}`` with the same numbers of players, and/or
     ``{"attackers": (M, 2), "defenders": (N, 2)}`` start positions in map units (a missing
@@ -102,10 +111,11 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         shaping: float = 0.0,
         render_width: int = 640,
         info_format: str = "numeric",
+        starts: str = "scenario",
     ) -> None:
         EzPickle.__init__(self, scenario=scenario, max_cycles=max_cycles,
                           render_mode=render_mode, shaping=shaping, render_width=render_width,
-                          info_format=info_format)
+                          info_format=info_format, starts=starts)
         if isinstance(scenario, Scenario):
             self.base_scenario = scenario
         elif isinstance(scenario, str):
@@ -120,6 +130,12 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                              f"{self.metadata['render_modes']} or None")
         if info_format not in INFO_FORMATS:
             raise ValueError(f"info_format: {info_format!r} is not one of {INFO_FORMATS}")
+        if starts not in STARTS:
+            raise ValueError(f"starts: {starts!r} is not one of {STARTS}")
+        if starts == "random":
+            self.base_scenario = self.base_scenario.with_players(
+                self.base_scenario.num_attackers, self.base_scenario.num_defenders)
+        self.starts = starts
         self.info_format = info_format
         self.max_cycles = max_cycles if max_cycles is not None else self.base_scenario.max_steps
         self.render_mode = render_mode
@@ -178,9 +194,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         self._status = np.zeros(m, dtype=np.int8)
         self._speeds = np.concatenate([np.full(m, sc.attacker_speed),
                                        np.full(self._n, sc.defender_speed)])[:, None]
-        xmin, xmax, ymin, ymax = sc.map.domain
-        self._center = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
-        self._half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
+        self._normaliser = Normaliser.of(sc.map)
         self._target_bounds = rules.target_bounds(sc.map)
         self._steps = 0
         self._captured_count = 0
@@ -333,21 +347,13 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     # ----------------------------------------------------------- observations
     def _state_matrix(self) -> np.ndarray:
         """``(M + N, 3)`` float32: normalised x, y and the active flag of every player."""
-        block = np.empty((len(self._positions), 3), dtype=np.float32)
-        normalised = (self._positions - self._center) / self._half
-        block[:, :2] = np.minimum(np.maximum(normalised, -1.0, out=normalised), 1.0,
-                                  out=normalised)
-        block[:, 2] = self._active
-        return block
+        return player_table(self._positions, self._active, self._normaliser)
 
     def _observations(self, agents: list[str], rows: slice | list[int],
                       ) -> dict[str, np.ndarray]:
-        """Observations of ``agents`` (rows ``rows`` of the players), one fresh matrix."""
-        block = self._state_matrix()
-        obs = np.empty((len(agents), 2 + block.size), dtype=np.float32)
-        obs[:, :2] = block[rows, :2]
-        obs[:, 2:] = block.reshape(-1)
-        return dict(zip(agents, obs, strict=True))
+        """Observations of ``agents`` (rows ``rows`` of the players), one fresh matrix
+        (``reachavoid_env.observations``, the code path of ``observe``)."""
+        return dict(zip(agents, agent_rows(self._state_matrix(), rows), strict=True))
 
     def _infos(self, agents: list[str], captor: np.ndarray) -> dict[str, dict[str, Any]]:
         counts = {"captured": self._captured_count, "arrived": self._arrived_count}

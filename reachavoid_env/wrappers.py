@@ -12,7 +12,11 @@ each copy of the env builds its own policy from it. Both inherit ``EzPickle``, s
 env is rebuilt from its constructor arguments (a fresh, un-reset env).
 
 ``action_repeat = k`` holds each learner action for ``k`` env steps; rewards are summed
-over the held steps. The scripted policies act every env step (``dt`` seconds) unless
+over the held steps, and ``metadata["render_fps"]`` is ``1 / (k dt)``: one frame per
+learner step plays back in real time. ``starts="random"`` draws every player's start at
+every reset (``ReachAvoidEnv``), seeded by ``reset(seed=...)``.
+
+The scripted policies act every env step (``dt`` seconds) unless
 ``scripted_every = k > 1``: then they are asked every ``k`` env steps, and at once when a
 player leaves the game, and their actions are held in between (a zero-order hold, for
 training throughput with expensive policies; ``benchmarks/training_throughput.py``).
@@ -108,6 +112,13 @@ class _Scripted:
             self.game.set_overlay(merged_overlay(*(policy for policy, _ in self.scripted)))
 
 
+def _metadata(metadata: dict[str, Any], game: ReachAvoidEnv, action_repeat: int,
+              ) -> dict[str, Any]:
+    """``metadata`` with ``render_fps`` such that one frame per learner step (``action_repeat``
+    env steps of ``dt`` seconds) plays back in real time."""
+    return {**metadata, "render_fps": 1.0 / (game.base_scenario.dt * action_repeat)}
+
+
 class _OnGame:
     """What a training view passes straight to its ``game`` (a ``ReachAvoidEnv``)."""
 
@@ -139,14 +150,15 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
     attackers' actions held (rewards summed; it ends early when no attacker is left).
     ``scripted_every``: see the module docstring.
 
-    ``info_format`` as ``ReachAvoidEnv`` (numeric by default, for TorchRL and BenchMARL).
+    ``info_format`` and ``starts`` as ``ReachAvoidEnv`` (numeric infos by default, for
+    TorchRL and BenchMARL; the scenario's starts by default, ``"random"`` for new ones at
+    every reset).
     ``game`` is the underlying ``ReachAvoidEnv``; ``game_state()`` its state.
     """
 
     metadata = {
         "name": "reach_avoid_attackers_v0",
         "render_modes": ["human", "rgb_array"],
-        "render_fps": ReachAvoidEnv.metadata["render_fps"],
         "is_parallelizable": True,
     }
 
@@ -154,17 +166,19 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
                  max_cycles: int | None = None, render_mode: str | None = None,
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
                  scripted_every: int = 1, render_width: int = 640,
-                 info_format: str = "numeric") -> None:
+                 info_format: str = "numeric", starts: str = "scenario") -> None:
         EzPickle.__init__(self, defenders, scenario=scenario, max_cycles=max_cycles,
                           render_mode=render_mode, shaping=shaping,
                           timeout_reward=timeout_reward, action_repeat=action_repeat,
                           scripted_every=scripted_every, render_width=render_width,
-                          info_format=info_format)
+                          info_format=info_format, starts=starts)
         self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
         self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
         self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
         game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
-                             shaping=shaping, render_width=render_width, info_format=info_format)
+                             shaping=shaping, render_width=render_width, info_format=info_format,
+                             starts=starts)
+        self.metadata = _metadata(self.metadata, game, self.action_repeat)
         self.game = game
         self.render_mode = render_mode
         self.defenders = build_policy(defenders, game.base_scenario, "defenders")
@@ -265,14 +279,14 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
     ``arrived`` (in ``info_format``, as ``ReachAvoidEnv``: integer codes by default).
 
     ``reset(seed=, options=)`` takes ``ReachAvoidEnv``'s options (a scenario with the same
-    player counts, start positions). ``game`` is the underlying ``ReachAvoidEnv``.
+    player counts, start positions); ``starts="random"`` draws every start at every reset
+    (``ReachAvoidEnv``). ``game`` is the underlying ``ReachAvoidEnv``.
     ``scripted_every``: see the module docstring.
     Policies keep their own randomness: a seeded reset reseeds the env, not them.
     """
 
     metadata = {
         "render_modes": ["human", "rgb_array"],
-        "render_fps": ReachAvoidEnv.metadata["render_fps"],
     }
 
     def __init__(self, defenders: PolicySource, scenario: str | Scenario = "paper_2v1",
@@ -280,17 +294,19 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
                  max_cycles: int | None = None, render_mode: str | None = None,
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
                  scripted_every: int = 1, render_width: int = 640,
-                 info_format: str = "numeric") -> None:
+                 info_format: str = "numeric", starts: str = "scenario") -> None:
         EzPickle.__init__(self, defenders, scenario=scenario, attacker=attacker,
                           teammates=teammates, max_cycles=max_cycles, render_mode=render_mode,
                           shaping=shaping, timeout_reward=timeout_reward,
                           action_repeat=action_repeat, scripted_every=scripted_every,
-                          render_width=render_width, info_format=info_format)
+                          render_width=render_width, info_format=info_format, starts=starts)
         self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
         self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
         self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
         game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
-                             shaping=shaping, render_width=render_width, info_format=info_format)
+                             shaping=shaping, render_width=render_width, info_format=info_format,
+                             starts=starts)
+        self.metadata = _metadata(self.metadata, game, self.action_repeat)
         base = game.base_scenario
         m = base.num_attackers
         if isinstance(attacker, bool) or not isinstance(attacker, int) \

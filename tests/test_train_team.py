@@ -84,7 +84,6 @@ def test_training_curve_counts_how_every_attacker_ended(tmp_path):
     step's infos with the reset infos); compare with the game's own statuses."""
     from pettingzoo.utils import BaseParallelWrapper
     from stable_baselines3 import PPO
-    from stable_baselines3.common.vec_env import VecMonitor
 
     from policies.training import make_attackers_parallel_env
     from reachavoid_env import load_scenario
@@ -108,7 +107,7 @@ def test_training_curve_counts_how_every_attacker_ended(tmp_path):
     scenario = load_scenario("paper_6v2").with_players(6, 2)
     game = make_attackers_parallel_env(scenario, defenders="greedy", action_repeat=10,
                                        shaping=1.0, timeout_reward=-1.0, max_cycles=300)
-    envs = VecMonitor(sb3_vec_env(Statuses(game)))
+    envs = sb3_vec_env(Statuses(game))
     curve = recipe.TrainingCurve()
     PPO("MlpPolicy", envs, n_steps=64, batch_size=64, seed=0, device="cpu").learn(
         64 * 6 * 6, callback=curve)

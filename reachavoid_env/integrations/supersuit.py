@@ -24,6 +24,14 @@ traps of SuperSuit 3.11:
   of every agent still in the game whole under ``info["final_info"]`` (a key no reset info has).
 - ``PPO(seed=...)`` calls the vector env's ``seed``, which SuperSuit's SB3 wrapper cannot
   do; ``SeededVecEnv.seed(s)`` seeds the next reset instead, game copy ``i`` with ``s + i``.
+- SB3's ``VecMonitor`` asks the vector env for ``render_mode``, which SuperSuit's
+  concatenated envs do not answer (a warning, "The `render_mode` attribute is not
+  defined"); ``SeededVecEnv`` answers with the game's.
+
+``sb3_vec_env`` returns the chain under a ``VecMonitor``: every slot's episode return and
+length reach SB3 (``info["episode"]``, ``model.ep_info_buffer``, the logger's
+``rollout/ep_rew_mean`` and ``rollout/ep_len_mean``). A slot's episode is one agent's part
+of a game, to the end of the game.
 """
 
 from __future__ import annotations
@@ -34,6 +42,7 @@ import numpy as np
 import supersuit
 from pettingzoo import ParallelEnv
 from pettingzoo.utils import BaseParallelWrapper
+from stable_baselines3.common.vec_env import VecMonitor
 from supersuit.vector.sb3_vector_wrapper import SB3VecEnvWrapper
 
 
@@ -66,17 +75,23 @@ class SeededVecEnv(SB3VecEnvWrapper):
         copies = len(getattr(self.venv, "vec_envs", [None]))
         return [None if seed is None else seed + i for i in range(copies)]
 
+    def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
+        if attr_name == "render_mode":
+            return [self.render_mode] * self.num_envs
+        return super().get_attr(attr_name, indices)
+
     def reset(self) -> np.ndarray:
         seed, self._next_seed = self._next_seed, None
         observations, self.reset_infos = self.venv.reset(seed=seed)
         return observations
 
 
-def sb3_vec_env(env: ParallelEnv, copies: int = 1, num_cpus: int = 0) -> SeededVecEnv:
+def sb3_vec_env(env: ParallelEnv, copies: int = 1, num_cpus: int = 0) -> VecMonitor:
     """``copies`` copies of ``env`` (pickled; give env factories, not heavy policy objects,
     to ``AttackerParallelEnv``) as one SB3 ``VecEnv`` with a slot per agent and copy, in
-    ``num_cpus`` worker processes (0: in this process). Every agent needs the same
-    observation and action spaces (true of the game and of ``AttackerParallelEnv``)."""
+    ``num_cpus`` worker processes (0: in this process), under a ``VecMonitor``. Every
+    agent needs the same observation and action spaces (true of the game and of
+    ``AttackerParallelEnv``)."""
     slots = supersuit.pettingzoo_env_to_vec_env_v1(supersuit.black_death_v3(GameEndFlags(env)))
-    return SeededVecEnv(supersuit.concat_vec_envs_v1(slots, copies, num_cpus=num_cpus,
-                                                     base_class="gymnasium"))
+    return VecMonitor(SeededVecEnv(supersuit.concat_vec_envs_v1(
+        slots, copies, num_cpus=num_cpus, base_class="gymnasium")))

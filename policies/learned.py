@@ -1,0 +1,151 @@
+"""Learned policies as ``reachavoid_env.Policy``: a trained network plays wherever a
+scripted policy does (``run_episode``, ``reachavoid play`` / ``bench``, the scripted side
+of a training env), so it is benchmarked, recorded and compared the same way.
+
+    from policies.learned import ObservationPolicy, load_sb3
+    attackers = load_sb3("runs/attacker/model.zip")         # a Stable-Baselines3 model
+    attackers = ObservationPolicy(lambda obs: my_net(obs))  # any function of observations
+
+On the command line a model is the policy name ``sb3:PATH``
+(``reachavoid play --attackers sb3:runs/attacker/model.zip``); ``policies.registry`` hands
+such names to ``sb3_named_policy``. Stable-Baselines3 (and torch) are imported only when a
+model is loaded.
+
+A policy trained with ``action_repeat = k`` (``reachavoid_env.wrappers``) chose an action
+every ``k`` env steps and held it; played here it does the same, so it sees the game at
+the rate it was trained on. The training examples store ``k`` in the saved model
+(``TRAINING_ATTRIBUTE``); ``load_sb3`` reads it back.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from reachavoid_env import GameState, Scenario, checks
+from reachavoid_env.observations import observe
+
+if TYPE_CHECKING:
+    from policies.registry import NamedPolicy
+
+SB3_PREFIX = "sb3:"
+"""Policy names ``sb3:PATH`` are Stable-Baselines3 models saved at ``PATH``."""
+SIDES = ("attackers", "defenders")
+TRAINING_ATTRIBUTE = "reachavoid_training"
+"""The attribute of a saved SB3 model holding how it was trained: a dict with
+``action_repeat`` (and, for the record, ``scenario``). SB3 saves and loads an algorithm's
+plain attributes with the model."""
+
+Predict = Callable[[np.ndarray], Any]
+
+
+class ObservationPolicy:
+    """A ``Policy`` for one side from ``predict``, a function of observations.
+
+    ``predict`` maps a batch of observations ``(K, 2 + 3 (M + N))`` float32 (one row per
+    live agent of ``side``, in name order; the layout of ``reachavoid_env.observations``) to
+    actions ``(K, 2)`` in ``[-1, 1]`` (a velocity as a fraction of the player's speed), as
+    ``model.predict`` does. Every agent of the side shares it (parameter sharing). Actions
+    are chosen at env steps ``0, k, 2k, ...`` (``action_repeat = k``) and held in between.
+    ``observation_size``, when given, is checked against each scenario at ``reset``.
+    """
+
+    def __init__(self, predict: Predict, side: str = "attackers", action_repeat: int = 1,
+                 observation_size: int | None = None, label: str = "the learned policy") -> None:
+        if side not in SIDES:
+            raise ValueError(f"side: expected one of {SIDES}, got {side!r}")
+        self.predict = predict
+        self.side = side
+        self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
+        self.observation_size = observation_size
+        self.label = label
+        self._map = None
+        self._held: dict[str, np.ndarray] = {}
+
+    def check(self, scenario: Scenario) -> None:
+        """``ValueError`` when the policy's observations do not fit ``scenario``."""
+        players = scenario.num_attackers + scenario.num_defenders
+        size = 2 + 3 * players
+        if self.observation_size is not None and self.observation_size != size:
+            trained = (self.observation_size - 2) / 3
+            raise ValueError(
+                f"{self.side}: {self.label} observes {self.observation_size} numbers (a game "
+                f"of {trained:g} players); {scenario.name!r} has {scenario.num_attackers} "
+                f"attackers and {scenario.num_defenders} defenders ({size} numbers)")
+
+    def reset(self, scenario: Scenario) -> None:
+        self.check(scenario)
+        self._map = scenario.map
+        self._held = {}
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]:
+        if self._map is None:
+            raise RuntimeError("act: call reset(scenario) first")
+        if self.side == "attackers":
+            live = [name for name, on in zip(state.attacker_names, state.active_attackers,
+                                             strict=True) if on]
+        else:
+            live = state.defender_names if state.active_attackers.any() else []
+        if state.step % self.action_repeat == 0 or any(n not in self._held for n in live):
+            self._held = self._decide(state, live)
+        return {name: self._held[name] for name in live}
+
+    def _decide(self, state: GameState, live: list[str]) -> dict[str, np.ndarray]:
+        if not live:
+            return {}
+        observations = observe(state, self._map)
+        batch = np.stack([observations[name] for name in live])
+        actions = np.asarray(self.predict(batch), dtype=np.float32).reshape(len(live), 2)
+        return dict(zip(live, np.clip(actions, -1.0, 1.0), strict=True))
+
+
+def load_sb3(path: str | Path, side: str = "attackers", action_repeat: int | None = None,
+             algorithm: str = "PPO") -> ObservationPolicy:
+    """The Stable-Baselines3 model saved at ``path`` (by ``algorithm``, a class of
+    ``stable_baselines3``) as a deterministic ``ObservationPolicy`` for ``side``.
+    ``action_repeat`` defaults to the one stored by the training examples
+    (``TRAINING_ATTRIBUTE``), else 1."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"{side}: model {str(path)!r} is not a file")
+    import stable_baselines3
+
+    model_class = getattr(stable_baselines3, algorithm, None)
+    if model_class is None:
+        raise ValueError(f"algorithm: {algorithm!r} is not a Stable-Baselines3 algorithm")
+    try:
+        model = model_class.load(path, device="cpu")
+    except Exception as err:  # SB3 raises many kinds on a foreign or damaged file
+        raise ValueError(f"{side}: cannot load {str(path)!r} as a Stable-Baselines3 "
+                         f"{algorithm} model: {err}") from None
+    trained = getattr(model, TRAINING_ATTRIBUTE, None) or {}
+    shape = model.observation_space.shape
+    if len(shape) != 1 or model.action_space.shape != (2,):
+        raise ValueError(f"{side}: {str(path)!r} is not a policy of this game (observations "
+                         f"{shape}, actions {model.action_space.shape})")
+    return ObservationPolicy(lambda batch: model.predict(batch, deterministic=True)[0],
+                             side=side,
+                             action_repeat=action_repeat or trained.get("action_repeat", 1),
+                             observation_size=shape[0], label=f"model {str(path)!r}")
+
+
+def sb3_named_policy(side: str, name: str) -> NamedPolicy:
+    """The registry entry of the policy name ``sb3:PATH`` (``policies.registry``): built
+    with ``action_repeat`` / ``algorithm`` options as ``load_sb3``; ``ValueError`` naming
+    ``side`` if ``PATH`` is not a file."""
+    from policies.registry import NamedPolicy
+
+    path = Path(name[len(SB3_PREFIX):])
+    if not path.is_file():
+        raise ValueError(f"{side}: model {str(path)!r} (in {name!r}) is not a file")
+
+    def build(scenario: Scenario, **options: Any) -> ObservationPolicy:
+        policy = load_sb3(path, side, **options)
+        policy.check(scenario)
+        return policy
+
+    return NamedPolicy(f"the Stable-Baselines3 model {path}", build,
+                       frozenset({"action_repeat", "algorithm"}))

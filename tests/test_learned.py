@@ -1,0 +1,212 @@
+"""Random starts through every registered id, observations of a GameState, learned
+policies (functions of observations, SB3 models) as Policy objects in play and bench,
+video speed with action_repeat, and SB3's episode statistics on the SuperSuit chain."""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import gymnasium
+import imageio_ffmpeg
+import numpy as np
+import pettingzoo
+import pytest
+
+import reachavoid_env
+from policies import GreedyDefender, IdleDefender
+from policies.learned import TRAINING_ATTRIBUTE, ObservationPolicy, load_sb3
+from policies.registry import make_policy, named_policy
+from policies.training import (
+    gym_id,
+    make_attackers_parallel_env,
+    pettingzoo_id,
+)
+from reachavoid import cli
+from reachavoid.rollout import run_episode
+from reachavoid_env import builtin_names, builtin_scenario
+from reachavoid_env.observations import observe
+from reachavoid_env.video import RecordEpisode
+
+
+# ------------------------------------------------------------------ random starts
+def _starts(env, seed):
+    env.reset(seed=seed)
+    state = env.unwrapped.game_state()
+    return np.concatenate([state.attacker_positions, state.defender_positions])
+
+
+@pytest.mark.parametrize("name", builtin_names())
+def test_random_start_ids_draw_from_the_seed(name):
+    """Every built-in's random-start ids, and the plain ids with ``starts="random"``: two
+    seeds give two starts, one seed the same start, with the scenario's player counts."""
+    scenario = builtin_scenario(name)
+    envs = [gymnasium.make(gym_id(name, "random"), defenders="idle"),
+            gymnasium.make(gym_id(name), defenders="idle", starts="random"),
+            gymnasium.make("reachavoid/Attacker-v0", scenario=name, defenders="idle",
+                           starts="random"),
+            pettingzoo.make("parallel", pettingzoo_id(name, "random"), defenders="idle"),
+            pettingzoo.make("parallel", "reachavoid/Attackers-v0", scenario=name,
+                            defenders="idle", starts="random"),
+            pettingzoo.make("parallel", "reachavoid/ReachAvoid-v0", scenario=name,
+                            starts="random")]
+    for env in envs:
+        one, other, again = _starts(env, 1), _starts(env, 2), _starts(env, 1)
+        assert one.shape == (scenario.num_attackers + scenario.num_defenders, 2)
+        assert not np.allclose(one, other)
+        np.testing.assert_array_equal(one, again)
+        env.close()
+
+
+def test_scenario_starts_stay_the_default_and_bad_starts_are_named():
+    fixed = gymnasium.make(gym_id("paper_2v1"), defenders="idle")
+    np.testing.assert_array_equal(_starts(fixed, 1), _starts(fixed, 2))
+    env = reachavoid_env.parallel_env(scenario="paper_6v2", starts="random")
+    assert env.base_scenario.attackers is None and env.base_scenario.num_attackers == 6
+    with pytest.raises(ValueError, match="starts: 'everywhere' is not one of"):
+        reachavoid_env.parallel_env(scenario="paper_6v2", starts="everywhere")
+
+
+# ------------------------------------------------------------------ observations
+def test_observe_is_the_env_observation_bit_for_bit():
+    """Along a game with captures and arrivals, ``observe(game_state())`` gives what the
+    env returned to every agent it returned something to."""
+    env = reachavoid_env.parallel_env(scenario="paper_6v2", starts="random")
+    observations, _ = env.reset(seed=3)
+    rng = np.random.default_rng(0)
+    defenders = GreedyDefender()
+    defenders.reset(env.scenario)
+    left = 0
+    while env.agents:
+        seen = observe(env.game_state(), env.scenario.map)
+        for name, value in observations.items():
+            np.testing.assert_array_equal(seen[name], value)
+        actions = {**defenders.act(env.game_state()),
+                   **{f"attacker_{i}": rng.uniform(-1, 1, 2) for i in range(6)}}
+        observations, *_ = env.step({name: actions[name] for name in env.agents})
+        left = max(left, 8 - len(env.agents))
+    assert left >= 2                          # the check ran past players leaving
+
+
+def test_observation_policy_holds_its_actions_for_action_repeat_steps():
+    calls = []
+
+    def predict(batch):
+        calls.append(batch.copy())
+        return np.tile([1.0, 0.0], (len(batch), 1))
+
+    policy = ObservationPolicy(predict, action_repeat=4)
+    env = reachavoid_env.parallel_env(scenario="paper_2v1")
+    result = run_episode(env, policy, IdleDefender(), seed=0)
+    assert len(calls) == -(-result.steps // 4)
+    assert calls[0].shape == (2, 2 + 3 * 3) and calls[0].dtype == np.float32
+    with pytest.raises(ValueError, match="observes 11 numbers .* 'paper_6v2' has 6 attackers"):
+        ObservationPolicy(predict, observation_size=11).reset(builtin_scenario("paper_6v2"))
+
+
+# ------------------------------------------------------------------ SB3 models
+@pytest.fixture(scope="module")
+def model_path(tmp_path_factory):
+    """A 2,000-step PPO attacker on paper_1v1 random starts, saved as the examples do."""
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3 import PPO
+
+    from policies.training import make_attacker_env
+
+    env = make_attacker_env("paper_1v1", defenders="greedy", starts="random",
+                            action_repeat=10, shaping=1.0, timeout_reward=-1.0)
+    model = PPO("MlpPolicy", env, n_steps=500, batch_size=100, seed=0, device="cpu")
+    model.learn(2_000)
+    setattr(model, TRAINING_ATTRIBUTE, {"action_repeat": 10, "scenario": "paper_1v1"})
+    path = tmp_path_factory.mktemp("model") / "model.zip"
+    model.save(path)
+    return path
+
+
+def test_a_model_plays_as_it_was_trained(model_path):
+    """The model as a Policy in ``run_episode`` on the full game plays the same episode as
+    the model on the observations of the training env (decisions every 10 steps)."""
+    from stable_baselines3 import PPO
+
+    policy = load_sb3(model_path)
+    assert policy.action_repeat == 10
+    model = PPO.load(model_path, device="cpu")
+    training = make_attackers_parallel_env("paper_1v1", defenders=GreedyDefender(),
+                                           starts="random", action_repeat=10)
+    game = reachavoid_env.parallel_env(scenario="paper_1v1", starts="random")
+    for seed in range(3):
+        observations, _ = training.reset(seed=seed)
+        while training.agents:
+            observations, *_ = training.step(
+                {"attacker_0": model.predict(observations["attacker_0"], deterministic=True)[0]})
+        result = run_episode(game, policy, GreedyDefender(), seed=seed)
+        final = training.game_state()
+        assert result.steps == final.step
+        np.testing.assert_array_equal(game.game_state().attacker_positions,
+                                      final.attacker_positions)
+
+
+def test_sb3_names_go_through_the_registry(model_path):
+    entry = named_policy("attackers", f"sb3:{model_path}")
+    assert entry.options == {"action_repeat", "algorithm"}
+    policy = make_policy("attackers", f"sb3:{model_path}", builtin_scenario("paper_1v1"),
+                         action_repeat=2)
+    assert isinstance(policy, ObservationPolicy) and policy.action_repeat == 2
+    with pytest.raises(ValueError, match="observes 8 numbers"):
+        make_policy("attackers", f"sb3:{model_path}", builtin_scenario("paper_2v1"))
+    with pytest.raises(ValueError, match="attackers: model 'nowhere.zip' .* is not a file"):
+        named_policy("attackers", "sb3:nowhere.zip")
+
+
+def test_play_and_bench_take_a_model(model_path, tmp_path, capsys):
+    video = tmp_path / "x.mp4"
+    spec = f"sb3:{model_path}"
+    assert cli.main(["play", "--scenario", "paper_1v1", "--attackers", spec, "--defenders",
+                     "greedy", "--video", str(video), "--json"]) == 0
+    played = json.loads(capsys.readouterr().out)
+    assert played["attackers"] == spec and played["steps"] > 0
+    frames, seconds = imageio_ffmpeg.count_frames_and_secs(str(video))
+    assert frames == played["steps"] + 1
+    assert cli.main(["bench", "--attackers", spec, "--config", "1v1", "--defenders",
+                     "greedy,idle", "--episodes", "3", "--json"]) == 0
+    bench = json.loads(capsys.readouterr().out)
+    assert [m["label"] for m in bench["methods"]] == ["greedy", "idle"]
+    assert cli.main(["bench", "--attackers", spec, "--episodes", "3"]) == 2
+    assert "observes 8 numbers" in capsys.readouterr().err
+    assert cli.main(["play", "--attackers", "sb3:nowhere.zip"]) == 2
+    assert "'nowhere.zip' (in 'sb3:nowhere.zip') is not a file" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------ conventions
+@pytest.mark.parametrize("repeat", [1, 10])
+def test_video_of_an_attacker_env_lasts_the_game_time(repeat, tmp_path):
+    env = make_attackers_parallel_env("paper_2v1", defenders="greedy", action_repeat=repeat,
+                                      render_mode="rgb_array", render_width=160)
+    assert env.metadata["render_fps"] == pytest.approx(1 / (0.005 * repeat))
+    path = tmp_path / "episode.mp4"
+    with RecordEpisode(env, path) as recorded:
+        recorded.reset(seed=0)
+        while recorded.agents:
+            recorded.step({name: np.array([1.0, 0.0]) for name in recorded.agents})
+    game_time = env.game_state().time
+    frames, seconds = imageio_ffmpeg.count_frames_and_secs(str(path))
+    fps = env.metadata["render_fps"]
+    # one frame per agent step after the first: the video lasts the game time (+ 1 frame)
+    assert frames / fps == pytest.approx(game_time + 1 / fps, abs=repeat * 0.005)
+
+
+def test_sb3_vec_env_fills_the_episode_buffer_without_warnings():
+    pytest.importorskip("supersuit")
+    from stable_baselines3 import PPO
+
+    from reachavoid_env.integrations.supersuit import sb3_vec_env
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        envs = sb3_vec_env(make_attackers_parallel_env(
+            builtin_scenario("paper_2v1"), defenders="greedy", starts="random",
+            max_cycles=20), copies=2)
+        model = PPO("MlpPolicy", envs, n_steps=32, batch_size=64, seed=0, device="cpu")
+        model.learn(128)
+    assert len(model.ep_info_buffer) >= 4
+    assert {"r", "l", "t"} <= set(model.ep_info_buffer[0])
