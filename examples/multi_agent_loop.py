@@ -90,7 +90,7 @@ def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
     parser.add_argument("--policy", default="toward-target",
                         help="toward-target, random, or a Stable-Baselines3 PPO .zip")
     parser.add_argument("--action-repeat", type=int, default=None,
-                        help="env steps per hook call (default: the model's, else 1)")
+                        help="env steps per hook call (None: the model's, else 1)")
     parser.add_argument("--starts", choices=STARTS, default="random",
                         help="the scenario's start positions or random ones every episode")
     parser.add_argument("--episodes", type=int, default=3, help="episodes to play")

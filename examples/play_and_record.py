@@ -47,7 +47,7 @@ def with_own_loop(folder: Path) -> None:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out", nargs="?", type=Path, default=Path.cwd(),
-                        help="folder for the two videos (default: the current folder)")
+                        help="folder for the two videos")
     out = parser.parse_args().out
     if not out.is_dir():
         parser.error(f"out: folder {str(out)!r} does not exist")

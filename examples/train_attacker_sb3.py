@@ -75,12 +75,12 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                "report.json and trained.mp4 into --out.")
     add_defender_arguments(parser, scenario="paper_1v1")
     parser.add_argument("--fixed-starts", action="store_true",
-                        help="keep the scenario's start positions (default: random starts "
-                             "every episode)")
+                        help="keep the scenario's start positions instead of random starts "
+                             "every episode")
     parser.add_argument("--timesteps", type=int, default=150_000,
                         help="PPO training steps (default: %(default)s)")
     parser.add_argument("--max-minutes", type=float, default=None,
-                        help="stop training after this much wall time (default: no limit)")
+                        help="stop training after this much wall time (None: no limit)")
     parser.add_argument("--envs", type=int, default=4,
                         help="parallel training envs (default: %(default)s)")
     parser.add_argument("--subprocess", action="store_true",

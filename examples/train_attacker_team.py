@@ -117,7 +117,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="PPO agent steps, one per attacker slot and env step; 0: no PPO "
                              "(default: %(default)s)")
     parser.add_argument("--max-minutes", type=float, default=None,
-                        help="stop training after this much wall time (default: none)")
+                        help="stop training after this much wall time (None: no limit)")
     parser.add_argument("--copies", type=int, default=2,
                         help="game copies in the vector env (default: %(default)s)")
     parser.add_argument("--n-steps", type=int, default=256,
@@ -146,10 +146,10 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                              "(default: %(default)s)")
     parser.add_argument("--dagger-epochs", type=int, default=None,
                         help="passes over all the labelled steps after each DAgger round "
-                             "(default: --imitate-epochs)")
+                             "(None: --imitate-epochs)")
     parser.add_argument("--net-arch", default=None,
                         help="hidden layer sizes of the policy and value networks, "
-                             "comma-separated, e.g. 256,256 (default: SB3's 64,64)")
+                             "comma-separated, e.g. 256,256 (None: SB3's 64,64)")
     parser.add_argument("--imitate-log-std", type=float, default=-1.0,
                         help="log std of the actions after cloning (default: %(default)s)")
     add_reward_arguments(parser)
@@ -157,15 +157,15 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="evaluation starts, seeds 0..N-1 (default: %(default)s)")
     parser.add_argument("--teams", default=None,
                         help=f"teams to evaluate, comma-separated from {', '.join(TEAMS)} "
-                             f"(default: {','.join(DEFAULT_TEAMS)}, and the --imitate-from "
+                             f"(None: {','.join(DEFAULT_TEAMS)}, and the --imitate-from "
                              "team when it is another)")
     parser.add_argument("--seed", type=int, default=0, help="seed (default: %(default)s)")
     parser.add_argument("--out", type=Path, default=Path("runs/attacker_team"),
                         help="output folder (default: %(default)s)")
     parser.add_argument("--plot", type=Path, default=None,
-                        help="training curve PNG (default: OUT/curve.png)")
+                        help="training curve PNG (None: OUT/curve.png)")
     parser.add_argument("--video", type=Path, default=None,
-                        help="video of a learned episode (default: OUT/learned.mp4)")
+                        help="video of a learned episode (None: OUT/learned.mp4)")
     parser.add_argument("--video-every", type=int, default=4,
                         help="record every k-th game step (default: %(default)s)")
     parser.add_argument("--video-width", type=int, default=320,

@@ -82,7 +82,8 @@ def add_defender_arguments(parser: argparse.ArgumentParser, scenario: str = "pap
     """The training scripts' ``--scenario``, ``--defenders``, ``--grid1`` and ``--grid2``
     (coarse tubes by default, so a run starts in seconds; ``defender_options`` reads them)."""
     parser.add_argument("--scenario", default=scenario, help="built-in name or TOML file")
-    parser.add_argument("--defenders", default=defenders, choices=DEFENDERS)
+    parser.add_argument("--defenders", default=defenders, choices=DEFENDERS,
+                        help="scripted defenders (default: %(default)s)")
     parser.add_argument("--grid1", type=int, default=31, help="hj defenders' 1v1 grid")
     parser.add_argument("--grid2", type=int, default=15, help="hj defenders' 2v1 grid")
 

@@ -5,6 +5,8 @@ video speed with action_repeat, and SB3's episode statistics on the SuperSuit ch
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 import warnings
 
 import gymnasium
@@ -12,6 +14,7 @@ import imageio_ffmpeg
 import numpy as np
 import pettingzoo
 import pytest
+from checks import ROOT
 
 import reachavoid_env
 from policies import GreedyDefender, IdleDefender
@@ -210,3 +213,17 @@ def test_sb3_vec_env_fills_the_episode_buffer_without_warnings():
         model.learn(128)
     assert len(model.ep_info_buffer) >= 4
     assert {"r", "l", "t"} <= set(model.ep_info_buffer[0])
+
+
+@pytest.mark.parametrize("name", sorted(p.stem for p in (ROOT / "examples").glob("*.py")))
+def test_every_example_answers_help_with_its_defaults(name):
+    result = subprocess.run([sys.executable, f"examples/{name}.py", "--help"], cwd=ROOT,
+                            capture_output=True, text=True, timeout=600)
+    if "ModuleNotFoundError" in result.stderr:      # rllib / benchmarl live in their own venv
+        pytest.skip(result.stderr.strip().splitlines()[-1])
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.startswith("usage:") and "Traceback" not in result.stderr
+    if name == "train_attacker_sb3":    # what README's recipe says
+        for default in ("paper_1v1", "150000", "--action-repeat ACTION_REPEAT",
+                        "(default: 10)", "(default: 200)"):
+            assert default in " ".join(result.stdout.split()), default
