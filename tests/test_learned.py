@@ -180,6 +180,17 @@ def test_play_and_bench_take_a_model(model_path, tmp_path, capsys):
     assert "'nowhere.zip' (in 'sb3:nowhere.zip') is not a file" in capsys.readouterr().err
 
 
+def test_the_observation_loop_plays_a_model_on_random_starts(model_path, tmp_path):
+    from checks import example
+
+    loop = example("multi_agent_loop")
+    results = loop.main(["--scenario", "paper_1v1", "--defenders", "greedy", "--policy",
+                         str(model_path), "--episodes", "2", "--video",
+                         str(tmp_path / "loop.mp4")])
+    assert results[0] != results[1]                     # two seeds, two random starts
+    assert (tmp_path / "loop.mp4").stat().st_size > 0
+
+
 # ------------------------------------------------------------------ conventions
 @pytest.mark.parametrize("repeat", [1, 10])
 def test_video_of_an_attacker_env_lasts_the_game_time(repeat, tmp_path):
