@@ -12,20 +12,30 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import re
 import signal
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
 import reachavoid_env
-from policies.defenders import CERTIFICATE_CELLS
-from policies.registry import ATTACKERS, DEFENDERS, NamedPolicy, accepted_options, make_policy
+from policies.defenders import CERTIFICATE_CELLS, check_margin_cells
+from policies.registry import PolicySpec, names_help, policy_specs
 from reachavoid import paper as paper_table
-from reachavoid.evaluation import compare_defenders, write_csv
+from reachavoid.evaluation import MIN_BOOTSTRAP, one_start, write_csv
 from reachavoid.rollout import EpisodeResult, run_episode
 from reachavoid.solve import DEFAULT_GRID, GAMES, solve_scenario
+from reachavoid.suite import (
+    Cell,
+    Suite,
+    SuiteResult,
+    load_suite,
+    parse_players,
+    plot_suite,
+    run_suite,
+    suite_names,
+)
 from reachavoid.sweep import BACKENDS
 from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
 from reachavoid_env.video import check_video_path
@@ -36,8 +46,9 @@ MAX_SEED = 2**63 - 1
 GRID_RANGE = {"grid1": (5, 201), "grid2": (5, 101)}
 """Nodes per axis accepted for the 1 vs 1 and 2 vs 1 tubes (the memory guard still
 refuses what this machine cannot hold)."""
-MAX_MARGIN_CELLS = 10.0
-"""The largest certificate margin accepted (grid cells)."""
+OPTION_FLAGS = {"grid1": "--grid1", "grid2": "--grid2", "margin_cells": "--margin-cells"}
+"""The policy options the command line takes (each goes to the chosen policies that take
+it; one that none takes is an error)."""
 
 
 class UsageError(ValueError):
@@ -53,8 +64,7 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def _choices_help(table: dict[str, NamedPolicy]) -> str:
-    return "; ".join(f"{name}: {choice.help}" for name, choice in table.items())
+SPEC = "NAME|pkg.module:factory"
 
 
 def _scenario_option(parser: argparse.ArgumentParser, default: str, what: str) -> None:
@@ -62,19 +72,23 @@ def _scenario_option(parser: argparse.ArgumentParser, default: str, what: str) -
                         help=f"{what} (default: %(default)s)")
 
 
-def _grid_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--grid1", type=int, default=DEFAULT_GRID["1v1"], metavar="N",
-                        help="1 vs 1 tube nodes per axis (default: %(default)s, the paper's)")
-    parser.add_argument("--grid2", type=int, default=DEFAULT_GRID["2v1"], metavar="N",
-                        help="2 vs 1 tube nodes per axis (default: %(default)s, the paper's)")
+def _grid_options(parser: argparse.ArgumentParser, for_policies: bool = True) -> None:
+    """``--grid1`` / ``--grid2``: policy options (given only when set: each policy that
+    takes them gets them, its own default is the paper's), or the grids of a command."""
+    whose = " of the policies that take it" if for_policies else ""
+    for name, game in (("grid1", "1v1"), ("grid2", "2v1")):
+        parser.add_argument(f"--{name}", type=int, metavar="N",
+                            default=None if for_policies else DEFAULT_GRID[game],
+                            help=f"{game[0]} vs {game[2]} tube nodes per axis{whose} "
+                                 f"(default: {DEFAULT_GRID[game]}, the paper's)")
 
 
 def _margin_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--margin-cells", type=float, default=CERTIFICATE_CELLS, metavar="C",
+    parser.add_argument("--margin-cells", type=float, default=None, metavar="C",
                         help="certificate margin of the hj, hj-pairs and matching defenders in "
                              "grid cells of each tube: a game counts as a defender win where "
-                             "its value exceeds C cells, or stays > 0 once taken (default: "
-                             "%(default)s; 0 reads the tubes as the paper does)")
+                             f"its value exceeds C cells, or stays > 0 once taken (default: "
+                             f"{CERTIFICATE_CELLS}; 0 reads the tubes as the paper does)")
 
 
 def _seed_option(parser: argparse.ArgumentParser, help_text: str) -> None:
@@ -89,10 +103,10 @@ def build_parser() -> argparse.ArgumentParser:
     play = commands.add_parser("play", help="play one episode and print the outcome",
                                description="Play one episode of a scenario.")
     _scenario_option(play, "paper_6v2", "a built-in scenario name or a TOML scenario file")
-    play.add_argument("--attackers", choices=ATTACKERS, default="shortest-path",
-                      help=f"attacker policy (default: %(default)s). {_choices_help(ATTACKERS)}")
-    play.add_argument("--defenders", choices=DEFENDERS, default="hj",
-                      help=f"defender policy (default: %(default)s). {_choices_help(DEFENDERS)}")
+    play.add_argument("--attackers", default="shortest-path", metavar=SPEC,
+                      help=f"attacker policy (default: %(default)s). {names_help('attackers')}")
+    play.add_argument("--defenders", default="hj", metavar=SPEC,
+                      help=f"defender policy (default: %(default)s). {names_help('defenders')}")
     _grid_options(play)
     _margin_option(play)
     _seed_option(play, "seed of the env (random starts) and random policies")
@@ -124,21 +138,33 @@ def build_parser() -> argparse.ArgumentParser:
     solve.set_defaults(run=_solve)
 
     bench = commands.add_parser(
-        "bench", help="play many seeded random starts and compare capture rates",
-        description="Play seeded random starts on a scenario's map with each defender method "
-                    "and print capture rates with 95% confidence intervals.")
-    _scenario_option(bench, "paper_2v1", "the map, speeds and settings to use")
+        "bench", help="compare defender methods on the same seeded starts",
+        description="Play seeded starts with each defender method (built-in names, installed "
+                    "names, or pkg.module:factory of your own), on one scenario's map "
+                    "(--config) or on every cell of a suite (--suite), and print capture "
+                    "rates with 95% intervals and each method's paired difference from the "
+                    "baseline.")
+    bench.add_argument("--suite", default=None, metavar="NAME|FILE.toml",
+                       help=f"play a suite of cells instead of one --config (built-ins: "
+                            f"{', '.join(suite_names())})")
+    _scenario_option(bench, "paper_2v1", "without --suite: the map, speeds and settings")
     bench.add_argument("--config", default="6v2", metavar="MvN",
-                       help="attackers v defenders, drawn at random each episode "
-                            "(default: %(default)s)")
+                       help="without --suite: attackers v defenders, drawn at random each "
+                            "episode (default: %(default)s)")
     bench.add_argument("--defenders", default="hj,matching", metavar="A,B",
-                       help=f"comma-separated defender methods (default: %(default)s); "
-                            f"from {', '.join(DEFENDERS)}")
-    bench.add_argument("--attackers", choices=ATTACKERS, default="shortest-path",
-                       help="attacker policy (default: %(default)s)")
+                       help=f"comma-separated defender methods, each {SPEC} (default: "
+                            f"%(default)s). {names_help('defenders')}")
+    bench.add_argument("--attackers", default="shortest-path", metavar=SPEC,
+                       help="without --suite: the attacker policy (default: %(default)s). "
+                            f"{names_help('attackers')}")
+    bench.add_argument("--baseline", default=None, metavar="METHOD",
+                       help="the method every other is compared with, seed by seed "
+                            "(default: hj when chosen, else the first method)")
     bench.add_argument("--episodes", type=int, default=200,
-                       help="episodes per method (default: %(default)s)")
-    _seed_option(bench, "episode k uses seed SEED + k")
+                       help="episodes per method and cell (default: %(default)s; a suite's "
+                            "cell may fix its own)")
+    bench.add_argument("--seed", type=int, default=None,
+                       help="episode k uses seed SEED + k (default: the suite's, or 0)")
     bench.add_argument("--backend", choices=BACKENDS, default="serial",
                        help="where episodes run: here, on a process pool, or as Ray tasks "
                             "(same results for the same seeds; default: %(default)s)")
@@ -149,7 +175,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="an existing Ray cluster (default: start a local one)")
     bench.add_argument("--csv", metavar="FILE.csv", help="write one row per episode")
     bench.add_argument("--json", action="store_true",
-                       help="print one JSON object instead of a table")
+                       help="print one JSON object (per cell the summaries and paired "
+                            "differences, and one row per episode) instead of tables")
+    bench.add_argument("--plot", metavar="OUT.png",
+                       help="draw the capture rate per cell and method with its interval")
     _grid_options(bench)
     _margin_option(bench)
     bench.set_defaults(run=_bench)
@@ -163,7 +192,7 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--out", default="paper_results", metavar="DIR",
                        help="where the videos, figure and table go (default: %(default)s)")
     paper.add_argument("--no-video", action="store_true", help="skip the videos")
-    _grid_options(paper)
+    _grid_options(paper, for_policies=False)
     paper.set_defaults(run=_paper)
     return parser
 
@@ -179,12 +208,12 @@ def _check(check: Any, value: Any, field: str, *bounds: Any) -> Any:
 
 def _check_common(args: argparse.Namespace) -> None:
     for name in ("grid1", "grid2"):
-        if hasattr(args, name):
+        if getattr(args, name, None) is not None:
             _check(checks.integer, getattr(args, name), f"--{name}", *GRID_RANGE[name])
-    if hasattr(args, "seed"):
+    if getattr(args, "seed", None) is not None:
         _check(checks.integer, args.seed, "--seed", 0, MAX_SEED)
-    if hasattr(args, "margin_cells"):
-        _check(checks.real, args.margin_cells, "--margin-cells", 0.0, MAX_MARGIN_CELLS)
+    if getattr(args, "margin_cells", None) is not None:
+        _check(check_margin_cells, args.margin_cells, "--margin-cells")
     location = cache_dir()
     if location.exists() and not location.is_dir():
         raise UsageError(f"cache: {str(location)!r} ($REACHAVOID_CACHE_DIR) is not a folder")
@@ -224,11 +253,18 @@ def _load(source: str) -> Scenario:
         raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}") from None
 
 
-def _policy(side: str, name: str, scenario: Scenario, args: argparse.Namespace) -> Any:
-    """The named policy, given whichever of --seed, --grid1, --grid2 it takes."""
-    options = accepted_options(side, name, seed=args.seed, grid1=args.grid1, grid2=args.grid2,
-                               margin_cells=args.margin_cells, progress=args.progress)
-    return make_policy(side, name, scenario, **options)
+def _specs(choices: list[tuple[str, str]], args: argparse.Namespace) -> list[PolicySpec]:
+    """The chosen policies, each with the options given on the command line that it takes
+    (``OPTION_FLAGS``); a policy that cannot be found, or an option none takes, is a
+    ``UsageError`` naming the flag."""
+    options = {name: getattr(args, name) for name in OPTION_FLAGS
+               if getattr(args, name, None) is not None}
+    try:
+        return policy_specs(choices, options, OPTION_FLAGS)
+    except ValueError as err:
+        message = str(err)
+        raise UsageError(f"--{message}" if message.startswith(("defenders", "attackers"))
+                         else message) from None
 
 
 # -- commands -------------------------------------------------------------------------------
@@ -245,8 +281,10 @@ def _play(args: argparse.Namespace) -> int:
         _check(checks.integer, args.every, "--every", 1, 1_000_000)
         _check(checks.integer, args.width, "--width", 16, 4096)
     scenario = _load(args.scenario)
-    attackers = _policy("attackers", args.attackers, scenario, args)
-    defenders = _policy("defenders", args.defenders, scenario, args)
+    attacker_spec, defender_spec = _specs([("attackers", args.attackers),
+                                           ("defenders", args.defenders)], args)
+    attackers = attacker_spec(scenario, seed=args.seed, progress=args.progress)
+    defenders = defender_spec(scenario, seed=args.seed, progress=args.progress)
     env = reachavoid_env.parallel_env(
         scenario=scenario, render_mode="rgb_array" if args.video else None,
         render_width=args.width)
@@ -307,53 +345,120 @@ def _solve(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bench_suite(args: argparse.Namespace) -> Suite:
+    """The suite to play: ``--suite``, or one cell of ``--scenario`` and ``--config``."""
+    if args.suite is not None:
+        given = [flag for flag, value, default in (
+            ("--scenario", args.scenario, "paper_2v1"), ("--config", args.config, "6v2"),
+            ("--attackers", args.attackers, "shortest-path")) if value != default]
+        if given:
+            raise UsageError(f"{given[0]}: not with --suite (the suite names its cells)")
+        try:
+            suite = load_suite(args.suite)
+        except OSError as err:
+            raise UsageError(f"--suite: cannot read {args.suite!r}: {err.strerror}") from None
+        except ValueError as err:
+            raise UsageError(str(err)) from None
+        return suite if args.seed is None else Suite(suite.name, suite.version, args.seed,
+                                                      suite.cells)
+    m, n = _check(parse_players, args.config, "--config")
+    scenario = _load(args.scenario).with_players(m, n)
+    cell = Cell(f"{scenario.name} / {args.attackers}", scenario, args.attackers)
+    return Suite(scenario.name, 0, args.seed or 0, (cell,))
+
+
 def _bench(args: argparse.Namespace) -> int:
-    match = re.fullmatch(r"(\d+)v(\d+)", args.config)
-    if match is None:
-        raise UsageError(f"--config: expected MvN such as 6v2, got {args.config!r}")
-    _check(checks.integer, int(match[1]), "--config attackers", 1, 64)
-    _check(checks.integer, int(match[2]), "--config defenders", 1, 64)
     _check(checks.integer, args.episodes, "--episodes", 1, 10_000_000)
-    methods = [m.strip() for m in args.defenders.split(",") if m.strip()]
-    unknown = [m for m in methods if m not in DEFENDERS]
-    if unknown or not methods:
-        raise UsageError(f"--defenders: unknown method(s) {unknown or args.defenders!r} "
-                         f"(choose from {', '.join(DEFENDERS)})")
+    methods = list(dict.fromkeys(m.strip() for m in args.defenders.split(",") if m.strip()))
+    if not methods:
+        raise UsageError(f"--defenders: expected comma-separated methods, got "
+                         f"{args.defenders!r}")
+    baseline = args.baseline or ("hj" if "hj" in methods else methods[0])
+    if baseline not in methods:
+        raise UsageError(f"--baseline: {baseline!r} is not among --defenders "
+                         f"({', '.join(methods)})")
     if args.workers is not None:
         _check(checks.integer, args.workers, "--workers", 1, 4096)
     if args.address is not None and args.backend != "ray":
         raise UsageError("--address: only with --backend ray")
-    if args.csv:
-        writable_file(args.csv, "--csv")
-    scenario = _load(args.scenario).with_players(int(match[1]), int(match[2]))
-    comparison = compare_defenders(scenario, methods, args.attackers, args.episodes,
-                                   seed=args.seed, backend=args.backend, workers=args.workers,
-                                   address=args.address, progress=args.progress,
-                                   grid1=args.grid1, grid2=args.grid2,
-                                   margin_cells=args.margin_cells)
+    for flag, path in (("--csv", args.csv), ("--plot", args.plot)):
+        if path is not None:
+            writable_file(path, flag)
+    suite = _bench_suite(args)
+    attackers = dict.fromkeys(cell.attackers for cell in suite.cells)
+    _specs([*(("defenders", m) for m in methods), *(("attackers", a) for a in attackers)],
+           args)
+    repeated = [cell.label for cell in suite.cells
+                if (cell.episodes or args.episodes) > 1 and one_start(cell.scenario)]
+    if repeated:
+        print(f"reachavoid bench: warning: {len(repeated)} cell(s) play every episode from "
+              f"the same start (fixed starts), so their intervals cover the policies' "
+              f"randomness only: {', '.join(repeated)}", file=sys.stderr)
+    options = {name: getattr(args, name) for name in OPTION_FLAGS
+               if getattr(args, name) is not None}
+    started = time.perf_counter()
+    result = run_suite(suite, methods, args.episodes, baseline, options, OPTION_FLAGS,
+                       backend=args.backend, workers=args.workers, address=args.address,
+                       progress=args.progress)
+    seconds = time.perf_counter() - started
+    report = result.to_dict()
     if args.csv:
         write_csv(args.csv, [{k: (";".join(v) if isinstance(v, list) else v)
-                              for k, v in row.items()} for row in comparison.rows])
+                              for k, v in row.items()} for row in report["rows"]])
+    if args.plot:
+        plot_suite(result, args.plot)
     if args.json:
-        print(json.dumps({"scenario": scenario.name, "config": args.config,
-                          "attackers": args.attackers, "seed": args.seed,
-                          "episodes": args.episodes,
-                          "methods": [s.to_dict() for s in comparison.summaries]}))
+        print(json.dumps(report | {"episodes": args.episodes, "wall_seconds": seconds}))
         return 0
-    print(f"{scenario.name}: {args.episodes} seeded random starts (seeds {args.seed}.."
-          f"{args.seed + args.episodes - 1}), {args.attackers} attackers")
-    print(f"  {'defenders':<10} {'capture rate [95% CI]':<26} {'all captured [95% CI]':<26}"
-          f" {'guaranteed':>10} {'nominal':>8} {'violations':>10}")
-    for s in comparison.summaries:
-        guaranteed, nominal = ("-" if x is None else f"{x:.2f}"
-                               for x in (s.guaranteed_initial, s.nominal_initial))
-        print(f"  {s.label:<10} {s.capture_rate:6.1%} [{s.capture_rate_ci[0]:.1%}, "
-              f"{s.capture_rate_ci[1]:.1%}]{'':<4} {s.all_captured_rate:6.1%} "
-              f"[{s.all_captured_ci[0]:.1%}, {s.all_captured_ci[1]:.1%}]{'':<4}"
-              f" {guaranteed:>10} {nominal:>8} {s.guarantee_violations:>10}")
-    if args.csv:
-        print(f"  per-episode rows: {args.csv}")
+    print(_bench_tables(result, seconds))
+    for flag, path in (("per-episode rows", args.csv), ("plot", args.plot)):
+        if path:
+            print(f"{flag}: {path}")
     return 0
+
+
+INTERVALS = ("95% intervals: a proportion (every value 0 or 1) gets the Wilson interval; "
+             f"a mean the percentile bootstrap over episodes when there are >= {MIN_BOOTSTRAP} "
+             "and they vary, else the Wilson bound (never too narrow); differences are "
+             "per seed, against the baseline")
+
+
+def _percent(value: float, interval: tuple[float, float], method: str = "") -> str:
+    tag = {"wilson": " W", "wilson-bound": " Wb", "bootstrap": " B", "": ""}[method]
+    return f"{value:6.1%} [{interval[0]:.1%}, {interval[1]:.1%}]{tag}"
+
+
+def _bench_tables(result: SuiteResult, seconds: float) -> str:
+    """A table per cell: each method's capture rates, then its paired difference."""
+    suite = result.suite
+    width = max(10, *(len(m) for m in result.methods))
+    title = (f"suite {suite.name} v{suite.version}, {len(suite.cells)} cells"
+             if suite.version else suite.name)
+    lines = [f"{title}; defenders {', '.join(result.methods)}; baseline {result.baseline}; "
+             f"{seconds:.0f} s wall time", INTERVALS + " (W Wilson, Wb Wilson bound, "
+             "B bootstrap)"]
+    for cell in result.cells:
+        comparison = cell.comparison
+        episodes = comparison.summaries[0].episodes
+        lines += ["", f"{cell.cell.label}: {episodes} episode(s), seeds {suite.seed}.."
+                      f"{suite.seed + episodes - 1}" + (" (all from one start)"
+                                                        if cell.one_start else ""),
+                  f"  {'defenders':<{width}} {'capture rate [95% CI]':<29} "
+                  f"{'all captured [95% CI]':<26} {'guaranteed':>10} {'nominal':>8} "
+                  f"{'violations':>10} {'s/episode':>9}"]
+        for s in comparison.summaries:
+            guaranteed, nominal = ("-" if x is None else f"{x:.2f}"
+                                   for x in (s.guaranteed_initial, s.nominal_initial))
+            rate = _percent(s.capture_rate, s.capture_rate_ci, s.capture_rate_method)
+            lines.append(f"  {s.label:<{width}} {rate:<29} "
+                         f"{_percent(s.all_captured_rate, s.all_captured_ci):<26} "
+                         f"{guaranteed:>10} {nominal:>8} {s.guarantee_violations:>10} "
+                         f"{cell.seconds_per_episode[s.label]:>9.2f}")
+        for d in comparison.differences:
+            lines.append(f"  {d.label} - {d.baseline}: capture rate {d.difference:+.1%} "
+                         f"[{d.ci[0]:+.1%}, {d.ci[1]:+.1%}] ({d.method}, {d.episodes} "
+                         f"paired seeds)")
+    return "\n".join(lines)
 
 
 def _paper(args: argparse.Namespace) -> int:

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import reachavoid_env
-from policies.registry import accepted_options, make_policy
+from policies.registry import make_policy, policy_specs
 from policies.tubes import tube_2v1
 from reachavoid.rollout import run_episode
 from reachavoid_env import Scenario
@@ -51,13 +51,14 @@ def reproduce(out: Path, grid1: int, grid2: int, videos: bool = True,
     METHOD.mp4``), ``out/tubes.png`` and ``out/table.json``; return the rows."""
     scenarios = paper_scenarios()
     options = {"grid1": grid1, "grid2": grid2, "idle": "stand", "unmatched": "stand",
-               "margin_cells": 0.0, "progress": progress}
+               "margin_cells": 0.0}
     rows = []
     for scenario in scenarios:
         measured = {}
-        for method in dict(scenario.paper_captures):
-            defenders = make_policy("defenders", method, scenario,
-                                    **accepted_options("defenders", method, **options))
+        methods = list(dict(scenario.paper_captures))
+        for method, spec in zip(methods, policy_specs([("defenders", m) for m in methods],
+                                                      options), strict=True):
+            defenders = spec(scenario, progress=progress)
             attackers = make_policy("attackers", ATTACKERS, scenario)
             env = reachavoid_env.parallel_env(scenario=scenario,
                                               render_mode="rgb_array" if videos else None)

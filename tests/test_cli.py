@@ -9,7 +9,7 @@ import sys
 import imageio.v3 as iio
 import pytest
 
-from policies.registry import ATTACKERS, DEFENDERS
+from policies.registry import ATTACKERS, DEFENDERS, PolicySpec
 from reachavoid.cli import main
 from reachavoid_env import builtin_scenario, save_scenario
 
@@ -41,8 +41,11 @@ def test_play_json(capsys):
 @pytest.mark.parametrize("attackers", list(ATTACKERS))
 @pytest.mark.parametrize("defenders", list(DEFENDERS))
 def test_every_policy_choice_plays(capsys, attackers, defenders):
+    chosen = [PolicySpec("attackers", attackers).choice, PolicySpec("defenders", defenders).choice]
+    grids = [arg for flag, value in zip(COARSE[::2], COARSE[1::2], strict=True)
+             if any(choice.takes(flag[2:]) for choice in chosen) for arg in (flag, value)]
     report = play_json(capsys, "--scenario", "paper_2v1", "--attackers", attackers,
-                       "--defenders", defenders, *COARSE)
+                       "--defenders", defenders, *grids)
     assert (report["attackers"], report["defenders"]) == (attackers, defenders)
     if defenders in ("hj", "hj-pairs", "matching"):
         promised = {"hj": 2, "hj-pairs": 2, "matching": 1}[defenders]
@@ -91,7 +94,7 @@ def write(tmp_path, text: str) -> str:
     (["play", "--scenario", "missing.toml"], "no such file or built-in 'missing.toml'"),
     (["play", "--video", "out.avi"], "must end in one of .mp4, .gif"),
     (["play", "--video", "no/such/folder/out.mp4"], "does not exist"),
-    (["play", "--attackers", "teleport"], "invalid choice: 'teleport'"),
+    (["play", "--attackers", "teleport"], "--attackers: unknown policy 'teleport'"),
     (["play", "--seed", "x"], "invalid int value: 'x'"),
     (["play", "--video", "a.mp4", "--every", "0"], "--every: must be an integer in [1, 1000000]"),
     ([], "required: COMMAND"),
@@ -128,7 +131,7 @@ def test_bad_scenario_files(capsys, tmp_path, text, message):
 def test_help_exits_zero(capsys):
     assert main(["play", "--help"]) == 0
     out, _ = capsys.readouterr()
-    assert "--attackers {shortest-path,hj,straight,random}" in out and "greedy: chase" in out
+    assert "--attackers NAME|pkg.module:factory" in out and "greedy: chase" in out
     assert "--grid1 N" in out
 
 
@@ -148,23 +151,44 @@ def test_bench_compares_methods_on_the_same_starts(tmp_path, capsys):
             "hj,matching,greedy", "--attackers", "shortest-path", "--csv", str(path), *COARSE]
     assert main([*args, "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
-    assert [m["label"] for m in report["methods"]] == ["hj", "matching", "greedy"]
-    for method in report["methods"]:
+    [cell] = report["cells"]
+    assert [m["label"] for m in cell["methods"]] == ["hj", "matching", "greedy"]
+    for method in cell["methods"]:
         low, high = method["capture_rate_ci"]
         assert 0.0 <= low <= method["capture_rate"] <= high <= 1.0
         assert method["episodes"] == 3 and method["attackers"] == 3
-    assert report["methods"][0]["guaranteed_initial"] is not None
-    assert report["methods"][2]["guaranteed_initial"] is None
+    assert cell["methods"][0]["guaranteed_initial"] is not None
+    assert cell["methods"][2]["guaranteed_initial"] is None
+    assert report["baseline"] == "hj"
+    assert [(d["label"], d["baseline"]) for d in cell["differences"]] == [
+        ("matching", "hj"), ("greedy", "hj")]
+    by_method = {m: {r["seed"]: r for r in report["rows"] if r["defenders"] == m}
+                 for m in ("hj", "greedy")}
+    assert sorted(by_method["hj"]) == sorted(by_method["greedy"]) == [5, 6, 7]
+    paired = [(by_method["greedy"][k]["captured_count"] - by_method["hj"][k]["captured_count"])
+              / 3 for k in (5, 6, 7)]
+    assert cell["differences"][1]["difference"] == pytest.approx(sum(paired) / 3)
     rows = path.read_text().splitlines()
-    assert len(rows) == 1 + 9 and rows[0].startswith("defenders,attackers,scenario,seed")
+    assert len(rows) == 1 + 9 and rows[0].startswith("cell,defenders,attackers,scenario,seed")
     assert main(args) == 0
     table = capsys.readouterr().out
-    assert "capture rate [95% CI]" in table and "matching" in table
+    assert "capture rate [95% CI]" in table and "greedy - hj: capture rate" in table
 
 
 @pytest.mark.parametrize(("args", "message"), [
     (["bench", "--config", "six"], "--config: expected MvN"),
-    (["bench", "--defenders", "hj,nobody"], "--defenders: unknown method(s) ['nobody']"),
+    (["bench", "--defenders", "hj,nobody"], "--defenders: unknown policy 'nobody'"),
+    (["bench", "--defenders", "greedy", "--grid1", "25"],
+     "--grid1: no chosen policy takes it (greedy, shortest-path)"),
+    (["play", "--defenders", "greedy", "--attackers", "straight", "--margin-cells", "1"],
+     "--margin-cells: no chosen policy takes it (straight, greedy)"),
+    (["play", "--margin-cells", "11"], "--margin-cells: must be in [0, 10]"),
+    (["bench", "--defenders", "nowhere_module_xyz:Mine"],
+     "--defenders: cannot import 'nowhere_module_xyz'"),
+    (["bench", "--defenders", "json:nothing_here"], "--defenders: module 'json' has no"),
+    (["bench", "--baseline", "greedy"], "--baseline: 'greedy' is not among --defenders"),
+    (["bench", "--suite", "default", "--config", "2v1"], "--config: not with --suite"),
+    (["bench", "--suite", "nosuchsuite"], "suite: no such file or built-in 'nosuchsuite'"),
     (["bench", "--episodes", "0"], "--episodes: must be an integer in [1, 10000000]"),
     (["play", "--grid2", "2"], "--grid2: must be an integer in [5, 101]"),
 ])
