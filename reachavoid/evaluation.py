@@ -74,7 +74,7 @@ def wilson_interval(successes: float, trials: int) -> tuple[float, float]:
     denominator = 1 + Z95**2 / trials
     centre = (p + Z95**2 / (2 * trials)) / denominator
     half = Z95 * math.sqrt(p * (1 - p) / trials + Z95**2 / (4 * trials**2)) / denominator
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    return (min(p, max(0.0, centre - half)), max(p, min(1.0, centre + half)))   # rounding
 
 
 def bootstrap_interval(samples: Sequence[float], resamples: int = 4000,
@@ -295,11 +295,11 @@ def compare_defenders(scenario: Scenario, methods: Sequence[str | Factory],
     with fixed starts plays every episode from them: an ``OneStartWarning``.
     """
     checks.integer(episodes, "episodes", 1)
+    sweeps = sweeps_of(scenario, methods, attackers, range(seed, seed + episodes), options)
     if episodes > 1 and one_start(scenario):
         warnings.warn(f"{scenario.name}: every episode starts from the scenario's fixed "
                       f"starts; the intervals cover the policies' randomness only",
                       OneStartWarning, stacklevel=2)
-    sweeps = sweeps_of(scenario, methods, attackers, range(seed, seed + episodes), options)
     results = run_sweeps(sweeps, backend, workers=workers, address=address,
                          progress=progress, description=scenario.name)
     return compare(scenario, sweeps, results, baseline)

@@ -9,7 +9,7 @@ import pytest
 
 import reachavoid_env
 from policies import HJAttacker, HJDefenderPolicy, HJPairsDefenderPolicy, ShortestPathAttacker
-from policies.registry import make_policy, named_policy
+from policies.registry import make_policy, resolve
 from reachavoid.cli import main
 from reachavoid.rollout import run_episode
 from solvers.hj import solve_1v1, solve_1v2, solve_2v1
@@ -109,7 +109,7 @@ def test_tubes_of_another_game_are_refused(equal_tubes):
 
 
 def test_registry_and_cli_offer_hj_pairs(capsys):
-    assert named_policy("defenders", "hj-pairs").build == HJPairsDefenderPolicy.for_scenario
+    assert resolve("defenders", "hj-pairs").build == HJPairsDefenderPolicy.for_scenario
     sc = reachavoid_env.builtin_scenario(SCENARIO)
     with pytest.raises(ValueError, match="unknown option"):
         make_policy("defenders", "hj-pairs", sc, grid3=5)
