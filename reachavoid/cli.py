@@ -38,6 +38,7 @@ from reachavoid.suite import (
 )
 from reachavoid.sweep import BACKENDS
 from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
+from reachavoid_env.files import atomic_write
 from reachavoid_env.video import check_video_path
 from solvers.hj.cache import cache_dir
 
@@ -174,9 +175,10 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--address", default=None, metavar="ADDR",
                        help="an existing Ray cluster (default: start a local one)")
     bench.add_argument("--csv", metavar="FILE.csv", help="write one row per episode")
-    bench.add_argument("--json", action="store_true",
-                       help="print one JSON object (per cell the summaries and paired "
-                            "differences, and one row per episode) instead of tables")
+    bench.add_argument("--json", nargs="?", const="-", default=None, metavar="FILE.json",
+                       help="one JSON object: per cell the summaries and paired differences, "
+                            "and one row per episode; printed instead of the tables, or "
+                            "written to FILE.json")
     bench.add_argument("--plot", metavar="OUT.png",
                        help="draw the capture rate per cell and method with its interval")
     _grid_options(bench)
@@ -381,8 +383,8 @@ def _bench(args: argparse.Namespace) -> int:
         _check(checks.integer, args.workers, "--workers", 1, 4096)
     if args.address is not None and args.backend != "ray":
         raise UsageError("--address: only with --backend ray")
-    for flag, path in (("--csv", args.csv), ("--plot", args.plot)):
-        if path is not None:
+    for flag, path in (("--csv", args.csv), ("--plot", args.plot), ("--json", args.json)):
+        if path not in (None, "-"):
             writable_file(path, flag)
     suite = _bench_suite(args)
     attackers = dict.fromkeys(cell.attackers for cell in suite.cells)
@@ -401,17 +403,20 @@ def _bench(args: argparse.Namespace) -> int:
                        backend=args.backend, workers=args.workers, address=args.address,
                        progress=args.progress)
     seconds = time.perf_counter() - started
-    report = result.to_dict()
+    report = result.to_dict() | {"episodes": args.episodes, "wall_seconds": seconds}
     if args.csv:
         write_csv(args.csv, [{k: (";".join(v) if isinstance(v, list) else v)
                               for k, v in row.items()} for row in report["rows"]])
     if args.plot:
         plot_suite(result, args.plot)
-    if args.json:
-        print(json.dumps(report | {"episodes": args.episodes, "wall_seconds": seconds}))
+    if args.json == "-":
+        print(json.dumps(report))
         return 0
+    if args.json:
+        with atomic_write(args.json) as handle:
+            json.dump(report, handle, indent=1)
     print(_bench_tables(result, seconds))
-    for flag, path in (("per-episode rows", args.csv), ("plot", args.plot)):
+    for flag, path in (("per-episode rows", args.csv), ("JSON", args.json), ("plot", args.plot)):
         if path:
             print(f"{flag}: {path}")
     return 0

@@ -234,9 +234,11 @@ def test_a_suite_of_ones_own_with_a_fixed_start_warns_once_and_plots(tmp_path, c
     assert len(report["rows"]) == 3 * 2 * 3
     assert {r["seed"] for r in report["rows"]} == {10, 11, 12}
     assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and plot.stat().st_size > 20_000
+    written = tmp_path / "suite.json"
     assert main(["bench", "--suite", str(mine), "--defenders", "greedy,idle",
-                 "--episodes", "2"]) == 0
+                 "--episodes", "2", "--json", str(written)]) == 0
     table = capsys.readouterr().out
+    assert len(json.loads(written.read_text())["rows"]) == 3 * 2 * 2
     assert "paper_2v1 random 3v1 / straight: 2 episode(s)" in table
     assert "idle - greedy: capture rate" in table and "Wilson" in table
 
