@@ -285,3 +285,16 @@ def test_the_default_suite():
 def test_policies_follow_the_protocol(policy_folder):
     scenario = builtin_scenario("paper_2v1")
     assert isinstance(make_policy("defenders", "tmpmod:Mine", scenario), Policy)
+
+
+def test_readme_names_every_built_in_and_its_policy_file_plays(tmp_path, capsys,
+                                                               monkeypatch):
+    readme = (ROOT / "README.md").read_text()
+    assert all(f"`{name}`" in readme for name in builtin_names())
+    section = readme[readme.index("## Benchmark your defender"):]
+    (tmp_path / "mine.py").write_text(section.split("```python\n")[1].split("```")[0])
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert main(["bench", "--defenders", "mine:Intercept,greedy", "--attackers", "straight",
+                 "--config", "3v2", "--episodes", "2", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert {r["defenders"] for r in report["rows"]} == {"mine:Intercept", "greedy"}
