@@ -256,6 +256,10 @@ class PolicySpec:
         return self.choice.takes("seed")
 
     def __call__(self, scenario: Scenario, **supplied: Any) -> Policy:
+        unknown = sorted(set(supplied) - set(SUPPLIED))
+        if unknown:
+            raise ValueError(f"{unknown}: not supplied options ({', '.join(SUPPLIED)}); "
+                             f"options go in the spec")
         choice = self.choice
         extra = {key: value for key, value in supplied.items() if choice.takes(key)}
         return choice.build(scenario, **dict(self.options), **extra)

@@ -66,6 +66,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 SPEC = "NAME|pkg.module:factory"
+ONE_CELL = {"scenario": "paper_2v1", "config": "6v2", "attackers": "shortest-path"}
+"""``bench``'s single cell without ``--suite`` (defaults of the flags that make it)."""
 
 
 def _scenario_option(parser: argparse.ArgumentParser, default: str, what: str) -> None:
@@ -148,14 +150,14 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--suite", default=None, metavar="NAME|FILE.toml",
                        help=f"play a suite of cells instead of one --config (built-ins: "
                             f"{', '.join(suite_names())})")
-    _scenario_option(bench, "paper_2v1", "without --suite: the map, speeds and settings")
-    bench.add_argument("--config", default="6v2", metavar="MvN",
+    _scenario_option(bench, ONE_CELL["scenario"], "without --suite: the map, speeds and settings")
+    bench.add_argument("--config", default=ONE_CELL["config"], metavar="MvN",
                        help="without --suite: attackers v defenders, drawn at random each "
                             "episode (default: %(default)s)")
     bench.add_argument("--defenders", default="hj,matching", metavar="A,B",
                        help=f"comma-separated defender methods, each {SPEC} (default: "
                             f"%(default)s). {names_help('defenders')}")
-    bench.add_argument("--attackers", default="shortest-path", metavar=SPEC,
+    bench.add_argument("--attackers", default=ONE_CELL["attackers"], metavar=SPEC,
                        help="without --suite: the attacker policy (default: %(default)s). "
                             f"{names_help('attackers')}")
     bench.add_argument("--baseline", default=None, metavar="METHOD",
@@ -350,9 +352,8 @@ def _solve(args: argparse.Namespace) -> int:
 def _bench_suite(args: argparse.Namespace) -> Suite:
     """The suite to play: ``--suite``, or one cell of ``--scenario`` and ``--config``."""
     if args.suite is not None:
-        given = [flag for flag, value, default in (
-            ("--scenario", args.scenario, "paper_2v1"), ("--config", args.config, "6v2"),
-            ("--attackers", args.attackers, "shortest-path")) if value != default]
+        given = [f"--{key}" for key, default in ONE_CELL.items()
+                 if getattr(args, key) != default]
         if given:
             raise UsageError(f"{given[0]}: not with --suite (the suite names its cells)")
         try:
