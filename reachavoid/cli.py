@@ -366,7 +366,7 @@ def _bench_suite(args: argparse.Namespace) -> Suite:
                                                       suite.cells)
     m, n = _check(parse_players, args.config, "--config")
     scenario = _load(args.scenario).with_players(m, n)
-    cell = Cell(f"{scenario.name} / {args.attackers}", scenario, args.attackers)
+    cell = Cell(scenario.name, scenario, args.attackers)
     return Suite(scenario.name, 0, args.seed or 0, (cell,))
 
 
@@ -463,7 +463,7 @@ def _bench_tables(result: SuiteResult, seconds: float) -> str:
         for d in comparison.differences:
             lines.append(f"  {d.label} - {d.baseline}: capture rate {d.difference:+.1%} "
                          f"[{d.ci[0]:+.1%}, {d.ci[1]:+.1%}] ({d.method}, {d.episodes} "
-                         f"paired seeds)")
+                         f"paired seed(s))")
     return "\n".join(lines)
 
 

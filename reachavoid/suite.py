@@ -63,13 +63,18 @@ def parse_players(text: Any, field: str) -> tuple[int, int]:
 
 @dataclass(frozen=True)
 class Cell:
-    """One scenario against one attacker policy. ``episodes``: fixed by the suite, or
-    ``None`` for the command's count."""
+    """One game against one attacker policy. ``game``: what it plays (a built-in's name, or
+    ``"<name> random MvN"``); ``episodes``: fixed by the suite, or ``None`` for the
+    command's count."""
 
-    label: str
+    game: str
     scenario: Scenario
     attackers: str
     episodes: int | None = None
+
+    @property
+    def label(self) -> str:
+        return f"{self.game} / {self.attackers}"
 
 
 @dataclass(frozen=True)
@@ -173,7 +178,7 @@ def _cells(entry: Any, field: str, everywhere: list[str] | None,
     episodes = entry.get("episodes")
     if episodes is not None:
         checks.integer(episodes, f"{field}.episodes", 1, 10_000_000)
-    return [Cell(f"{label} / {a}", scenario, a, episodes) for a in attackers]
+    return [Cell(label, scenario, a, episodes) for a in attackers]
 
 
 @dataclass(frozen=True)
@@ -254,40 +259,47 @@ def run_suite(suite: Suite, methods: Sequence[str | Factory], episodes: int,
 
 
 def plot_suite(result: SuiteResult, path: str | os.PathLike[str]) -> None:
-    """Capture rate per cell and method with its 95% interval, one row per cell (a PNG
-    for a paper: 7 inches wide, 200 dpi), written through ``atomic_write``."""
+    """Capture rate per cell and method with its 95% interval, written as a PNG through
+    ``atomic_write``: one panel per attacker policy, one row per game, a marker per
+    method, the episode count at the right (7 inches wide, 200 dpi: for a paper)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    cells = result.cells
+    games = list(dict.fromkeys(c.cell.game for c in result.cells))
+    attackers = list(dict.fromkeys(c.cell.attackers for c in result.cells))
     methods = result.methods
-    height = 1.2 + 0.22 * len(cells) * max(2, len(methods))
-    figure, axes = plt.subplots(figsize=(7.0, height), layout="constrained")
-    markers = "osD^vP*X"
-    offsets = [(k - (len(methods) - 1) / 2.0) * 0.8 / len(methods) for k in range(len(methods))]
-    for k, method in enumerate(methods):
-        rows = [len(cells) - 1 - i + offsets[k] for i in range(len(cells))]
-        rates = [c.comparison.summaries[k].capture_rate for c in cells]
-        lows = [r - c.comparison.summaries[k].capture_rate_ci[0] for r, c in zip(rates, cells,
-                                                                                 strict=True)]
-        highs = [c.comparison.summaries[k].capture_rate_ci[1] - r for r, c in zip(rates, cells,
-                                                                                  strict=True)]
-        axes.errorbar(rates, rows, xerr=[lows, highs], fmt=markers[k % len(markers)],
-                      color=f"C{k}", markersize=4, capsize=2, linewidth=1, label=method)
-    axes.set_yticks(range(len(cells)))
-    axes.set_yticklabels([f"{c.cell.label} (n={c.comparison.summaries[0].episodes})"
-                          for c in reversed(cells)], fontsize=7)
-    for boundary in range(len(cells) - 1):
-        axes.axhline(boundary + 0.5, color="0.9", linewidth=0.5)
-    axes.set_xlim(-0.02, 1.02)
-    axes.set_ylim(-0.6, len(cells) - 0.4)
-    axes.set_xlabel("capture rate (fraction of attackers captured, mean over episodes; "
-                    "95% intervals)", fontsize=8)
-    axes.tick_params(axis="x", labelsize=8)
-    axes.set_title(f"suite {result.suite.name} v{result.suite.version}", fontsize=9)
-    figure.legend(loc="outside lower center", ncol=len(methods), fontsize=8, frameon=False)
+    figure, panels = plt.subplots(1, len(attackers), sharey=True, squeeze=False,
+                                  figsize=(7.0, 1.1 + 0.16 * len(games) * (len(methods) + 1)),
+                                  layout="constrained")
+    spread = 0.7 / len(methods)
+    for axes, attacker in zip(panels[0], attackers, strict=True):
+        for cell in (c for c in result.cells if c.cell.attackers == attacker):
+            row = len(games) - 1 - games.index(cell.cell.game)
+            for k, summary in enumerate(cell.comparison.summaries):
+                y = row + (len(methods) - 1) / 2 * spread - k * spread
+                low, high = summary.capture_rate_ci
+                axes.errorbar([summary.capture_rate], [y], fmt="osD^vP*X"[k % 8],
+                              xerr=[[summary.capture_rate - low], [high - summary.capture_rate]],
+                              color=f"C{k}", markersize=3.5, capsize=1.5, linewidth=0.9,
+                              label=summary.label if row == len(games) - 1 else None)
+            axes.text(1.08, row, f"n={cell.comparison.summaries[0].episodes}", fontsize=6,
+                      color="0.4", va="center", ha="left")
+        for boundary in range(len(games) - 1):
+            axes.axhline(boundary + 0.5, color="0.88", linewidth=0.5)
+        axes.set_title(f"{attacker} attackers", fontsize=8)
+        axes.set_xlim(-0.03, 1.27)
+        axes.set_xticks([0, 0.25, 0.5, 0.75, 1.0], ["0", "25", "50", "75", "100%"])
+        axes.tick_params(labelsize=7)
+    panels[0][0].set_yticks(range(len(games)), games[::-1], fontsize=7)
+    panels[0][0].set_ylim(-0.6, len(games) - 0.4)
+    figure.supxlabel("capture rate: attackers captured per episode, mean and 95% interval",
+                     fontsize=8)
+    handles, labels = panels[0][0].get_legend_handles_labels()
+    figure.legend(handles, labels, loc="outside upper center", ncol=len(methods), fontsize=8,
+                  frameon=False, title=f"suite {result.suite.name} v{result.suite.version}",
+                  title_fontsize=8)
     with atomic_write(path, "wb") as handle:
         figure.savefig(handle, dpi=200, format="png")
     plt.close(figure)
