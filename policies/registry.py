@@ -262,7 +262,7 @@ class PolicySpec:
                              f"options go in the spec")
         choice = self.choice
         extra = {key: value for key, value in supplied.items() if choice.takes(key)}
-        return choice.build(scenario, **dict(self.options), **extra)
+        return choice.build(scenario, **(dict(self.options) | extra))
 
 
 def make_policy(side: str, source: str | Factory, scenario: Scenario, **options: Any) -> Policy:
