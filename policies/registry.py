@@ -46,7 +46,8 @@ Factory = Callable[..., Policy]
 """``factory(scenario, **options) -> Policy``."""
 
 SUPPLIED = ("seed", "progress")
-"""Options the program supplies to the factories that take them (never an error)."""
+"""Options the program supplies when it builds a policy (an episode's seed, progress bars),
+to the factories that take them; ``policy_specs`` does not hand them out."""
 
 ENTRY_POINT_GROUPS = {"defenders": "reachavoid.defenders", "attackers": "reachavoid.attackers"}
 

@@ -74,7 +74,7 @@ def wilson_interval(successes: float, trials: int) -> tuple[float, float]:
     denominator = 1 + Z95**2 / trials
     centre = (p + Z95**2 / (2 * trials)) / denominator
     half = Z95 * math.sqrt(p * (1 - p) / trials + Z95**2 / (4 * trials**2)) / denominator
-    return (min(p, max(0.0, centre - half)), max(p, min(1.0, centre + half)))   # rounding
+    return (min(p, max(0.0, centre - half)), max(p, min(1.0, centre + half)))  # p inside
 
 
 def bootstrap_interval(samples: Sequence[float], resamples: int = 4000,
@@ -92,12 +92,20 @@ def bootstrap_interval(samples: Sequence[float], resamples: int = 4000,
 
 
 def mean_interval(samples: Sequence[float], low: float = 0.0, high: float = 1.0) -> Interval:
-    """95% interval of the mean of ``samples``, values in ``[low, high]``, one per episode.
+    """95% interval of the mean of ``samples``, one per episode.
 
     Values all ``low`` or ``high``: a proportion, the Wilson interval. Otherwise the
     bootstrap when there are at least ``MIN_BOOTSTRAP`` samples and they are not all equal,
     else the Wilson bound (the values rescaled to [0, 1]): so one episode, or many equal
     ones, never give an interval of zero width.
+
+    Args:
+        samples: the per-episode values, each in ``[low, high]``.
+        low, high: the bounds of a value (capture fractions: 0 and 1; paired differences
+            of fractions: -1 and 1).
+
+    Returns:
+        ``Interval(low, high, method)`` in the units of the samples.
     """
     data = np.asarray(samples, dtype=np.float64)
     if len(data) == 0:
