@@ -52,9 +52,10 @@ to the factories that take them; ``policy_specs`` does not hand them out."""
 ENTRY_POINT_GROUPS = {"defenders": "reachavoid.defenders", "attackers": "reachavoid.attackers"}
 
 SCHEMES: dict[str, str] = {}
-"""Spec prefixes: ``SCHEME:REST`` is resolved by the function ``SCHEMES[SCHEME]`` (a
-``module:function`` reference, imported on first use) called with ``REST``; it returns
-the factory. A prefix listed here wins over a module of the same name."""
+"""Spec prefixes: a spec ``SCHEME:REST`` is resolved by the function ``SCHEMES[SCHEME]`` (a
+``module:function`` reference, imported on first use) called as ``function(side, spec)``;
+it returns the ``NamedPolicy`` (options from its ``build``'s signature) or raises a
+``ValueError`` naming ``side``. A prefix listed here wins over a module of that name."""
 
 
 def scenario_free(policy: type) -> Factory:
@@ -198,10 +199,12 @@ def resolve(side: str, spec: str) -> NamedPolicy:
         factory = plugins[spec].load()
         factory_options(factory)
         return NamedPolicy(_first_line(factory), factory)
-    scheme, colon, rest = spec.partition(":")
+    scheme, colon, _ = spec.partition(":")
     if colon and scheme in SCHEMES:
-        factory = _import(SCHEMES[scheme], f"{side} scheme {scheme!r}")(rest)
-    elif colon:
+        choice = _import(SCHEMES[scheme], f"{side} scheme {scheme!r}")(side, spec)
+        factory_options(choice.build)
+        return choice
+    if colon:
         factory = _import(spec, side)
     else:
         raise ValueError(f"{side}: unknown policy {spec!r} (choices: "

@@ -13,12 +13,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from policies.defenders import IdleDefender
 from policies.registry import (
+    SCHEMES,
+    NamedPolicy,
     PolicySpec,
     make_policy,
     policy_names,
     policy_specs,
     resolve,
+    scenario_free,
 )
 from reachavoid import compare_defenders, summarize
 from reachavoid.cli import main
@@ -298,3 +302,18 @@ def test_readme_names_every_built_in_and_its_policy_file_plays(tmp_path, capsys,
                  "--config", "3v2", "--episodes", "2", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert {r["defenders"] for r in report["rows"]} == {"mine:Intercept", "greedy"}
+
+
+def still_scheme(side: str, spec: str) -> NamedPolicy:
+    """A spec scheme for the test: ``still:ANYTHING`` is a defender that stands still."""
+    return NamedPolicy(f"standing still ({spec})", scenario_free(IdleDefender))
+
+
+def test_a_spec_scheme_resolves_in_one_place(monkeypatch):
+    monkeypatch.setitem(SCHEMES, "still", "test_bench:still_scheme")
+    assert resolve("defenders", "still:here").help == "standing still (still:here)"
+    scenario = builtin_scenario("paper_2v1")
+    assert isinstance(make_policy("defenders", "still:there", scenario), IdleDefender)
+    monkeypatch.setitem(SCHEMES, "gone", "test_bench:no_such_function")
+    with pytest.raises(ValueError, match="defenders scheme 'gone': module 'test_bench' has no"):
+        resolve("defenders", "gone:x")
