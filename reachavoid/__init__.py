@@ -1,7 +1,8 @@
 """reachavoid: the application above the game (design.md).
 
 The ``reachavoid`` command (``cli``), the one episode loop (``rollout``), many episodes and
-their statistics (``evaluation``), the paper's table (``paper``) and the ``solve`` driver.
+their statistics (``evaluation``), benchmark suites (``suite``), the paper's table
+(``paper``) and the ``solve`` driver.
 """
 
 from reachavoid.evaluation import compare_defenders, run_episodes, summarize

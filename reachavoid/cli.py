@@ -1,10 +1,11 @@
 """The ``reachavoid`` command (design.md, "Command line"): argument parsing and printing.
 
 ``play`` runs one episode (``rollout``), ``solve`` one game (``solve``), ``bench`` many
-seeded starts (``evaluation``), ``paper`` the paper's table (``paper``). Every argument and
-output path is checked before any work starts. Bad arguments or input files end with a
-one-line message and exit status 2; a failed write with one line naming the path and
-status 1; Ctrl-C (130) and SIGTERM (143) stop the work and leave no partial file.
+seeded starts of a suite (``suite``, ``evaluation``), ``paper`` the paper's table
+(``paper``). Every argument and output path is checked before any work starts. Bad
+arguments or input files end with a one-line message and exit status 2; a failed write
+with one line naming the path and status 1; Ctrl-C (130) and SIGTERM (143) stop the work
+and leave no partial file.
 """
 
 from __future__ import annotations
