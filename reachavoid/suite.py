@@ -298,7 +298,8 @@ def plot_suite(result: SuiteResult, path: str | os.PathLike[str]) -> None:
                      fontsize=8)
     handles, labels = panels[0][0].get_legend_handles_labels()
     figure.legend(handles, labels, loc="outside upper center", ncol=len(methods), fontsize=8,
-                  frameon=False, title=f"suite {result.suite.name} v{result.suite.version}",
+                  frameon=False, title=(f"suite {result.suite.name} v{result.suite.version}"
+                                       if result.suite.version else result.suite.name),
                   title_fontsize=8)
     with atomic_write(path, "wb") as handle:
         figure.savefig(handle, dpi=200, format="png")
