@@ -66,7 +66,7 @@ def test_scenario_file_and_human_summary(tmp_path, capsys):
     assert main(["play", "--scenario", str(path), "--defenders", "idle", "--attackers",
                  "straight"]) == 0
     out, _ = capsys.readouterr()
-    assert out.startswith("paper_2v1 (seed 0): idle defenders vs straight attackers")
+    assert out.startswith("paper_2v1: idle defenders vs straight attackers, seed 0")
     assert "arrived  2: attacker_0, attacker_1" in out
 
 
