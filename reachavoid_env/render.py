@@ -107,7 +107,7 @@ class Renderer:
         unit = self.width / 640  # sizes below are tuned for a 640-pixel frame
         self._unit = unit
         self._font = pygame.font.Font(None, max(10, round(22 * unit)))
-        self._title_font = pygame.font.Font(None, max(10, round(24 * unit)))
+        self._title_font = pygame.font.Font(None, max(10, round(22 * unit)))
         self._title_font.bold = True
         self._banner_font = pygame.font.Font(None, max(10, round(26 * unit)))
         self._banner_font.bold = True
