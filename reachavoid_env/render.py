@@ -56,9 +56,9 @@ class EdgeStyle(NamedTuple):
 
 
 EDGE_STYLES: dict[EdgeKind, EdgeStyle] = {
-    EdgeKind.ASSIGN: EdgeStyle(P.EDGE, 1.0, 0.0, "1 defender on 1 attacker"),
-    EdgeKind.PAIR: EdgeStyle(P.PAIR_EDGE, 10.0, 5.0, "pair: 1 defender on 2 (2 vs 1)"),
-    EdgeKind.TEAM: EdgeStyle(P.TEAM_EDGE, 3.0, 4.0, "team: 2 defenders on 1 (1 vs 2)"),
+    EdgeKind.ASSIGN: EdgeStyle(P.EDGE, 1.0, 0.0, "assigned (1 vs 1)"),
+    EdgeKind.PAIR: EdgeStyle(P.PAIR_EDGE, 10.0, 5.0, "pair: 1 defender on 2 attackers (2 vs 1)"),
+    EdgeKind.TEAM: EdgeStyle(P.TEAM_EDGE, 3.0, 4.0, "team: 2 defenders on 1 attacker (1 vs 2)"),
 }
 
 
@@ -249,8 +249,9 @@ class Renderer:
 
     # -- the legend ----------------------------------------------------------------------
 
-    def _legend_entries(self) -> list[_LegendEntry]:
-        """Every glyph of the map, with its words; the attacker entries count."""
+    def _legend_entries(self) -> list[list[_LegendEntry]]:
+        """Every glyph of the map with its words, in groups (the map and the defenders, the
+        attackers with their counts, the shared games)."""
 
         def swatch(fill: P.Color, edge: P.Color) -> Callable[[float, float], None]:
             def draw(x: float, y: float) -> None:
@@ -275,46 +276,47 @@ class Renderer:
             return draw
 
         wide = "88"  # room for two-digit counts
-        entries = [
-            _LegendEntry(swatch(P.TARGET, P.TARGET_EDGE), lambda s: "target", "target"),
-            _LegendEntry(swatch(P.OBSTACLE, P.OBSTACLE), lambda s: "obstacle", "obstacle"),
-            _LegendEntry(self._draw_triangle,
-                         lambda s: f"attacker in play: {int(s.active_attackers.sum())}",
-                         f"attacker in play: {wide}"),
-            _LegendEntry(self._draw_plus, lambda s: f"captured: {len(s.captured)}",
-                         f"captured: {wide}"),
-            _LegendEntry(self._draw_arrival, lambda s: f"reached target: {len(s.arrived)}",
-                         f"reached target: {wide}"),
-            _LegendEntry(self._draw_square, lambda s: "defender", "defender"),
-            _LegendEntry(disc, lambda s: "capture disc", "capture disc"),
+        edges = {kind: _LegendEntry(line(kind), lambda s, words=style.label: words, style.label)
+                 for kind, style in EDGE_STYLES.items()}
+        return [
+            [_LegendEntry(swatch(P.TARGET, P.TARGET_EDGE), lambda s: "target", "target"),
+             _LegendEntry(swatch(P.OBSTACLE, P.OBSTACLE), lambda s: "obstacle", "obstacle"),
+             _LegendEntry(self._draw_square, lambda s: "defender", "defender"),
+             _LegendEntry(disc, lambda s: "capture disc", "capture disc"),
+             edges[EdgeKind.ASSIGN]],
+            [_LegendEntry(self._draw_triangle,
+                          lambda s: f"attacker in play: {int(s.active_attackers.sum())}",
+                          f"attacker in play: {wide}"),
+             _LegendEntry(self._draw_plus, lambda s: f"captured: {len(s.captured)}",
+                          f"captured: {wide}"),
+             _LegendEntry(self._draw_arrival, lambda s: f"reached target: {len(s.arrived)}",
+                          f"reached target: {wide}")],
+            [edges[EdgeKind.PAIR], edges[EdgeKind.TEAM]],
         ]
-        for kind, style in EDGE_STYLES.items():
-            entries.append(_LegendEntry(line(kind), lambda s, words=style.label: words,
-                                        style.label))
-        return entries
 
-    def _layout_legend(self, room: int) -> tuple[list[list[tuple[int, int]]], int]:
-        """The legend's entries flowed into rows of at most ``room`` pixels: per row,
-        ``(entry index, x offset)``; and the row pitch in pixels."""
+    def _layout_legend(self, room: int) -> tuple[list[list[tuple[_LegendEntry, int]]], int]:
+        """The legend's groups, each from a new row, flowed into rows of at most ``room``
+        pixels: per row, ``(entry, x offset)``; and the row pitch in pixels."""
         sample = round(self._glyph * 3.6)  # the glyph's slot before the words
         gap = round(14 * self._unit)
-        rows: list[list[tuple[int, int]]] = [[]]
-        x = 0
-        for k, entry in enumerate(self._legend):
-            width = sample + self._legend_font.size(entry.widest)[0]
-            if rows[-1] and x + width > room:
-                rows.append([])
-                x = 0
-            rows[-1].append((k, x))
-            x += width + gap
+        rows: list[list[tuple[_LegendEntry, int]]] = []
+        for group in self._legend:
+            rows.append([])
+            x = 0
+            for entry in group:
+                width = sample + self._legend_font.size(entry.widest)[0]
+                if rows[-1] and x + width > room:
+                    rows.append([])
+                    x = 0
+                rows[-1].append((entry, x))
+                x += width + gap
         return rows, max(self._legend_font.get_linesize(), round(2.6 * self._glyph)) + 2
 
     def _draw_legend(self, state: GameState) -> None:
         sample = round(self._glyph * 3.6)
         for r, row in enumerate(self._legend_rows):
             middle = self._legend_top + (r + 0.5) * self._legend_pitch
-            for k, x in row:
-                entry = self._legend[k]
+            for entry, x in row:
                 left = self._margin + x
                 entry.glyph(left + sample / 2 - self._glyph * 0.4, middle)
                 words = self._text(entry.label(state), P.TEXT, self._legend_font)
@@ -454,21 +456,24 @@ class Renderer:
 
     def _draw_edge(self, kind: EdgeKind, start: tuple[float, float],
                    end: tuple[float, float]) -> None:
-        """A line from ``start`` to ``end`` (pixels) in ``kind``'s style."""
+        """A line from ``start`` to ``end`` (pixels) in ``kind``'s style, on a white halo
+        (readable over obstacles and trails)."""
         style = EDGE_STYLES[kind]
-        if style.gap == 0:
-            pygame.draw.aaline(self._surface, style.color, start, end, self._edge_width)
-            return
         (x0, y0), (x1, y1) = start, end
         length = math.hypot(x1 - x0, y1 - y0)
-        dash, period = style.dash * self._unit, (style.dash + style.gap) * self._unit
         if length == 0:
             return
         ux, uy = (x1 - x0) / length, (y1 - y0) / length
-        for a in np.arange(0.0, length, period).tolist():
-            b = min(a + dash, length)
-            pygame.draw.line(self._surface, style.color, (x0 + ux * a, y0 + uy * a),
-                             (x0 + ux * b, y0 + uy * b), self._edge_width)
+        if style.gap == 0:
+            pieces = [(0.0, length)]
+        else:
+            dash, period = style.dash * self._unit, (style.dash + style.gap) * self._unit
+            pieces = [(a, min(a + dash, length)) for a in np.arange(0.0, length, period).tolist()]
+        for color, width in ((P.HALO, self._edge_width + 2 * max(1, round(self._unit))),
+                             (style.color, self._edge_width)):
+            for a, b in pieces:
+                pygame.draw.line(self._surface, color, (x0 + ux * a, y0 + uy * a),
+                                 (x0 + ux * b, y0 + uy * b), width)
 
     def _draw_edges(self, overlay: Overlay, state: GameState, attackers: np.ndarray,
                     defenders: np.ndarray) -> None:
@@ -507,20 +512,32 @@ class Renderer:
             self._surface.blit(text, (pad, top + k * self._line_height))
 
     def _draw_banner(self, state: GameState) -> None:
-        """How the episode ended, in a box across the top of the map."""
+        """How the episode ended, in a box across the top of the map (wrapped to the
+        map's width)."""
         total, arrived = len(state.attacker_status), len(state.arrived)
-        words = outcome_line(total, len(state.captured), arrived)
         field = self._field()
-        text = self._text(self._fit(words, field.width - 4 * self._margin, self._banner_font),
-                          P.TEXT, self._banner_font)
-        box = text.get_rect().inflate(2 * self._margin, self._margin)
+        room = field.width - 4 * self._margin
+        lines = [""]
+        for word in outcome_line(total, len(state.captured), arrived).split(" "):
+            longer = f"{lines[-1]} {word}".strip()
+            if lines[-1] and self._banner_font.size(longer)[0] > room:
+                lines.append(word)
+            else:
+                lines[-1] = longer
+        texts = [self._text(self._fit(line, room, self._banner_font), P.TEXT,
+                            self._banner_font) for line in lines]
+        pitch = self._banner_font.get_linesize()
+        box = pygame.Rect(0, 0, max(t.get_width() for t in texts) + 2 * self._margin,
+                          pitch * len(texts) + self._margin)
         box.midtop = (field.centerx, field.top + self._margin)
         panel = pygame.Surface(box.size, pygame.SRCALPHA)
         panel.fill((*P.HALO, 230))
         self._surface.blit(panel, box.topleft)
         edge = P.ATTACKER if arrived else P.DEFENDER
         pygame.draw.rect(self._surface, edge, box, width=max(2, round(3 * self._unit)))
-        self._surface.blit(text, text.get_rect(center=box.center))
+        for k, text in enumerate(texts):
+            self._surface.blit(text, text.get_rect(midtop=(box.centerx, box.top
+                                                           + self._margin // 2 + k * pitch)))
 
     # -- output --------------------------------------------------------------------------
 
