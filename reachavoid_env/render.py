@@ -73,8 +73,9 @@ def _rgb_surface(width: int, height: int) -> pygame.Surface:
 
 class _LegendEntry(NamedTuple):
     glyph: Callable[[float, float], None]  # draws the sample centred at a pixel
-    label: Callable[[GameState], str]      # the words (some count attackers)
+    label: Callable[[GameState], str]      # the words
     widest: str                            # the longest the words can get (layout)
+    counts: bool = False                   # the words change with the state
 
 
 class Renderer:
@@ -224,7 +225,9 @@ class Renderer:
         pygame.draw.polygon(surface, edge, points, width=2)
 
     def _draw_background(self) -> pygame.Surface:
-        surface = _rgb_surface(self.width, self.height)
+        """What every frame starts from: the map without players, and the legend's fixed
+        parts."""
+        surface = self._surface
         surface.fill(P.FRAME)
         field = self._field()
         pygame.draw.rect(surface, P.FIELD, field)
@@ -236,7 +239,8 @@ class Renderer:
         rule = self._legend_top - self._margin // 2
         pygame.draw.line(surface, P.blend(P.FRAME, P.BORDER, 0.3), (self._margin, rule),
                          (self.width - self._margin, rule))
-        return surface
+        self._draw_legend(None)
+        return surface.copy()
 
     def _draw_disc(self) -> pygame.Surface:
         radius = self.capture_radius * self._scale
@@ -286,11 +290,11 @@ class Renderer:
              edges[EdgeKind.ASSIGN]],
             [_LegendEntry(self._draw_triangle,
                           lambda s: f"attacker in play: {int(s.active_attackers.sum())}",
-                          f"attacker in play: {wide}"),
+                          f"attacker in play: {wide}", counts=True),
              _LegendEntry(self._draw_plus, lambda s: f"captured: {len(s.captured)}",
-                          f"captured: {wide}"),
+                          f"captured: {wide}", counts=True),
              _LegendEntry(self._draw_arrival, lambda s: f"reached target: {len(s.arrived)}",
-                          f"reached target: {wide}")],
+                          f"reached target: {wide}", counts=True)],
             [edges[EdgeKind.PAIR], edges[EdgeKind.TEAM]],
         ]
 
@@ -312,13 +316,18 @@ class Renderer:
                 x += width + gap
         return rows, max(self._legend_font.get_linesize(), round(2.6 * self._glyph)) + 2
 
-    def _draw_legend(self, state: GameState) -> None:
+    def _draw_legend(self, state: GameState | None) -> None:
+        """The legend's glyphs and fixed words (``state`` None: drawn once, into the
+        background), or the words that count attackers in ``state``."""
         sample = round(self._glyph * 3.6)
         for r, row in enumerate(self._legend_rows):
             middle = self._legend_top + (r + 0.5) * self._legend_pitch
             for entry, x in row:
                 left = self._margin + x
-                entry.glyph(left + sample / 2 - self._glyph * 0.4, middle)
+                if state is None:
+                    entry.glyph(left + sample / 2 - self._glyph * 0.4, middle)
+                if (state is None) == entry.counts:
+                    continue
                 words = self._text(entry.label(state), P.TEXT, self._legend_font)
                 self._surface.blit(words, (left + sample, round(middle - words.get_height() / 2)))
 
