@@ -1,15 +1,18 @@
 """The ``reachavoid`` command (design.md, "Command line"): argument parsing and printing.
 
 ``play`` runs one episode (``rollout``), ``solve`` one game (``solve``), ``bench`` many
-seeded starts (``evaluation``), ``paper`` the paper's table (``paper``). Every argument and
-output path is checked before any work starts. Bad arguments or input files end with a
-one-line message and exit status 2; a failed write with one line naming the path and
-status 1; Ctrl-C (130) and SIGTERM (143) stop the work and leave no partial file.
+seeded starts (``evaluation``), ``paper`` the paper's table (``paper``). Every argument,
+output path and the cache are checked before any work starts. Bad arguments or input files
+end with a one-line message and exit status 2; a failed write with one line naming the
+path and status 1; Ctrl-C (130), SIGTERM (143) and SIGHUP (129) stop the work and leave no
+partial file; a closed standard output (``| head``) ends quietly (141). Outputs follow one
+rule (README "Files and failures"): an existing file is replaced only with ``--force``.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import re
@@ -28,10 +31,14 @@ from reachavoid.rollout import EpisodeResult, run_episode
 from reachavoid.solve import DEFAULT_GRID, GAMES, solve_scenario
 from reachavoid.sweep import BACKENDS
 from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
-from reachavoid_env.video import check_video_path
-from solvers.hj.cache import cache_dir
+from reachavoid_env.files import STDOUT, destination, is_stream
+from reachavoid_env.video import FPS_RANGE, check_video_path
+from solvers.hj.cache import CacheLocationError, check_cache
+from solvers.hj.reach_avoid import InsufficientMemoryError
 
-EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 1, 130, 143
+EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_PIPE = 2, 1, 130, 141
+TEMPORARY_NAME_ROOM = 48
+"""Characters an output's temporary names add to its file name (``.NAME.PID.RANDOM.tmp``)."""
 MAX_SEED = 2**63 - 1
 GRID_RANGE = {"grid1": (5, 201), "grid2": (5, 101)}
 """Nodes per axis accepted for the 1 vs 1 and 2 vs 1 tubes (the memory guard still
@@ -45,7 +52,14 @@ class UsageError(ValueError):
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised where the program is so that it unwinds as on Ctrl-C."""
+    """SIGTERM or SIGHUP, raised where the program is so that it unwinds as on Ctrl-C."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+STOP_SIGNALS = {signal.SIGTERM: "terminated", signal.SIGHUP: "hung up"}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -75,6 +89,11 @@ def _margin_option(parser: argparse.ArgumentParser) -> None:
                              "grid cells of each tube: a game counts as a defender win where "
                              "its value exceeds C cells, or stays > 0 once taken (default: "
                              "%(default)s; 0 reads the tubes as the paper does)")
+
+
+def _force_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--force", action="store_true",
+                        help="replace existing output files (default: refuse, before any work)")
 
 
 def _seed_option(parser: argparse.ArgumentParser, help_text: str) -> None:
@@ -107,6 +126,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "(default: %(default)s)")
     play.add_argument("--json", action="store_true",
                       help="print one JSON object instead of a summary")
+    _force_option(play)
     play.set_defaults(run=_play)
 
     solve = commands.add_parser("solve",
@@ -121,6 +141,7 @@ def build_parser() -> argparse.ArgumentParser:
     solve.add_argument("--out", metavar="DIR", help="also save the value function here")
     solve.add_argument("--plot", metavar="OUT.png",
                        help="draw the value's slices at the scenario's starts (paper Fig. 2)")
+    _force_option(solve)
     solve.set_defaults(run=_solve)
 
     bench = commands.add_parser(
@@ -147,11 +168,14 @@ def build_parser() -> argparse.ArgumentParser:
                             "(default: all cores)")
     bench.add_argument("--address", default=None, metavar="ADDR",
                        help="an existing Ray cluster (default: start a local one)")
-    bench.add_argument("--csv", metavar="FILE.csv", help="write one row per episode")
+    bench.add_argument("--csv", metavar="FILE.csv",
+                       help="write one row per episode ('-': standard output, the table then "
+                            "goes to standard error)")
     bench.add_argument("--json", action="store_true",
                        help="print one JSON object instead of a table")
     _grid_options(bench)
     _margin_option(bench)
+    _force_option(bench)
     bench.set_defaults(run=_bench)
 
     paper = commands.add_parser(
@@ -164,6 +188,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="where the videos, figure and table go (default: %(default)s)")
     paper.add_argument("--no-video", action="store_true", help="skip the videos")
     _grid_options(paper)
+    _force_option(paper)
     paper.set_defaults(run=_paper)
     return parser
 
@@ -185,35 +210,64 @@ def _check_common(args: argparse.Namespace) -> None:
         _check(checks.integer, args.seed, "--seed", 0, MAX_SEED)
     if hasattr(args, "margin_cells"):
         _check(checks.real, args.margin_cells, "--margin-cells", 0.0, MAX_MARGIN_CELLS)
-    location = cache_dir()
-    if location.exists() and not location.is_dir():
-        raise UsageError(f"cache: {str(location)!r} ($REACHAVOID_CACHE_DIR) is not a folder")
+    if not check_cache():
+        print(f"reachavoid {args.command}: warning: the cache ($REACHAVOID_CACHE_DIR) is "
+              "not writable; what is solved now is not kept", file=sys.stderr)
     args.progress = sys.stderr.isatty()
 
 
-def writable_file(path: str, field: str) -> Path:
-    """``path`` if a file can be created or replaced there, else ``UsageError`` naming
-    ``field``."""
-    target = Path(path)
-    if target.is_dir():
-        raise UsageError(f"{field}: {path!r} is a folder")
+def _check_name(target: Path, field: str, path: str) -> None:
+    """Refuse a file name too long for its folder once temporary names are added to it."""
+    try:
+        limit = os.pathconf(target.parent, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    if len(os.fsencode(target.name)) + TEMPORARY_NAME_ROOM > limit:
+        raise UsageError(f"{field}: the name {target.name[:40]!r}... of {path!r} is too long "
+                         f"(at most {limit - TEMPORARY_NAME_ROOM} bytes here)")
+
+
+def writable_file(path: str, field: str, force: bool = False, text: bool = False) -> str:
+    """``path`` if a file can be written there under the overwrite rule (module docstring),
+    else ``UsageError`` naming ``field``. A link is followed to its target; a device or FIFO
+    is written directly; ``-`` (standard output) only where ``text`` is written."""
+    if path == STDOUT:
+        if not text:
+            raise UsageError(f"{field}: '-' (standard output) is for text outputs only")
+        return path
+    target = destination(path)
+    if is_stream(target):
+        return path
+    _check_replace(target, field, force, path)
     folder = target.parent
     if not folder.is_dir():
         raise UsageError(f"{field}: folder {str(folder)!r} does not exist")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise UsageError(f"{field}: folder {str(folder)!r} is not writable")
-    return target
+    _check_name(target, field, path)
+    return path
+
+
+def _check_replace(target: Path, field: str, force: bool, path: str) -> None:
+    """The overwrite rule: an existing ``target`` is replaced only with ``force``, and only
+    when it is a regular file."""
+    if target.is_dir():
+        raise UsageError(f"{field}: {path!r} is a folder")
+    if target.exists() and not target.is_file():
+        raise UsageError(f"{field}: {path!r} is not a regular file, a device or a FIFO")
+    if target.exists() and not force:
+        raise UsageError(f"{field}: {path!r} exists; pass --force to replace it")
 
 
 def writable_folder(path: str, field: str) -> Path:
     """``path`` if it is a writable folder or can be created as one, else ``UsageError``."""
-    target = Path(path)
+    target = Path(os.path.abspath(path))
     if target.exists() and not target.is_dir():
         raise UsageError(f"{field}: {path!r} exists and is not a folder")
-    existing = target if target.exists() else next(p for p in target.absolute().parents
-                                                   if p.exists())
+    existing = target if target.exists() else next(p for p in target.parents if p.exists())
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
         raise UsageError(f"{field}: {str(existing)!r} is not a writable folder")
+    _check_name(target, field, path)
     return target
 
 
@@ -239,9 +293,9 @@ def _play(args: argparse.Namespace) -> int:
             check_video_path(args.video)
         except ValueError as err:
             raise UsageError(str(err)) from None
-        writable_file(args.video, "--video")
+        writable_file(args.video, "--video", args.force)
         if args.fps is not None:
-            _check(checks.positive, args.fps, "--fps", 240.0)
+            _check(checks.real, args.fps, "--fps", *FPS_RANGE)
         _check(checks.integer, args.every, "--every", 1, 1_000_000)
         _check(checks.integer, args.width, "--width", 16, 4096)
     scenario = _load(args.scenario)
@@ -297,7 +351,7 @@ def _solve(args: argparse.Namespace) -> int:
     if args.out is not None:
         writable_folder(args.out, "--out")
     if args.plot is not None:
-        writable_file(args.plot, "--plot")
+        writable_file(args.plot, "--plot", args.force)
     try:
         report = solve_scenario(args.scenario, args.game, args.grid, out=args.out,
                                 plot=args.plot, progress=args.progress)
@@ -324,7 +378,7 @@ def _bench(args: argparse.Namespace) -> int:
     if args.address is not None and args.backend != "ray":
         raise UsageError("--address: only with --backend ray")
     if args.csv:
-        writable_file(args.csv, "--csv")
+        writable_file(args.csv, "--csv", args.force, text=True)
     scenario = _load(args.scenario).with_players(int(match[1]), int(match[2]))
     comparison = compare_defenders(scenario, methods, args.attackers, args.episodes,
                                    seed=args.seed, backend=args.backend, workers=args.workers,
@@ -334,6 +388,13 @@ def _bench(args: argparse.Namespace) -> int:
     if args.csv:
         write_csv(args.csv, [{k: (";".join(v) if isinstance(v, list) else v)
                               for k, v in row.items()} for row in comparison.rows])
+    if args.csv == STDOUT:   # the rows went to standard output: the table goes beside them
+        with contextlib.redirect_stdout(sys.stderr):
+            return _print_bench(args, scenario, comparison)
+    return _print_bench(args, scenario, comparison)
+
+
+def _print_bench(args: argparse.Namespace, scenario: Scenario, comparison: Any) -> int:
     if args.json:
         print(json.dumps({"scenario": scenario.name, "config": args.config,
                           "attackers": args.attackers, "seed": args.seed,
@@ -358,6 +419,8 @@ def _bench(args: argparse.Namespace) -> int:
 
 def _paper(args: argparse.Namespace) -> int:
     out = writable_folder(args.out, "--out")
+    for path in paper_table.outputs(out, videos=not args.no_video):
+        _check_replace(destination(path), "--out", args.force, str(path))
     out.mkdir(parents=True, exist_ok=True)
     rows = paper_table.reproduce(out, args.grid1, args.grid2, videos=not args.no_video,
                                  progress=args.progress)
@@ -374,7 +437,7 @@ def _paper(args: argparse.Namespace) -> int:
 
 
 def _terminate(signum: int, frame: object) -> None:
-    raise Terminated
+    raise Terminated(signum)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -384,26 +447,31 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exit_:
         return int(exit_.code or 0)
-    previous = signal.signal(signal.SIGTERM, _terminate)
+    previous = {signum: signal.signal(signum, _terminate) for signum in STOP_SIGNALS}
     try:
         _check_common(args)
         return args.run(args)
-    except (UsageError, ScenarioError) as err:
+    except (UsageError, ScenarioError, CacheLocationError, InsufficientMemoryError) as err:
         print(f"reachavoid {args.command}: error: {err}", file=sys.stderr)
         return EXIT_USAGE
+    except BrokenPipeError:
+        # standard output closed early (``| head``): end quietly, as a killed writer would
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_PIPE
     except OSError as err:
         where = f"{err.filename}: " if err.filename else ""
         print(f"reachavoid {args.command}: error: {where}{err.strerror or err}",
               file=sys.stderr)
         return EXIT_WRITE
-    except Terminated:
-        print(f"reachavoid {args.command}: terminated", file=sys.stderr)
-        return EXIT_TERMINATED
+    except Terminated as stop:
+        print(f"reachavoid {args.command}: {STOP_SIGNALS[stop.signum]}", file=sys.stderr)
+        return 128 + stop.signum
     except KeyboardInterrupt:
         print(f"reachavoid {args.command}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 if __name__ == "__main__":

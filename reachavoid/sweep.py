@@ -28,8 +28,18 @@ from policies.registry import accepted_options, make_policy, named_policy
 from reachavoid.rollout import EpisodeResult, run_episode
 from reachavoid_env import Policy, Scenario
 from solvers.hj.cache import cache_dir
+from solvers.hj.reach_avoid import available_memory
 
 BACKENDS = ("serial", "process", "ray")
+WORKER_BYTES = 200 << 20
+"""Memory one pool worker holds (interpreter, numpy, numba, env, policies: about 190 MB)."""
+
+
+def pool_size(workers: int | None, episodes: int) -> int:
+    """Processes of a pool for ``episodes`` episodes: ``workers`` (default: the CPU count),
+    at most one per episode and no more than the available memory holds."""
+    by_memory = available_memory() // WORKER_BYTES
+    return max(1, min(workers or os.cpu_count() or 1, episodes, by_memory))
 
 
 @dataclass(frozen=True)
@@ -96,8 +106,8 @@ def run_sweep(sweep: Sweep, backend: str = "serial", workers: int | None = None,
               description: str = "") -> list[EpisodeResult]:
     """Play every seed of ``sweep`` on ``backend`` and return the results in seed order.
 
-    ``workers``: processes of the pool (default: the CPU count); ``address``: an existing
-    Ray cluster (default: a local instance, started here and shut down after). Ctrl-C
+    ``workers``: processes of the pool (``pool_size``); ``address``: an existing Ray
+    cluster (default: a local instance, started here and shut down after). Ctrl-C
     cancels the episodes not yet played and stops the workers.
     """
     if backend not in BACKENDS:
@@ -119,7 +129,7 @@ def _serial(sweep: Sweep, **_: Any) -> Iterator[EpisodeResult]:
 
 
 def _process_pool(sweep: Sweep, workers: int | None, **_: Any) -> Iterator[EpisodeResult]:
-    pool = multiprocessing.get_context("spawn").Pool(workers or os.cpu_count())
+    pool = multiprocessing.get_context("spawn").Pool(pool_size(workers, len(sweep.seeds)))
     try:
         yield from pool.imap_unordered(functools.partial(play_seed, sweep), sweep.seeds)
     except BaseException:

@@ -51,11 +51,12 @@ def check_cache() -> bool:
     Returns whether solves can be stored there; ``CacheLocationError`` naming it and
     ``$REACHAVOID_CACHE_DIR`` when it cannot be a folder of this user's."""
     folder = cache_dir()
+    if folder.exists() and not folder.is_dir():
+        raise CacheLocationError(f"cache: {str(folder)!r} ($REACHAVOID_CACHE_DIR) is not a "
+                                 "folder")
     try:
         if not folder.exists():
             private_folder(folder)
-        if not folder.is_dir():
-            raise NotADirectoryError(20, "Not a directory", str(folder))
     except (OSError, UnsafeFolderError) as err:
         reason = f"{err.filename}: {err.strerror}" if isinstance(err, OSError) else str(err)
         raise CacheLocationError(f"cache: {str(folder)!r} ($REACHAVOID_CACHE_DIR) cannot be "
