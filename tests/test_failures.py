@@ -148,7 +148,8 @@ def test_read_only_folder_is_refused_before_the_work(small_mount, capsys):
 @pytest.mark.parametrize(("args", "message"), [
     (["play", "--seed", "-1"], "--seed: must be an integer in [0,"),
     (["bench", "--seed", "-1"], "--seed: must be an integer in [0,"),
-    (["play", "--video", "a.mp4", "--fps", "inf"], "--fps: must be in (0, 240]"),
+    (["play", "--video", "a.mp4", "--fps", "inf"], "--fps: must be in [0.1, 240]"),
+    (["play", "--video", "a.mp4", "--fps", "1e-300"], "--fps: must be in [0.1, 240]"),
     (["play", "--video", "a.mp4", "--width", "100000000"], "--width: must be an integer in"),
     (["play", "--grid1", "100000"], "--grid1: must be an integer in [5, 201]"),
     (["solve", "--game", "2v1", "--grid", "1000"], "--grid: must be an integer in [5, 101]"),
