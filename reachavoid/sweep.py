@@ -17,6 +17,8 @@ from __future__ import annotations
 import functools
 import multiprocessing
 import os
+import signal
+import threading
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -129,14 +131,26 @@ def _serial(sweep: Sweep, **_: Any) -> Iterator[EpisodeResult]:
 
 
 def _process_pool(sweep: Sweep, workers: int | None, **_: Any) -> Iterator[EpisodeResult]:
-    pool = multiprocessing.get_context("spawn").Pool(pool_size(workers, len(sweep.seeds)))
+    pool = multiprocessing.get_context("spawn").Pool(pool_size(workers, len(sweep.seeds)),
+                                                     initializer=_start_worker)
     try:
         yield from pool.imap_unordered(functools.partial(play_seed, sweep), sweep.seeds)
     except BaseException:
         pool.terminate()   # Ctrl-C or SIGTERM: no worker outlives the sweep
         raise
-    pool.close()
-    pool.join()
+    else:
+        pool.close()
+    finally:
+        pool.join()
+
+
+def _start_worker() -> None:
+    """Workers leave Ctrl-C (sent to the terminal's whole process group) to the driver,
+    which stops them; their (hidden) tqdm bars take a thread lock instead of tqdm's
+    multiprocessing one, which a stopped worker would leave registered (resource_tracker's
+    "leaked semaphore" warnings)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    tqdm.set_lock(threading.RLock())
 
 
 def _ray(sweep: Sweep, workers: int | None, address: str | None,
