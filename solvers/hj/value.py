@@ -246,7 +246,7 @@ class ValueFunction:
         it). When another process renames its entry into place first, theirs is kept when it
         holds the same values.
         """
-        path = Path(path)
+        path = Path(os.path.abspath(path))   # "." has a name and a parent
         refuse_foreign(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         try:
@@ -336,6 +336,11 @@ def refuse_foreign(path: Path) -> None:
 
 
 def _move_into_place(temporary: Path, path: Path, meta: dict[str, Any], retired: Path) -> None:
+    if path.is_dir() and not path.is_symlink() and not any(path.iterdir()):
+        # an empty folder (perhaps the working directory) is filled, meta.json last
+        for name in reversed(_FILES):
+            os.replace(temporary / name, path / name)
+        return
     if not path.exists():
         try:
             os.replace(temporary, path)
