@@ -235,9 +235,9 @@ def writable_file(path: str, field: str, force: bool = False, text: bool = False
         if not text:
             raise UsageError(f"{field}: '-' (standard output) is for text outputs only")
         return path
-    target = destination(path)
-    if is_stream(target):
+    if is_stream(path):
         return path
+    target = destination(path)
     _check_replace(target, field, force, path)
     folder = target.parent
     if not folder.is_dir():

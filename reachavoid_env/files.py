@@ -60,11 +60,11 @@ def install(temporary: Path, path: str | os.PathLike[str]) -> None:
     renamed onto the link target with the permissions of the file it replaces (the usual
     ``0666 & ~umask`` for a new one). ``temporary`` is gone afterwards either way."""
     try:
-        target = destination(path)
-        if is_stream(target):
-            with open(temporary, "rb") as source, open(target, "wb") as sink:
+        if is_stream(path):   # opened by its own name: /dev/stdout may lead to "pipe:[N]"
+            with open(temporary, "rb") as source, open(path, "wb") as sink:
                 shutil.copyfileobj(source, sink)
             return
+        target = destination(path)
         try:
             mode = stat.S_IMODE(os.stat(target).st_mode)
         except FileNotFoundError:
@@ -95,11 +95,11 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "w", **open_kwargs: A
         yield sys.stdout
         sys.stdout.flush()
         return
-    target = destination(path)
-    if is_stream(target):
-        with open(target, mode, **open_kwargs) as handle:
+    if is_stream(path):
+        with open(path, mode, **open_kwargs) as handle:
             yield handle
         return
+    target = destination(path)
     if target.is_dir():
         raise IsADirectoryError(21, "Is a directory", str(path))
     handle, name = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.",
@@ -111,6 +111,11 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "w", **open_kwargs: A
             stream.flush()
             os.fsync(stream.fileno())
         install(temporary, target)
+    except OSError as err:
+        temporary.unlink(missing_ok=True)
+        if err.filename is None:   # a full disk: name the destination, not nothing
+            raise OSError(err.errno, err.strerror or str(err), str(path)) from None
+        raise
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise

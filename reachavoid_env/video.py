@@ -108,7 +108,7 @@ class VideoWriter:
     def _open(self, width: int, height: int) -> None:
         suffix = self.path.suffix.lower()
         target = destination(self.path)
-        if is_stream(target):
+        if is_stream(self.path):
             self._private = Path(tempfile.mkdtemp(prefix="reachavoid-video-"))
             target = self._private / f"video{suffix}"
         tmp = target.with_name(f".{target.stem}.{os.getpid()}.{secrets.token_hex(4)}"

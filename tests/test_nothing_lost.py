@@ -182,6 +182,12 @@ def test_dash_is_standard_output_for_csv(capsys):
     fails_cleanly(capsys, ["play", *SIMPLE, "--video", "-"], "must end in")
 
 
+def test_dev_stdout_is_written_when_it_is_a_pipe():
+    process = _command(*BENCH, "--csv", "/dev/stdout", stdout=subprocess.PIPE)
+    out, err = process.communicate(timeout=120)
+    assert process.returncode == 0 and out.startswith("defenders,"), err
+
+
 # 3. braces in a path are characters
 
 @pytest.mark.parametrize("name", ["a{1}.mp4", "b{x}.mp4", "c{.mp4", "d{episode}.mp4"])
@@ -354,6 +360,10 @@ def test_full_disk_names_the_destination(tmp_path):
             "vf = solve_1v1(r.builtin_map('paper'), grid_points=15, cache=False,"
             " progress=False)\n"
             "try: vf.save(sys.argv[1])\n"
+            "except OSError as err: print(err.filename, err.strerror)\n"
+            "from reachavoid_env.files import atomic_write\n"
+            "try:\n"
+            "    with atomic_write(sys.argv[1] + '.csv') as f: f.write('x' * 10**6)\n"
             "except OSError as err: print(err.filename, err.strerror)")
     result = _in_namespace(f"""
         mount --make-rprivate /
@@ -363,7 +373,8 @@ def test_full_disk_names_the_destination(tmp_path):
     """, tmp_path)
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
-    assert lines[0].startswith(str(disk / "big.vf")) and lines[1:] == []
+    assert lines[0].startswith(str(disk / "big.vf"))
+    assert lines[1].startswith(str(disk / "big.vf.csv")) and lines[2:] == []
 
 
 # 11. pool size
