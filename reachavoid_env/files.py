@@ -45,16 +45,6 @@ def is_stream(path: str | os.PathLike[str]) -> bool:
     return stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)
 
 
-def temporary_beside(path: Path, suffix: str) -> Path:
-    """A fresh temporary file name (not created) in ``path``'s folder:
-    ``.NAME.PID.RANDOM.SUFFIX``, its suffix ``suffix``."""
-    handle, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.{os.getpid()}.",
-                                    suffix=suffix)
-    os.close(handle)
-    os.unlink(name)
-    return Path(name)
-
-
 def install(temporary: Path, path: str | os.PathLike[str]) -> None:
     """Put the finished file ``temporary`` at ``path``: copied into a device or FIFO, else
     renamed onto the link target with the permissions of the file it replaces (the usual
@@ -132,11 +122,13 @@ def private_folder(path: str | os.PathLike[str]) -> Path:
 
     Every folder created here, and ``path`` itself, must be a real folder (not a link),
     owned by this user and closed to others (``mode & 0o077 == 0`` for ``path``); every
-    folder above must be writable by its owner (this user or root) alone, or sticky. So
-    nobody else can put a file there or swap the folder. Raises ``UnsafeFolderError``
-    naming the folder and the reason, or ``OSError`` when it cannot be created.
+    folder above (links resolved) must be writable by its owner (this user or root) alone,
+    or sticky. So nobody else can put a file there or swap the folder. Raises
+    ``UnsafeFolderError`` naming the folder and the reason, or ``OSError`` when it cannot
+    be created.
     """
-    folder = Path(os.path.abspath(path))
+    absolute = Path(os.path.abspath(path))
+    folder = Path(os.path.realpath(absolute.parent)) / absolute.name
     for part in reversed((folder, *folder.parents)):
         created = False
         if not os.path.lexists(part):

@@ -40,6 +40,13 @@ class CacheLocationError(ValueError):
     """The cache folder cannot be a folder of this user's (reported in one line, exit 2)."""
 
 
+def location_error(what: str, folder: Path, err: Exception) -> CacheLocationError:
+    """``CacheLocationError``: ``what`` went wrong at ``folder`` because of ``err``."""
+    reason = f"{err.filename}: {err.strerror}" if isinstance(err, OSError) else str(err)
+    return CacheLocationError(f"cache: {what} {str(folder)!r} ({reason}); set "
+                              "$REACHAVOID_CACHE_DIR to a folder of yours")
+
+
 def cache_dir() -> Path:
     """The cache directory (not created here)."""
     configured = os.environ.get("REACHAVOID_CACHE_DIR")
@@ -58,9 +65,7 @@ def check_cache() -> bool:
         if not folder.exists():
             private_folder(folder)
     except (OSError, UnsafeFolderError) as err:
-        reason = f"{err.filename}: {err.strerror}" if isinstance(err, OSError) else str(err)
-        raise CacheLocationError(f"cache: {str(folder)!r} ($REACHAVOID_CACHE_DIR) cannot be "
-                                 f"used ({reason})") from None
+        raise location_error("cannot create", folder, err) from None
     return os.access(folder, os.W_OK | os.X_OK)
 
 

@@ -31,7 +31,7 @@ from types import ModuleType
 
 from reachavoid_env.files import UnsafeFolderError, atomic_write, private_folder
 from solvers.hj import kernels
-from solvers.hj.cache import CacheLocationError, cache_dir
+from solvers.hj.cache import cache_dir, location_error
 from solvers.hj.game import Const, Coordinate, Expr, Game, Op, Table
 from solvers.hj.schemes import Scheme
 
@@ -244,13 +244,7 @@ def kernel_dir() -> Path:
     try:
         return private_folder(folder)
     except (UnsafeFolderError, OSError) as err:
-        raise CacheLocationError(f"cache: no safe folder for generated code at {folder} "
-                                 f"({_reason(err)}); set $REACHAVOID_CACHE_DIR to a folder "
-                                 "of yours") from None
-
-
-def _reason(err: Exception) -> str:
-    return f"{err.filename}: {err.strerror}" if isinstance(err, OSError) else str(err)
+        raise location_error("no safe folder for generated code at", folder, err) from None
 
 
 @functools.cache
@@ -283,7 +277,5 @@ def _write_once(name: str, source: str) -> Path:
             with atomic_write(path) as handle:
                 handle.write(source)
     except OSError as err:
-        raise CacheLocationError(f"cache: cannot write generated code to {folder} "
-                                 f"({_reason(err)}); set $REACHAVOID_CACHE_DIR to a writable "
-                                 "folder of yours") from None
+        raise location_error("cannot write generated code to", folder, err) from None
     return path
