@@ -104,7 +104,9 @@ def test_degenerate_polygons_are_refused_by_name(vertices, message):
 
 # 5. SIGTERM is Ctrl-C: a message, status 143, no partial file
 
-def test_sigterm_leaves_no_partial_video(tmp_path):
+@pytest.mark.parametrize(("signum", "status", "word"), [
+    (signal.SIGTERM, 143, "terminated"), (signal.SIGHUP, 129, "hung up")])   # issue 21 #14
+def test_sigterm_leaves_no_partial_video(tmp_path, signum, status, word):
     env = dict(os.environ, SDL_VIDEODRIVER="dummy")
     process = subprocess.Popen([sys.executable, "-m", "reachavoid.cli", "play", "--scenario",
                                 "paper_6v2", "--attackers", "random", "--defenders", "idle",
@@ -113,9 +115,9 @@ def test_sigterm_leaves_no_partial_video(tmp_path):
     deadline = time.monotonic() + 60
     while not any(tmp_path.glob(".long.*")) and time.monotonic() < deadline:
         time.sleep(0.05)
-    process.send_signal(signal.SIGTERM)
+    process.send_signal(signum)
     _, err = process.communicate(timeout=60)
-    assert process.returncode == 143 and "terminated" in err and "Traceback" not in err
+    assert process.returncode == status and word in err and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
 
 
