@@ -259,8 +259,8 @@ def _first_crossing(v: np.ndarray) -> tuple[int, int] | None:
 
 
 MAX_POLYGON_VERTICES = 1000
-"""The most vertices a polygon may have (the self-intersection check is quadratic: about
-0.25 s at the limit on a shared 2-core machine)."""
+"""The most vertices a polygon may have: the self-intersection check is quadratic, and
+takes under 1 s at the limit (BENCHMARKS.md, "Polygon validation")."""
 
 
 @register
