@@ -38,8 +38,9 @@ WORKER_BYTES = 200 << 20
 
 
 def pool_size(workers: int | None, episodes: int) -> int:
-    """Processes of a pool for ``episodes`` episodes: ``workers`` (default: the CPU count),
-    at most one per episode and no more than the available memory holds."""
+    """Processes of a pool (or CPUs of a local Ray instance) for ``episodes`` episodes:
+    ``workers`` (default: the CPU count), at most one per episode and no more than the
+    available memory holds."""
     by_memory = available_memory() // WORKER_BYTES
     return max(1, min(workers or os.cpu_count() or 1, episodes, by_memory))
 
@@ -161,7 +162,8 @@ def _ray(sweep: Sweep, workers: int | None, address: str | None,
         raise ValueError("backend: 'ray' needs Ray (pip install 'reachavoid[ray]')") from None
     started = not ray.is_initialized()
     if started:
-        ray.init(address=address, num_cpus=None if address else workers,
+        ray.init(address=address,
+                 num_cpus=None if address else pool_size(workers, len(sweep.seeds)),
                  include_dashboard=False, log_to_driver=False,
                  runtime_env={"env_vars": {"REACHAVOID_CACHE_DIR": str(cache_dir())}})
     task = ray.remote(play_seed)
