@@ -2,15 +2,18 @@
 
 ``play`` runs one episode (``rollout``), ``solve`` one game (``solve``), ``bench`` many
 seeded starts of a suite (``suite``, ``evaluation``), ``paper`` the paper's table
-(``paper``). Every argument and output path is checked before any work starts. Bad
-arguments or input files end with a one-line message and exit status 2; a failed write
-with one line naming the path and status 1; Ctrl-C (130) and SIGTERM (143) stop the work
-and leave no partial file.
+(``paper``). Every argument, output path and the cache are checked before any work starts.
+Bad arguments or input files end with a one-line message and exit status 2; a failed write
+with one line naming the path and status 1; Ctrl-C (130), SIGTERM (143) and SIGHUP (129)
+stop the work and leave no partial file; a closed standard output (``| head``) ends quietly
+(141). Outputs follow one rule (README "Files and failures"): an existing file is replaced
+only with ``--force``.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import signal
@@ -39,11 +42,14 @@ from reachavoid.suite import (
 )
 from reachavoid.sweep import BACKENDS
 from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
-from reachavoid_env.files import atomic_write
-from reachavoid_env.video import check_video_path, realtime_every, realtime_fps
-from solvers.hj.cache import cache_dir
+from reachavoid_env.files import STDOUT, atomic_write, destination, is_stream
+from reachavoid_env.video import FPS_RANGE, check_video_path, realtime_every, realtime_fps
+from solvers.hj.cache import CacheLocationError, check_cache
+from solvers.hj.reach_avoid import InsufficientMemoryError
 
-EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 1, 130, 143
+EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_PIPE = 2, 1, 130, 141
+TEMPORARY_NAME_ROOM = 48
+"""Characters an output's temporary names add to its file name (``.NAME.PID.RANDOM.tmp``)."""
 MAX_SEED = 2**63 - 1
 GRID_RANGE = {"grid1": (5, 201), "grid2": (5, 101)}
 """Nodes per axis accepted for the 1 vs 1 and 2 vs 1 tubes (the memory guard still
@@ -51,7 +57,7 @@ refuses what this machine cannot hold)."""
 OPTION_FLAGS = {"grid1": "--grid1", "grid2": "--grid2", "margin_cells": "--margin-cells"}
 """The policy options the command line takes (each goes to the chosen policies that take
 it; one that none takes is an error)."""
-MAX_FPS, GIF_MAX_FPS = 240.0, 50.0
+GIF_MAX_FPS = 50.0
 """The highest video rates accepted (frames per second); a GIF's frame delay is counted in
 hundredths of a second and players slow down delays under two."""
 
@@ -61,7 +67,14 @@ class UsageError(ValueError):
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised where the program is so that it unwinds as on Ctrl-C."""
+    """SIGTERM or SIGHUP, raised where the program is so that it unwinds as on Ctrl-C."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+STOP_SIGNALS = {signal.SIGTERM: "terminated", signal.SIGHUP: "hung up"}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -96,6 +109,11 @@ def _margin_option(parser: argparse.ArgumentParser) -> None:
                              "grid cells of each tube: a game counts as a defender win where "
                              f"its value exceeds C cells, or stays > 0 once taken (default: "
                              f"{CERTIFICATE_CELLS}; 0 reads the tubes as the paper does)")
+
+
+def _force_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--force", action="store_true",
+                        help="replace existing output files (default: refuse, before any work)")
 
 
 def _seed_option(parser: argparse.ArgumentParser, help_text: str) -> None:
@@ -136,6 +154,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "(default: %(default)s)")
     play.add_argument("--json", action="store_true",
                       help="print one JSON object instead of a summary")
+    _force_option(play)
     play.set_defaults(run=_play)
 
     solve = commands.add_parser("solve",
@@ -150,6 +169,7 @@ def build_parser() -> argparse.ArgumentParser:
     solve.add_argument("--out", metavar="DIR", help="also save the value function here")
     solve.add_argument("--plot", metavar="OUT.png",
                        help="draw the value's slices at the scenario's starts (paper Fig. 2)")
+    _force_option(solve)
     solve.set_defaults(run=_solve)
 
     bench = commands.add_parser(
@@ -188,7 +208,9 @@ def build_parser() -> argparse.ArgumentParser:
                             "(default: all cores)")
     bench.add_argument("--address", default=None, metavar="ADDR",
                        help="an existing Ray cluster (default: start a local one)")
-    bench.add_argument("--csv", metavar="FILE.csv", help="write one row per episode")
+    bench.add_argument("--csv", metavar="FILE.csv",
+                       help="write one row per episode ('-': standard output, the tables then "
+                            "go to standard error)")
     bench.add_argument("--json", nargs="?", const="-", default=None, metavar="FILE.json",
                        help="one JSON object: per cell the summaries and paired differences, "
                             "and one row per episode; printed instead of the tables, or "
@@ -197,6 +219,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="draw the capture rate per cell and method with its interval")
     _grid_options(bench)
     _margin_option(bench)
+    _force_option(bench)
     bench.set_defaults(run=_bench)
 
     paper = commands.add_parser(
@@ -209,6 +232,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="where the videos, figure and table go (default: %(default)s)")
     paper.add_argument("--no-video", action="store_true", help="skip the videos")
     _grid_options(paper, for_policies=False)
+    _force_option(paper)
     paper.set_defaults(run=_paper)
 
     validate = commands.add_parser(
@@ -239,35 +263,64 @@ def _check_common(args: argparse.Namespace) -> None:
         _check(checks.integer, args.seed, "--seed", 0, MAX_SEED)
     if getattr(args, "margin_cells", None) is not None:
         _check(check_margin_cells, args.margin_cells, "--margin-cells")
-    location = cache_dir()
-    if location.exists() and not location.is_dir():
-        raise UsageError(f"cache: {str(location)!r} ($REACHAVOID_CACHE_DIR) is not a folder")
+    if not check_cache():
+        print(f"reachavoid {args.command}: warning: the cache ($REACHAVOID_CACHE_DIR) is "
+              "not writable; what is solved now is not kept", file=sys.stderr)
     args.progress = sys.stderr.isatty()
 
 
-def writable_file(path: str, field: str) -> Path:
-    """``path`` if a file can be created or replaced there, else ``UsageError`` naming
-    ``field``."""
-    target = Path(path)
-    if target.is_dir():
-        raise UsageError(f"{field}: {path!r} is a folder")
+def _check_name(target: Path, field: str, path: str) -> None:
+    """Refuse a file name too long for its folder once temporary names are added to it."""
+    try:
+        limit = os.pathconf(target.parent, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    if len(os.fsencode(target.name)) + TEMPORARY_NAME_ROOM > limit:
+        raise UsageError(f"{field}: the name {target.name[:40]!r}... of {path!r} is too long "
+                         f"(at most {limit - TEMPORARY_NAME_ROOM} bytes here)")
+
+
+def writable_file(path: str, field: str, force: bool = False, text: bool = False) -> str:
+    """``path`` if a file can be written there under the overwrite rule (module docstring),
+    else ``UsageError`` naming ``field``. A link is followed to its target; a device or FIFO
+    is written directly; ``-`` (standard output) only where ``text`` is written."""
+    if path == STDOUT:
+        if not text:
+            raise UsageError(f"{field}: '-' (standard output) is for text outputs only")
+        return path
+    if is_stream(path):
+        return path
+    target = destination(path)
+    _check_replace(target, field, force, path)
     folder = target.parent
     if not folder.is_dir():
         raise UsageError(f"{field}: folder {str(folder)!r} does not exist")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise UsageError(f"{field}: folder {str(folder)!r} is not writable")
-    return target
+    _check_name(target, field, path)
+    return path
+
+
+def _check_replace(target: Path, field: str, force: bool, path: str) -> None:
+    """The overwrite rule: an existing ``target`` is replaced only with ``force``, and only
+    when it is a regular file."""
+    if target.is_dir():
+        raise UsageError(f"{field}: {path!r} is a folder")
+    if target.exists() and not target.is_file():
+        raise UsageError(f"{field}: {path!r} is not a regular file, a device or a FIFO")
+    if target.exists() and not force:
+        raise UsageError(f"{field}: {path!r} exists; pass --force to replace it")
 
 
 def writable_folder(path: str, field: str) -> Path:
     """``path`` if it is a writable folder or can be created as one, else ``UsageError``."""
-    target = Path(path)
+    target = Path(os.path.abspath(path))
     if target.exists() and not target.is_dir():
         raise UsageError(f"{field}: {path!r} exists and is not a folder")
-    existing = target if target.exists() else next(p for p in target.absolute().parents
-                                                   if p.exists())
+    existing = target if target.exists() else next(p for p in target.parents if p.exists())
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
         raise UsageError(f"{field}: {str(existing)!r} is not a writable folder")
+    _check_name(target, field, path)
     return target
 
 
@@ -302,11 +355,11 @@ def _check_video_options(args: argparse.Namespace, scenario: Scenario) -> None:
             check_video_path(args.video)
         except ValueError as err:
             raise UsageError(str(err)) from None
-        writable_file(args.video, "--video")
+        writable_file(args.video, "--video", args.force)
     if args.realtime and args.fps is not None:
         raise UsageError("--realtime: sets the fps itself; drop --fps")
     if args.fps is not None:
-        _check(checks.positive, args.fps, "--fps", MAX_FPS)
+        _check(checks.real, args.fps, "--fps", *FPS_RANGE)
     if args.every is not None:
         _check(checks.integer, args.every, "--every", 1, 1_000_000)
     _check(checks.integer, args.width, "--width", 16, 4096)
@@ -314,7 +367,7 @@ def _check_video_options(args: argparse.Namespace, scenario: Scenario) -> None:
     if args.realtime:
         args.every = args.every or realtime_every(scenario.dt, rate)
         args.fps = realtime_fps(scenario.dt, args.every)
-        most = GIF_MAX_FPS if str(args.video).lower().endswith(".gif") else MAX_FPS
+        most = GIF_MAX_FPS if str(args.video).lower().endswith(".gif") else FPS_RANGE[1]
         if args.fps > most:
             raise UsageError(f"--realtime: --every {args.every} with {scenario.dt * 1e3:g} ms "
                              f"steps needs {args.fps:g} fps, above this format's {most:g}; use "
@@ -439,7 +492,7 @@ def _solve(args: argparse.Namespace) -> int:
     if args.out is not None:
         writable_folder(args.out, "--out")
     if args.plot is not None:
-        writable_file(args.plot, "--plot")
+        writable_file(args.plot, "--plot", args.force)
     try:
         report = solve_scenario(args.scenario, args.game, args.grid, out=args.out,
                                 plot=args.plot, progress=args.progress)
@@ -486,7 +539,7 @@ def _bench(args: argparse.Namespace) -> int:
         raise UsageError("--address: only with --backend ray")
     for flag, path in (("--csv", args.csv), ("--plot", args.plot), ("--json", args.json)):
         if path not in (None, "-"):
-            writable_file(path, flag)
+            writable_file(path, flag, args.force, text=flag != "--plot")
     suite = _bench_suite(args)
     attackers = dict.fromkeys(cell.attackers for cell in suite.cells)
     _specs([*(("defenders", m) for m in methods), *(("attackers", a) for a in attackers)],
@@ -510,6 +563,14 @@ def _bench(args: argparse.Namespace) -> int:
                               for k, v in row.items()} for row in report["rows"]])
     if args.plot:
         plot_suite(result, args.plot)
+    if args.csv == STDOUT:   # the rows went to standard output: the tables go beside them
+        with contextlib.redirect_stdout(sys.stderr):
+            return _print_bench(args, result, report, seconds)
+    return _print_bench(args, result, report, seconds)
+
+
+def _print_bench(args: argparse.Namespace, result: SuiteResult, report: dict[str, Any],
+                 seconds: float) -> int:
     if args.json == "-":
         print(json.dumps(report))
         return 0
@@ -569,6 +630,8 @@ def _bench_tables(result: SuiteResult, seconds: float) -> str:
 
 def _paper(args: argparse.Namespace) -> int:
     out = writable_folder(args.out, "--out")
+    for path in paper_table.outputs(out, videos=not args.no_video):
+        _check_replace(destination(path), "--out", args.force, str(path))
     out.mkdir(parents=True, exist_ok=True)
     rows = paper_table.reproduce(out, args.grid1, args.grid2, videos=not args.no_video,
                                  progress=args.progress)
@@ -585,7 +648,7 @@ def _paper(args: argparse.Namespace) -> int:
 
 
 def _terminate(signum: int, frame: object) -> None:
-    raise Terminated
+    raise Terminated(signum)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -595,26 +658,32 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exit_:
         return int(exit_.code or 0)
-    previous = signal.signal(signal.SIGTERM, _terminate)
+    previous = {signum: signal.signal(signum, _terminate) for signum in STOP_SIGNALS}
     try:
         _check_common(args)
         return args.run(args)
-    except (UsageError, ScenarioError) as err:
+    except (UsageError, ScenarioError, CacheLocationError, InsufficientMemoryError) as err:
         print(f"reachavoid {args.command}: error: {err}", file=sys.stderr)
         return EXIT_USAGE
+    except BrokenPipeError:
+        # standard output closed early (``| head``): end quietly, as a killed writer would
+        with contextlib.suppress(OSError, ValueError):   # no file descriptor (captured)
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_PIPE
     except OSError as err:
         where = f"{err.filename}: " if err.filename else ""
         print(f"reachavoid {args.command}: error: {where}{err.strerror or err}",
               file=sys.stderr)
         return EXIT_WRITE
-    except Terminated:
-        print(f"reachavoid {args.command}: terminated", file=sys.stderr)
-        return EXIT_TERMINATED
+    except Terminated as stop:
+        print(f"reachavoid {args.command}: {STOP_SIGNALS[stop.signum]}", file=sys.stderr)
+        return 128 + stop.signum
     except KeyboardInterrupt:
         print(f"reachavoid {args.command}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 if __name__ == "__main__":

@@ -45,6 +45,17 @@ class PaperRow:
     measured: dict[str, dict[str, Any]]
 
 
+def outputs(out: Path, videos: bool = True) -> list[Path]:
+    """The files ``reproduce`` writes into ``out``."""
+    names = [_video_name(sc.name, method) for sc in paper_scenarios()
+             for method in dict(sc.paper_captures)] if videos else []
+    return [out / name for name in (*names, "tubes.png", "table.json")]
+
+
+def _video_name(scenario: str, method: str) -> str:
+    return f"{scenario}_{method}.mp4"
+
+
 def reproduce(out: Path, grid1: int, grid2: int, videos: bool = True,
               progress: bool = False) -> list[PaperRow]:
     """Play every paper game with every method it reports, write the videos (``out/NAME_
@@ -62,7 +73,7 @@ def reproduce(out: Path, grid1: int, grid2: int, videos: bool = True,
             attackers = make_policy("attackers", ATTACKERS, scenario)
             env = reachavoid_env.parallel_env(scenario=scenario,
                                               render_mode="rgb_array" if videos else None)
-            video = out / f"{scenario.name}_{method}.mp4" if videos else None
+            video = out / _video_name(scenario.name, method) if videos else None
             try:
                 result = run_episode(env, attackers, defenders, seed=0, video=video,
                                      title=episode_title(scenario.name, method, ATTACKERS, 0),

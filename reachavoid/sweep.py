@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
+import threading
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -31,8 +33,19 @@ from policies.registry import Factory, PolicySpec, policy_specs
 from reachavoid.rollout import EpisodeResult, run_episode
 from reachavoid_env import Policy, Scenario
 from solvers.hj.cache import cache_dir
+from solvers.hj.reach_avoid import available_memory
 
 BACKENDS = ("serial", "process", "ray")
+WORKER_BYTES = 200 << 20
+"""Memory one pool worker holds (interpreter, numpy, numba, env, policies: about 190 MB)."""
+
+
+def pool_size(workers: int | None, episodes: int) -> int:
+    """Processes of a pool (or CPUs of a local Ray instance) for ``episodes`` episodes:
+    ``workers`` (default: the CPU count), at most one per episode and no more than the
+    available memory holds."""
+    by_memory = available_memory() // WORKER_BYTES
+    return max(1, min(workers or os.cpu_count() or 1, episodes, by_memory))
 
 
 @dataclass(frozen=True)
@@ -80,8 +93,8 @@ def run_sweeps(sweeps: Sequence[Sweep], backend: str = "serial", workers: int | 
     """Play every seed of every sweep on ``backend`` (one pool or Ray instance for all of
     them) and return each sweep's results in seed order.
 
-    ``workers``: processes of the pool (default: the CPU count); ``address``: an existing
-    Ray cluster (default: a local instance, started here and shut down after). Ctrl-C
+    ``workers``: processes of the pool (``pool_size``); ``address``: an existing Ray
+    cluster (default: a local instance, started here and shut down after). Ctrl-C
     cancels the episodes not yet played and stops the workers.
     """
     if backend not in BACKENDS:
@@ -118,14 +131,26 @@ def _serial(tasks: list[Task], **_: Any) -> Iterator[tuple[int, EpisodeResult]]:
 
 def _process_pool(tasks: list[Task], workers: int | None,
                   **_: Any) -> Iterator[tuple[int, EpisodeResult]]:
-    pool = multiprocessing.get_context("spawn").Pool(workers or os.cpu_count())
+    pool = multiprocessing.get_context("spawn").Pool(pool_size(workers, len(tasks)),
+                                                     initializer=_start_worker)
     try:
         yield from pool.imap_unordered(_play_task, tasks)
     except BaseException:
         pool.terminate()   # Ctrl-C or SIGTERM: no worker outlives the sweep
         raise
-    pool.close()
-    pool.join()
+    else:
+        pool.close()
+    finally:
+        pool.join()
+
+
+def _start_worker() -> None:
+    """Workers leave Ctrl-C (sent to the terminal's whole process group) to the driver,
+    which stops them; their (hidden) tqdm bars take a thread lock instead of tqdm's
+    multiprocessing one, which a stopped worker would leave registered (resource_tracker's
+    "leaked semaphore" warnings)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    tqdm.set_lock(threading.RLock())
 
 
 def _ray(tasks: list[Task], workers: int | None, address: str | None,
@@ -139,7 +164,8 @@ def _ray(tasks: list[Task], workers: int | None, address: str | None,
         env_vars = {"REACHAVOID_CACHE_DIR": str(cache_dir())}
         if "PYTHONPATH" in os.environ:
             env_vars["PYTHONPATH"] = os.environ["PYTHONPATH"]
-        ray.init(address=address, num_cpus=None if address else workers,
+        ray.init(address=address,
+                 num_cpus=None if address else pool_size(workers, len(tasks)),
                  include_dashboard=False, log_to_driver=False,
                  runtime_env={"env_vars": env_vars})
     play = ray.remote(play_seed)

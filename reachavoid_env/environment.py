@@ -7,7 +7,7 @@ The rules themselves live in ``rules``; ``step`` applies them in named phases.
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -225,6 +225,9 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         """One step of ``dt`` seconds: controls, move, events, rewards, outputs."""
         if self._world is None:
             raise RuntimeError("step: call reset() first (a new or unpickled env is not reset)")
+        if not isinstance(actions, Mapping):
+            raise TypeError(f"step: actions must be a dict {{agent name: action}}, got "
+                            f"{type(actions).__name__}")
         check_agent_names(actions, self.possible_agents)
         live = self.agents
         if not live:
@@ -324,6 +327,10 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         for name in live:
             if name not in actions:
                 raise KeyError(f"step: no action for live agent {name!r}")
+            if isinstance(actions[name], complex) or getattr(
+                    getattr(actions[name], "dtype", None), "kind", "") == "c":
+                raise ValueError(f"action for {name}: expected real numbers, got complex "
+                                 f"{actions[name]!r}")
         try:
             stacked = np.array([actions[name] for name in live], dtype=np.float64)
         except (TypeError, ValueError):
@@ -413,6 +420,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                 "You are calling render method without specifying any render mode. "
                 "Pass render_mode='rgb_array' or 'human' to the constructor.")
             return None
+        if self._world is None:
+            raise RuntimeError("render: call reset() first (there is no game to draw yet)")
         if self._renderer is None:
             from reachavoid_env.render import Renderer
 

@@ -2,10 +2,12 @@
 
 ``VideoWriter`` takes ``(height, width, 3)`` uint8 frames and pipes each one straight to an
 ffmpeg process (imageio-ffmpeg), so memory stays flat however long the episode. The video
-is written under a temporary name next to the destination and renamed into place on
-``close``; an exception (Ctrl-C included) inside a ``with`` block, or ``abort()``, removes
-it. ``RecordEpisode`` wraps a ``ParallelEnv`` whose ``render_mode`` is ``"rgb_array"`` and
-records ``env.render()`` at the start of each episode and after its steps.
+is written under a temporary name next to the destination (the target of a link; a
+private temporary folder for a device or FIFO) and put in place on ``close``
+(``files.install``); an exception (Ctrl-C included) inside a ``with`` block, or
+``abort()``, removes it. ``RecordEpisode`` wraps a ``ParallelEnv`` whose ``render_mode``
+is ``"rgb_array"`` and records ``env.render()`` at the start of each episode and after
+its steps.
 
 Playback speed: a frame every ``every`` steps of ``dt`` seconds, played at ``fps``, shows
 ``fps * every * dt`` seconds of game time per second of video; ``realtime_fps`` is the
@@ -18,6 +20,8 @@ import errno
 import math
 import os
 import secrets
+import shutil
+import tempfile
 from collections.abc import Generator
 from pathlib import Path
 from types import TracebackType
@@ -28,7 +32,12 @@ import numpy as np
 from pettingzoo.utils.env import ParallelEnv
 from pettingzoo.utils.wrappers.base_parallel import BaseParallelWrapper
 
+from reachavoid_env import checks
+from reachavoid_env.files import destination, install, is_stream
+
 VIDEO_SUFFIXES = (".mp4", ".gif")
+FPS_RANGE = (0.1, 240.0)
+"""Frames per second a video may play at."""
 
 # One palette per frame keeps GIF colours exact without a second pass over the video.
 _GIF_FILTER = "split[a][b];[a]palettegen=stats_mode=single[p];[b][p]paletteuse=new=1"
@@ -102,8 +111,7 @@ class VideoWriter:
     def __init__(self, path: str | os.PathLike[str], fps: float = 30.0, *,
                  quality: float = 7.0) -> None:
         self.path = check_video_path(path)
-        if not fps > 0:
-            raise ValueError(f"fps: must be positive, got {fps}")
+        checks.real(fps, "fps", *FPS_RANGE)
         if not 1 <= quality <= 10:
             raise ValueError(f"quality: must lie in [1, 10], got {quality}")
         self.fps = float(fps)
@@ -112,13 +120,17 @@ class VideoWriter:
         self._size: tuple[int, int] | None = None
         self._encoder: Generator[None, Any, None] | None = None
         self._tmp: Path | None = None
+        self._private: Path | None = None
         self._closed = False
 
     def _open(self, width: int, height: int) -> None:
         suffix = self.path.suffix.lower()
-        # ffmpeg creates the file itself, so it gets the usual permissions (umask).
-        tmp = self.path.with_name(f".{self.path.stem}.{os.getpid()}.{secrets.token_hex(4)}"
-                                  f".part{suffix}")
+        target = destination(self.path)
+        if is_stream(self.path):
+            self._private = Path(tempfile.mkdtemp(prefix="reachavoid-video-"))
+            target = self._private / f"video{suffix}"
+        tmp = target.with_name(f".{target.stem}.{os.getpid()}.{secrets.token_hex(4)}"
+                               f".part{suffix}")
         self._tmp = tmp
         if suffix == ".gif":
             options = dict(codec="gif", pix_fmt_out="pal8", quality=None, macro_block_size=1,
@@ -161,12 +173,16 @@ class VideoWriter:
         try:
             self._encoder.close()
             check_complete(self._tmp, self.path)
-            os.replace(self._tmp, self.path)
-        except BaseException:
-            self._tmp.unlink(missing_ok=True)
-            raise
+            install(self._tmp, self.path)
         finally:
             self._encoder = None
+            self._remove_temporary()
+
+    def _remove_temporary(self) -> None:
+        if self._tmp is not None:
+            self._tmp.unlink(missing_ok=True)
+        if self._private is not None:
+            shutil.rmtree(self._private, ignore_errors=True)
 
     def abort(self) -> None:
         """Stop the encoder and remove the partial file; ``path`` is left untouched."""
@@ -177,8 +193,7 @@ class VideoWriter:
             except (_Discard, StopIteration):
                 pass
             self._encoder = None
-        if self._tmp is not None:
-            self._tmp.unlink(missing_ok=True)
+        self._remove_temporary()
 
     def __enter__(self) -> VideoWriter:
         return self
@@ -198,16 +213,18 @@ class RecordEpisode(BaseParallelWrapper):
     The start frame is drawn just before the first step (or when the episode ends without
     one), not at ``reset``: what the caller sets between the two (the policies' first
     decision through ``set_overlay``) is on it, as on every later frame.
-    All episodes go into the one file at ``path``, finished by ``close()``; a ``path``
-    containing ``{episode}`` (e.g. ``"run_{episode}.mp4"``) gets one file per episode,
-    finished when the episode ends. ``fps`` defaults to ``env.metadata["render_fps"]``
-    (``realtime_fps`` gives the one at which video time equals game time).
+    All episodes go into the one file at ``path``, finished by ``close()``. With
+    ``per_episode`` each episode gets its own file, finished when the episode ends: the
+    text ``{episode}`` in ``path`` is replaced by the episode's number (from 0; e.g.
+    ``"run_{episode}.mp4"``); a path is otherwise taken as it is, braces included.
+    ``fps`` defaults to ``env.metadata["render_fps"]`` (``realtime_fps`` gives the one at
+    which video time equals game time).
     Used as a context manager, an exception inside the block discards the unfinished
     video.
     """
 
     def __init__(self, env: ParallelEnv, path: str | os.PathLike[str], fps: float | None = None,
-                 *, every: int = 1) -> None:
+                 *, every: int = 1, per_episode: bool = False) -> None:
         super().__init__(env)
         if getattr(env, "render_mode", None) != "rgb_array":
             raise ValueError(f"RecordEpisode needs render_mode='rgb_array', got "
@@ -215,7 +232,11 @@ class RecordEpisode(BaseParallelWrapper):
         if every < 1:
             raise ValueError(f"every: must be a positive integer, got {every}")
         self.path_template = str(path)
-        check_video_path(self.path_template.format(episode=0))
+        self.per_episode = per_episode
+        if per_episode and "{episode}" not in self.path_template:
+            raise ValueError(f"video: {self.path_template!r} needs '{{episode}}' with "
+                             "per_episode=True")
+        check_video_path(self.episode_path(0))
         self.fps = float(fps if fps is not None else env.metadata.get("render_fps", 30))
         self.every = int(every)
         self.episode = -1
@@ -224,9 +245,11 @@ class RecordEpisode(BaseParallelWrapper):
         self._start_pending = False
         self._writer: VideoWriter | None = None
 
-    @property
-    def per_episode(self) -> bool:
-        return "{episode}" in self.path_template
+    def episode_path(self, episode: int) -> str:
+        """Where episode ``episode`` (from 0) is written."""
+        if not self.per_episode:
+            return self.path_template
+        return self.path_template.replace("{episode}", str(episode))
 
     def reset(self, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[dict, dict]:
@@ -237,8 +260,7 @@ class RecordEpisode(BaseParallelWrapper):
         self.episode += 1
         self._steps = 0
         if self._writer is None:
-            path = self.path_template.format(episode=self.episode)
-            self._writer = VideoWriter(path, self.fps)
+            self._writer = VideoWriter(self.episode_path(self.episode), self.fps)
         self._start_pending = True
         return result
 

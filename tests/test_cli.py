@@ -178,7 +178,9 @@ def test_bench_compares_methods_on_the_same_starts(tmp_path, capsys):
     assert cell["differences"][1]["difference"] == pytest.approx(sum(paired) / 3)
     rows = path.read_text().splitlines()
     assert len(rows) == 1 + 9 and rows[0].startswith("cell,defenders,attackers,scenario,seed")
-    assert main(args) == 0
+    assert main(args) == 2   # the file exists: replaced only with --force
+    assert "pass --force" in capsys.readouterr().err
+    assert main([*args, "--force"]) == 0
     table = capsys.readouterr().out
     assert "capture rate [95% CI]" in table and "greedy - hj: capture rate" in table
 

@@ -114,7 +114,8 @@ def test_record_episode_writes_every_step(tmp_path):
 
 def test_record_episode_one_file_per_episode(tmp_path):
     env = reachavoid_env.parallel_env(scenario="paper_2v1", render_mode="rgb_array")
-    with RecordEpisode(env, tmp_path / "run_{episode}.gif", every=5) as recorded:
+    with RecordEpisode(env, tmp_path / "run_{episode}.gif", every=5,
+                       per_episode=True) as recorded:
         for seed in (0, 1):
             recorded.reset(seed=seed)
             for _ in range(10):
