@@ -6,10 +6,10 @@ of a training env), so it is benchmarked, recorded and compared the same way.
     attackers = load_sb3("runs/attacker/model.zip")         # a Stable-Baselines3 model
     attackers = ObservationPolicy(lambda obs: my_net(obs))  # any function of observations
 
-On the command line a model is the policy name ``sb3:PATH``
-(``reachavoid play --attackers sb3:runs/attacker/model.zip``); ``policies.registry`` hands
-such names to ``sb3_named_policy``. Stable-Baselines3 (and torch) are imported only when a
-model is loaded.
+On the command line a model is the policy spec ``sb3:PATH``
+(``reachavoid play --attackers sb3:runs/attacker/model.zip``): the scheme ``sb3`` of
+``policies.registry.SCHEMES`` resolves it with ``sb3_named_policy``. Stable-Baselines3
+(and torch) are imported only when a model is loaded.
 
 A policy trained with ``action_repeat = k`` (``reachavoid_env.wrappers``) chose an action
 every ``k`` env steps and held it; played here it does the same, so it sees the game at
@@ -132,20 +132,20 @@ def load_sb3(path: str | Path, side: str = "attackers", action_repeat: int | Non
                              observation_size=shape[0], label=f"model {str(path)!r}")
 
 
-def sb3_named_policy(side: str, name: str) -> NamedPolicy:
-    """The registry entry of the policy name ``sb3:PATH`` (``policies.registry``): built
-    with ``action_repeat`` / ``algorithm`` options as ``load_sb3``; ``ValueError`` naming
-    ``side`` if ``PATH`` is not a file."""
+def sb3_named_policy(side: str, spec: str) -> NamedPolicy:
+    """The policy of the spec ``sb3:PATH`` (``policies.registry.SCHEMES``): built with
+    ``load_sb3``'s ``action_repeat`` / ``algorithm`` options and checked against the
+    scenario; ``ValueError`` naming ``side`` if ``PATH`` is not a file."""
     from policies.registry import NamedPolicy
 
-    path = Path(name[len(SB3_PREFIX):])
+    path = Path(spec[len(SB3_PREFIX):])
     if not path.is_file():
-        raise ValueError(f"{side}: model {str(path)!r} (in {name!r}) is not a file")
+        raise ValueError(f"{side}: model {str(path)!r} (in {spec!r}) is not a file")
 
-    def build(scenario: Scenario, **options: Any) -> ObservationPolicy:
-        policy = load_sb3(path, side, **options)
+    def build(scenario: Scenario, action_repeat: int | None = None,
+              algorithm: str = "PPO") -> ObservationPolicy:
+        policy = load_sb3(path, side, action_repeat, algorithm)
         policy.check(scenario)
         return policy
 
-    return NamedPolicy(f"the Stable-Baselines3 model {path}", build,
-                       frozenset({"action_repeat", "algorithm"}))
+    return NamedPolicy(f"the Stable-Baselines3 model {path}", build)

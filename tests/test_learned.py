@@ -19,7 +19,7 @@ from checks import ROOT
 import reachavoid_env
 from policies import GreedyDefender, IdleDefender
 from policies.learned import TRAINING_ATTRIBUTE, ObservationPolicy, load_sb3
-from policies.registry import make_policy, named_policy
+from policies.registry import make_policy, resolve
 from policies.training import (
     gym_id,
     make_attackers_parallel_env,
@@ -150,7 +150,7 @@ def test_a_model_plays_as_it_was_trained(model_path):
 
 
 def test_sb3_names_go_through_the_registry(model_path):
-    entry = named_policy("attackers", f"sb3:{model_path}")
+    entry = resolve("attackers", f"sb3:{model_path}")
     assert entry.options == {"action_repeat", "algorithm"}
     policy = make_policy("attackers", f"sb3:{model_path}", builtin_scenario("paper_1v1"),
                          action_repeat=2)
@@ -158,7 +158,7 @@ def test_sb3_names_go_through_the_registry(model_path):
     with pytest.raises(ValueError, match="observes 8 numbers"):
         make_policy("attackers", f"sb3:{model_path}", builtin_scenario("paper_2v1"))
     with pytest.raises(ValueError, match="attackers: model 'nowhere.zip' .* is not a file"):
-        named_policy("attackers", "sb3:nowhere.zip")
+        resolve("attackers", "sb3:nowhere.zip")
 
 
 def test_play_and_bench_take_a_model(model_path, tmp_path, capsys):
