@@ -36,6 +36,7 @@ from reachavoid_env import checks
 from reachavoid_env.environment import ReachAvoidEnv, check_agent_names
 from reachavoid_env.game_state import AttackerStatus, GameState, Policy, merged_overlay
 from reachavoid_env.scenario import Scenario
+from reachavoid_env.video import realtime_fps
 
 PolicySource = Policy | Callable[[Scenario], Policy]
 
@@ -116,7 +117,7 @@ def _metadata(metadata: dict[str, Any], game: ReachAvoidEnv, action_repeat: int,
               ) -> dict[str, Any]:
     """``metadata`` with ``render_fps`` such that one frame per learner step (``action_repeat``
     env steps of ``dt`` seconds) plays back in real time."""
-    return {**metadata, "render_fps": 1.0 / (game.base_scenario.dt * action_repeat)}
+    return {**metadata, "render_fps": realtime_fps(game.base_scenario.dt, action_repeat)}
 
 
 class _OnGame:
