@@ -173,8 +173,10 @@ def test_play_and_bench_take_a_model(model_path, tmp_path, capsys):
     assert cli.main(["bench", "--attackers", spec, "--config", "1v1", "--defenders",
                      "greedy,idle", "--episodes", "3", "--json"]) == 0
     bench = json.loads(capsys.readouterr().out)
-    assert [m["label"] for m in bench["methods"]] == ["greedy", "idle"]
-    assert cli.main(["bench", "--attackers", spec, "--episodes", "3"]) == 2
+    (cell,) = bench["cells"]
+    assert cell["attackers"] == spec
+    assert [m["label"] for m in cell["methods"]] == ["greedy", "idle"]
+    assert cli.main(["play", "--scenario", "paper_2v1", "--attackers", spec]) == 2
     assert "observes 8 numbers" in capsys.readouterr().err
     assert cli.main(["play", "--attackers", "sb3:nowhere.zip"]) == 2
     assert "'nowhere.zip' (in 'sb3:nowhere.zip') is not a file" in capsys.readouterr().err
