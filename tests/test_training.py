@@ -96,9 +96,11 @@ def test_hj_defenders_by_name():
 def test_gymnasium_ids_are_registered_for_every_builtin():
     assert GYM_ID in gymnasium.registry
     for name in builtin_names():
-        spec = gymnasium.spec(gym_id(name))
-        assert spec.kwargs == {"scenario": name}
-        assert spec.entry_point == "policies.training:make_attacker_env"
+        for starts in ("scenario", "random"):
+            spec = gymnasium.spec(gym_id(name, starts))
+            assert spec.kwargs == {"scenario": name, "starts": starts}
+            assert spec.entry_point == "policies.training:make_attacker_env"
+    assert gym_id("paper_6v2", "random") == "reachavoid/Attacker-paper_6v2-random-v0"
 
 
 def test_check_env_through_the_registry():
@@ -126,7 +128,9 @@ def test_make_vec(mode):
                 np.zeros((2, 2), dtype=np.float32))
             finished += int((terminated | truncated).sum())
         assert finished >= 2  # standing still, each env's attacker is caught at least once
-        assert envs.call("defenders")[0].vf21.grid.shape == (7,) * 6
+        defenders = envs.call("defenders")[0]
+        assert defenders.vf11.grid.shape == (11,) * 4
+        assert defenders.vf21 is None       # one attacker: no 2 vs 1 tube
     finally:
         envs.close()
 
@@ -171,7 +175,8 @@ def test_train_attacker_example_runs_against_hj_defenders(tmp_path):
                          "--episodes", "2", "--no-video", "--out", str(tmp_path)])
     assert report["defenders"] == "hj" and report["grids"] == [11, 7]
     for attacker in ("trained", "random", "shortest-path"):
-        assert sum(report[attacker].values()) == pytest.approx(1.0)
+        rates = [report[attacker][f"{outcome}_rate"] for outcome in train.OUTCOMES]
+        assert sum(rates) == pytest.approx(1.0)
 
 
 def test_train_attacker_example_beats_random(tmp_path):
@@ -189,5 +194,5 @@ def test_train_attacker_example_beats_random(tmp_path):
     assert (tmp_path / "trained.mp4").stat().st_size > 0
     model = PPO.load(tmp_path / "model.zip", device="cpu")
     assert model.observation_space.shape == (8,)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.zip", "report.json",
-                                                          "trained.mp4"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["curve.csv", "model.zip",
+                                                          "report.json", "trained.mp4"]
