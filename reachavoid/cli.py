@@ -1,7 +1,8 @@
 """The ``reachavoid`` command (design.md, "Command line"): argument parsing and printing.
 
 ``play`` runs one episode (``rollout``), ``solve`` one game (``solve``), ``bench`` many
-seeded starts (``evaluation``), ``paper`` the paper's table (``paper``). Every argument and
+seeded starts (``evaluation``), ``maps`` a map library (``reachavoid_env.maps``), ``paper``
+the paper's table (``paper``). Every argument and
 output path is checked before any work starts. Bad arguments or input files end with a
 one-line message and exit status 2; a failed write with one line naming the path and
 status 1; Ctrl-C (130) and SIGTERM (143) stop the work and leave no partial file.
@@ -10,6 +11,7 @@ status 1; Ctrl-C (130) and SIGTERM (143) stop the work and leave no partial file
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import re
@@ -28,6 +30,7 @@ from reachavoid.rollout import EpisodeResult, run_episode
 from reachavoid.solve import DEFAULT_GRID, GAMES, solve_scenario
 from reachavoid.sweep import BACKENDS
 from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
+from reachavoid_env.maps import MAX_MAPS, MapError, MapOptions, options_from_text, write_library
 from reachavoid_env.video import check_video_path
 from solvers.hj.cache import cache_dir
 
@@ -153,6 +156,22 @@ def build_parser() -> argparse.ArgumentParser:
     _grid_options(bench)
     _margin_option(bench)
     bench.set_defaults(run=_bench)
+
+    maps = commands.add_parser(
+        "maps", help="generate a library of random, validated maps",
+        description="Write COUNT generated scenarios (obstacles of the registered shapes, a "
+                    "target, every free region connected to the target, random starts) and "
+                    "an index.toml to a folder; the same arguments always write the same "
+                    "files. Load the folder wherever a scenario is accepted.")
+    maps.add_argument("--count", type=int, default=32, help="maps (default: %(default)s)")
+    _seed_option(maps, "seed of the library; map k depends only on it and k")
+    maps.add_argument("--out", required=True, metavar="DIR", help="the library folder")
+    for option in dataclasses.fields(MapOptions):
+        default = option.default
+        shown = ",".join(map(str, default)) if isinstance(default, tuple) else default
+        maps.add_argument(f"--{option.name.replace('_', '-')}", dest=f"map_{option.name}",
+                          metavar="V", help=f"{option.metadata['help']} (default: {shown})")
+    maps.set_defaults(run=_maps)
 
     paper = commands.add_parser(
         "paper", help="reproduce the paper's table, videos and tube figure",
@@ -353,6 +372,20 @@ def _bench(args: argparse.Namespace) -> int:
               f" {guaranteed:>10} {nominal:>8} {s.guarantee_violations:>10}")
     if args.csv:
         print(f"  per-episode rows: {args.csv}")
+    return 0
+
+
+def _maps(args: argparse.Namespace) -> int:
+    _check(checks.integer, args.count, "--count", 1, MAX_MAPS)
+    out = writable_folder(args.out, "--out")
+    try:
+        options = options_from_text({option.name: getattr(args, f"map_{option.name}")
+                                     for option in dataclasses.fields(MapOptions)})
+        written = write_library(out, options, args.seed, args.count)
+    except MapError as err:
+        option, _, reason = str(err).partition(":")
+        raise UsageError(f"--{option.replace('_', '-')}:{reason}") from None
+    print(f"{args.count} maps and {written[-1].name} -> {out}/")
     return 0
 
 
