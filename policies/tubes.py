@@ -1,28 +1,53 @@
-"""A scenario's HJ tubes, loaded from the on-disk cache or solved once (with progress)."""
+"""A scenario's HJ tubes, loaded from the on-disk cache or solved once (with progress).
+
+Each tube is read once per process (memory-mapped from the cache) and then shared by every
+policy and env of the process that asks for it: a training env over a library of maps
+loads each map's tubes the first time that map is played.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Hashable
+
 from reachavoid_env import Scenario
 from solvers.hj import ValueFunction, solve_1v1, solve_1v2, solve_2v1
+from solvers.hj.cache import cache_dir
+
+_LOADED: dict[tuple[Hashable, ...], ValueFunction] = {}
+
+
+def _once(key: tuple[Hashable, ...], load: Callable[[], ValueFunction]) -> ValueFunction:
+    """``load()`` the first time this process asks for ``key`` (in this cache folder)."""
+    key = (str(cache_dir()), *key)
+    if key not in _LOADED:
+        _LOADED[key] = load()
+    return _LOADED[key]
+
+
+def _game_key(scenario: Scenario) -> tuple[Hashable, ...]:
+    return (scenario.map, scenario.attacker_speed, scenario.defender_speed,
+            scenario.capture_radius)
 
 
 def tube_1v1(scenario: Scenario, grid1: int = 45, progress: bool = True) -> ValueFunction:
     """The 1 vs 1 value of the scenario's map, speeds and capture radius on ``grid1``^4."""
-    return solve_1v1(scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
-                     capture_radius=scenario.capture_radius, grid_points=grid1,
-                     progress=progress)
+    return _once(("1v1", grid1, *_game_key(scenario)), lambda: solve_1v1(
+        scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
+        capture_radius=scenario.capture_radius, grid_points=grid1, progress=progress))
 
 
 def tube_2v1(scenario: Scenario, grid1: int = 45, grid2: int = 30,
              progress: bool = True) -> tuple[ValueFunction, ValueFunction]:
     """The 1 vs 1 value on ``grid1``^4 and the 2 vs 1 value built on it, on ``grid2``^6."""
     vf11 = tube_1v1(scenario, grid1, progress)
-    return vf11, solve_2v1(scenario.map, vf11, grid_points=grid2, progress=progress)
+    return vf11, _once(("2v1", grid1, grid2, *_game_key(scenario)), lambda: solve_2v1(
+        scenario.map, vf11, grid_points=grid2, progress=progress))
 
 
 def tube_1v2(scenario: Scenario, grid1: int = 45, grid2: int = 30,
              progress: bool = True) -> ValueFunction:
     """The 1 vs 2 value (one attacker, two defenders) on ``grid2``^6, built on the 1 vs 1
     value on ``grid1``^4."""
-    return solve_1v2(scenario.map, tube_1v1(scenario, grid1, progress), grid_points=grid2,
-                     progress=progress)
+    vf11 = tube_1v1(scenario, grid1, progress)
+    return _once(("1v2", grid1, grid2, *_game_key(scenario)), lambda: solve_1v2(
+        scenario.map, vf11, grid_points=grid2, progress=progress))

@@ -21,6 +21,7 @@ training throughput with expensive policies; ``benchmarks/training_throughput.py
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import gymnasium
@@ -30,7 +31,7 @@ from pettingzoo import ParallelEnv
 
 from reachavoid_env import checks
 from reachavoid_env.environment import ReachAvoidEnv, check_agent_names
-from reachavoid_env.game_state import AttackerStatus, GameState, Policy, merged_overlay
+from reachavoid_env.game_state import AttackerStatus, GameState, Overlay, Policy, merged_overlay
 from reachavoid_env.scenario import Scenario
 
 PolicySource = Policy | Callable[[Scenario], Policy]
@@ -52,6 +53,43 @@ def build_policy(source: Any, scenario: Scenario, field: str) -> Policy:
         return policy
     raise TypeError(f"{field}: expected a policy (reset(scenario), act(state)) or a factory "
                     f"scenario -> policy, got {type(source).__name__}")
+
+
+class PerMapPolicy:
+    """A policy per map of a library, built by ``factory`` the first time its map is played
+    (``first`` at once, so a bad factory fails early) and kept for later episodes on that
+    map. ``reset(scenario)`` picks the map's policy; ``act`` and ``overlay`` are its."""
+
+    def __init__(self, factory: Callable[[Scenario], Policy], first: Scenario,
+                 field: str) -> None:
+        self.factory, self.field = factory, field
+        self.built: dict[Scenario, Policy] = {}
+        self.current = self._for(first)
+
+    def _for(self, scenario: Scenario) -> Policy:
+        key = replace(scenario, attackers=None, defenders=None)
+        if key not in self.built:
+            self.built[key] = build_policy(self.factory, key, self.field)
+        return self.built[key]
+
+    def reset(self, scenario: Scenario) -> None:
+        self.current = self._for(scenario)
+        self.current.reset(scenario)
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]:
+        return self.current.act(state)
+
+    def overlay(self) -> Overlay | None:
+        overlay = getattr(self.current, "overlay", None)
+        return overlay() if overlay is not None else None
+
+
+def scripted_policy(source: Any, game: ReachAvoidEnv, field: str) -> Policy:
+    """``build_policy`` for ``game``'s one map; for a library of maps a ``PerMapPolicy``
+    when ``source`` is a factory (a policy object must play every map itself)."""
+    if len(game.scenarios) > 1 and callable(source) and not isinstance(source, (Policy, type)):
+        return PerMapPolicy(source, game.base_scenario, field)
+    return build_policy(source, game.base_scenario, field)
 
 
 class _Scripted:
@@ -167,7 +205,7 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
                              shaping=shaping, render_width=render_width, info_format=info_format)
         self.game = game
         self.render_mode = render_mode
-        self.defenders = build_policy(defenders, game.base_scenario, "defenders")
+        self.defenders = scripted_policy(defenders, game, "defenders")
         self.possible_agents = game.base_scenario.attacker_names
         self._learners = frozenset(self.possible_agents)
         self._core = _Scripted(game, [(self.defenders,
@@ -301,14 +339,14 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
         self.render_mode = render_mode
         self.learner = f"attacker_{attacker}"
         self._learner_index = attacker
-        self.defenders = build_policy(defenders, base, "defenders")
+        self.defenders = scripted_policy(defenders, game, "defenders")
         scripted = [(self.defenders, frozenset(base.defender_names))]
         self.teammates: Policy | None = None
         if m > 1:
             if teammates is None:
                 raise ValueError(f"teammates: scenario {base.name!r} has {m} attackers; give "
                                  f"a policy (or factory) for the ones besides {self.learner}")
-            self.teammates = build_policy(teammates, base, "teammates")
+            self.teammates = scripted_policy(teammates, game, "teammates")
             others = frozenset(base.attacker_names) - {self.learner}
             scripted.append((self.teammates, others))
         self._core = _Scripted(game, scripted, self.scripted_every)

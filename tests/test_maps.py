@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -166,3 +168,55 @@ def test_cli_maps_writes_the_same_bytes(tmp_path, capsys):
     assert capsys.readouterr().err.strip() == (
         "reachavoid maps: error: --density: the low end 0.5 exceeds the high end 0.2")
     assert not (tmp_path / "c").exists()
+
+
+SMALL = MapOptions(obstacles=(1, 2), shapes=("box", "circle"), density=(0.0, 0.3))
+
+
+def test_an_env_over_a_library_draws_a_map_per_reset_from_the_seed(tmp_path):
+    import reachavoid_env
+
+    write_library(tmp_path, SMALL, 0, 4)
+    env = reachavoid_env.parallel_env(scenario=str(tmp_path))
+    assert len(env.scenarios) == 4
+    played = {}
+    for seed in range(12):
+        observations, _ = env.reset(seed=seed)
+        played[seed] = (env.scenario.name, observations["attacker_0"].tolist())
+    assert len({name for name, _ in played.values()}) >= 3
+    again = reachavoid_env.parallel_env(scenario=load_library(tmp_path / INDEX))
+    for seed in (3, 7):
+        observations, _ = again.reset(seed=seed)
+        assert (again.scenario.name, observations["attacker_0"].tolist()) == played[seed]
+    one = reachavoid_env.parallel_env(scenario="paper_2v1")   # one map: nothing drawn
+    assert one.reset(seed=1)[0]["attacker_0"].tolist() == \
+        reachavoid_env.parallel_env(scenario="paper_2v1").reset(seed=1)[0]["attacker_0"].tolist()
+    with pytest.raises(ValueError, match="share the counts"):
+        reachavoid_env.parallel_env(scenario=[str(tmp_path / map_file(0)), "paper_6v2"])
+
+
+def test_attacker_envs_over_a_library_build_defenders_per_map_once(tmp_path):
+    from policies import tubes
+    from policies.training import make_attackers_parallel_env
+    from reachavoid_env.wrappers import PerMapPolicy
+
+    write_library(tmp_path, SMALL, 1, 2)
+    options = {"grid1": 11, "progress": False}
+    first = make_attackers_parallel_env(str(tmp_path), defenders="matching",
+                                        defender_options=options)
+    second = make_attackers_parallel_env(str(tmp_path), defenders="matching",
+                                         defender_options=options)
+    assert isinstance(first.defenders, PerMapPolicy)
+    names = set()
+    for seed in range(8):
+        for env in (first, second):
+            env.reset(seed=seed)
+            env.step({name: np.zeros(2) for name in env.agents})
+            names.add(env.game.scenario.name)
+            assert env.defenders.current.vf11.game_map == env.game.scenario.map
+    assert names == {"gen-s1-0000", "gen-s1-0001"}
+    assert len(first.defenders.built) == 2
+    for scenario in load_library(tmp_path):   # each map's tube loaded once in this process
+        key = replace(scenario, attackers=None, defenders=None)
+        assert first.defenders.built[key].vf11 is second.defenders.built[key].vf11
+        assert first.defenders.built[key].vf11 is tubes.tube_1v1(scenario, 11)
