@@ -7,31 +7,54 @@ loads each map's tubes the first time that map is played.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Hashable
+from collections.abc import Callable
+from typing import NamedTuple
 
-from reachavoid_env import Scenario
+from reachavoid_env import GameMap, Scenario
 from solvers.hj import ValueFunction, solve_1v1, solve_1v2, solve_2v1
 from solvers.hj.cache import cache_dir
 
-_LOADED: dict[tuple[Hashable, ...], ValueFunction] = {}
+
+class TubeKey(NamedTuple):
+    """What identifies a loaded tube: the cache folder, the game and its grids (``grid2``
+    is 0 for the 1 vs 1 game) and the scenario's map, speeds and capture radius."""
+
+    cache: str
+    game: str
+    grid1: int
+    grid2: int
+    map: GameMap
+    attacker_speed: float
+    defender_speed: float
+    capture_radius: float
 
 
-def _once(key: tuple[Hashable, ...], load: Callable[[], ValueFunction]) -> ValueFunction:
-    """``load()`` the first time this process asks for ``key`` (in this cache folder)."""
-    key = (str(cache_dir()), *key)
+_LOADED: dict[TubeKey, ValueFunction] = {}
+
+
+def _once(scenario: Scenario, game: str, grid1: int, grid2: int,
+          load: Callable[[], ValueFunction]) -> ValueFunction:
+    """``load()`` the first time this process asks for this tube (in this cache folder)."""
+    key = TubeKey(str(cache_dir()), game, grid1, grid2, scenario.map, scenario.attacker_speed,
+                  scenario.defender_speed, scenario.capture_radius)
     if key not in _LOADED:
         _LOADED[key] = load()
     return _LOADED[key]
 
 
-def _game_key(scenario: Scenario) -> tuple[Hashable, ...]:
-    return (scenario.map, scenario.attacker_speed, scenario.defender_speed,
+def loaded_tubes(scenario: Scenario) -> dict[TubeKey, ValueFunction]:
+    """The tubes of ``scenario``'s game (map, speeds, capture radius) this process loaded
+    from the current cache folder."""
+    game = (str(cache_dir()), scenario.map, scenario.attacker_speed, scenario.defender_speed,
             scenario.capture_radius)
+    return {key: vf for key, vf in _LOADED.items()
+            if (key.cache, key.map, key.attacker_speed, key.defender_speed,
+                key.capture_radius) == game}
 
 
 def tube_1v1(scenario: Scenario, grid1: int = 45, progress: bool = True) -> ValueFunction:
     """The 1 vs 1 value of the scenario's map, speeds and capture radius on ``grid1``^4."""
-    return _once(("1v1", grid1, *_game_key(scenario)), lambda: solve_1v1(
+    return _once(scenario, "1v1", grid1, 0, lambda: solve_1v1(
         scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
         capture_radius=scenario.capture_radius, grid_points=grid1, progress=progress))
 
@@ -40,7 +63,7 @@ def tube_2v1(scenario: Scenario, grid1: int = 45, grid2: int = 30,
              progress: bool = True) -> tuple[ValueFunction, ValueFunction]:
     """The 1 vs 1 value on ``grid1``^4 and the 2 vs 1 value built on it, on ``grid2``^6."""
     vf11 = tube_1v1(scenario, grid1, progress)
-    return vf11, _once(("2v1", grid1, grid2, *_game_key(scenario)), lambda: solve_2v1(
+    return vf11, _once(scenario, "2v1", grid1, grid2, lambda: solve_2v1(
         scenario.map, vf11, grid_points=grid2, progress=progress))
 
 
@@ -49,5 +72,5 @@ def tube_1v2(scenario: Scenario, grid1: int = 45, grid2: int = 30,
     """The 1 vs 2 value (one attacker, two defenders) on ``grid2``^6, built on the 1 vs 1
     value on ``grid1``^4."""
     vf11 = tube_1v1(scenario, grid1, progress)
-    return _once(("1v2", grid1, grid2, *_game_key(scenario)), lambda: solve_1v2(
+    return _once(scenario, "1v2", grid1, grid2, lambda: solve_1v2(
         scenario.map, vf11, grid_points=grid2, progress=progress))

@@ -27,10 +27,17 @@ from policies.registry import ATTACKERS, DEFENDERS, NamedPolicy, accepted_option
 from reachavoid import paper as paper_table
 from reachavoid.evaluation import compare_defenders, write_csv
 from reachavoid.rollout import EpisodeResult, run_episode
-from reachavoid.solve import DEFAULT_GRID, GAMES, solve_scenario
+from reachavoid.solve import DEFAULT_GRID, GAMES, solve_library, solve_scenario
 from reachavoid.sweep import BACKENDS
 from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
-from reachavoid_env.maps import MAX_MAPS, MapError, MapOptions, options_from_text, write_library
+from reachavoid_env.maps import (
+    MAX_MAPS,
+    MapError,
+    MapOptions,
+    load_library,
+    options_from_text,
+    write_library,
+)
 from reachavoid_env.video import check_video_path
 from solvers.hj.cache import cache_dir
 
@@ -116,11 +123,28 @@ def build_parser() -> argparse.ArgumentParser:
                                 help="solve a 1 vs 1, 2 vs 1 or 1 vs 2 HJ reach-avoid game",
                                 description="Solve a scenario's 1 vs 1, 2 vs 1 or 1 vs 2 game to "
                                             "convergence (cached in $REACHAVOID_CACHE_DIR).")
-    _scenario_option(solve, "paper_2v1", "a built-in scenario name or a TOML scenario file")
+    solve.add_argument("--scenario", nargs="+", default=["paper_2v1"],
+                       metavar="NAME|FILE.toml|DIR",
+                       help="a built-in scenario name or a TOML scenario file; with "
+                            "--defenders also several, or map library folders or index files "
+                            "(default: %(default)s)")
     solve.add_argument("--game", choices=GAMES, default="1v1",
                        help="which game (default: %(default)s)")
     solve.add_argument("--grid", type=int, default=None, metavar="N",
                        help="grid nodes per axis (default: 45 for 1v1, 30 for 2v1 and 1v2)")
+    solve.add_argument("--defenders", metavar="A,B",
+                       help="instead of --game: every tube these defender methods need, on "
+                            "every map of --scenario, at --grid1/--grid2; what the cache holds "
+                            f"is skipped (from {', '.join(DEFENDERS)})")
+    _grid_options(solve)
+    solve.add_argument("--backend", choices=BACKENDS, default="serial",
+                       help="with --defenders, where the maps are solved: here, on a process "
+                            "pool, or as Ray tasks (default: %(default)s)")
+    solve.add_argument("--workers", type=int, default=None, metavar="N",
+                       help="with --defenders, concurrent solves (default: all cores; refused "
+                            "when they would not fit in memory)")
+    solve.add_argument("--address", default=None, metavar="ADDR",
+                       help="with --backend ray, an existing Ray cluster")
     solve.add_argument("--out", metavar="DIR", help="also save the value function here")
     solve.add_argument("--plot", metavar="OUT.png",
                        help="draw the value's slices at the scenario's starts (paper Fig. 2)")
@@ -310,6 +334,11 @@ def _summary(result: EpisodeResult, args: argparse.Namespace) -> str:
 
 
 def _solve(args: argparse.Namespace) -> int:
+    if args.defenders is not None:
+        return _solve_library(args)
+    if len(args.scenario) != 1:
+        raise UsageError("--scenario: several scenarios need --defenders (which tubes to solve)")
+    args.scenario = args.scenario[0]
     if args.grid is not None:
         _check(checks.integer, args.grid, "--grid",
                *GRID_RANGE["grid1" if args.game == "1v1" else "grid2"])
@@ -324,6 +353,50 @@ def _solve(args: argparse.Namespace) -> int:
         raise UsageError(str(err)) from None
     print(report.summary())
     return 0
+
+
+def _solve_library(args: argparse.Namespace) -> int:
+    for flag, value in (("--out", args.out), ("--plot", args.plot), ("--grid", args.grid)):
+        if value is not None:
+            raise UsageError(f"{flag}: not with --defenders (a library goes to the cache)")
+    methods = _methods(args.defenders)
+    if args.workers is not None:
+        _check(checks.integer, args.workers, "--workers", 1, 4096)
+    if args.address is not None and args.backend != "ray":
+        raise UsageError("--address: only with --backend ray")
+    scenarios = [sc for source in args.scenario for sc in _library(source)]
+    try:
+        rows = solve_library(scenarios, methods, args.grid1, args.grid2, backend=args.backend,
+                             workers=args.workers, address=args.address,
+                             progress=args.progress)
+    except (ValueError, MemoryError) as err:
+        raise UsageError(f"--{err}" if str(err).startswith("workers:") else str(err)) from None
+    print(f"{'map':<24} {'game':<5} {'grid':>5} {'seconds':>9} {'peak MiB':>9}")
+    for row in rows:
+        seconds = "cached" if row.seconds is None else f"{row.seconds:.1f}"
+        print(f"{row.map:<24} {row.game:<5} {row.grid:>5} {seconds:>9} "
+              f"{row.peak_bytes / 2**20:>9.0f}")
+    solved = sum(row.seconds is not None for row in rows)
+    print(f"{len(rows)} tubes on {len({row.map for row in rows})} maps: {solved} solved, "
+          f"{len(rows) - solved} from the cache ({cache_dir()})")
+    return 0
+
+
+def _methods(text: str) -> list[str]:
+    """Comma-separated defender methods, each checked against the registry."""
+    methods = [m.strip() for m in text.split(",") if m.strip()]
+    unknown = [m for m in methods if m not in DEFENDERS]
+    if unknown or not methods:
+        raise UsageError(f"--defenders: unknown method(s) {unknown or text!r} "
+                         f"(choose from {', '.join(DEFENDERS)})")
+    return methods
+
+
+def _library(source: str) -> tuple[Scenario, ...]:
+    try:
+        return load_library(source)
+    except OSError as err:
+        raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}") from None
 
 
 def _bench(args: argparse.Namespace) -> int:

@@ -1,5 +1,8 @@
 """Sweeps: many seeded episodes of named policies, serially, on a process pool or on Ray.
 
+``run_tasks`` is the one home of the three backends (``reachavoid.solve`` solves map
+libraries on it too).
+
 Every episode is a pure function of ``(scenario, policies, seed)``: ``play_seed`` builds
 (or reuses, within one process) the env and the policies, and a policy that takes a seed
 gets the episode's. So the three backends give the same results for the same seeds, bit
@@ -17,9 +20,9 @@ from __future__ import annotations
 import functools
 import multiprocessing
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from tqdm import tqdm
 
@@ -30,6 +33,8 @@ from reachavoid_env import Policy, Scenario
 from solvers.hj.cache import cache_dir
 
 BACKENDS = ("serial", "process", "ray")
+Item = TypeVar("Item")
+Result = TypeVar("Result")
 
 
 @dataclass(frozen=True)
@@ -100,37 +105,58 @@ def run_sweep(sweep: Sweep, backend: str = "serial", workers: int | None = None,
     Ray cluster (default: a local instance, started here and shut down after). Ctrl-C
     cancels the episodes not yet played and stops the workers.
     """
-    if backend not in BACKENDS:
-        raise ValueError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
+    check_backend(backend)
     _policy(sweep.defenders, sweep.scenario, sweep.seeds[0])   # solves missing tubes once
     results = {}
     with tqdm(total=len(sweep.seeds), desc=description, unit="episode", disable=not progress,
               leave=False) as bar:
-        play = {"serial": _serial, "process": _process_pool, "ray": _ray}[backend]
-        for result in play(sweep, workers=workers, address=address):
+        for result in run_tasks(functools.partial(play_seed, sweep), sweep.seeds, backend,
+                                workers, address):
             results[result.seed] = result
             bar.update(1)
     return [results[seed] for seed in sweep.seeds]
 
 
-def _serial(sweep: Sweep, **_: Any) -> Iterator[EpisodeResult]:
-    for seed in sweep.seeds:
-        yield play_seed(sweep, seed)
+def check_backend(backend: str) -> None:
+    """``ValueError`` naming ``backend`` unless it is one of ``BACKENDS``."""
+    if backend not in BACKENDS:
+        raise ValueError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
 
 
-def _process_pool(sweep: Sweep, workers: int | None, **_: Any) -> Iterator[EpisodeResult]:
+def run_tasks(task: Callable[[Item], Result], items: Sequence[Item], backend: str = "serial",
+              workers: int | None = None, address: str | None = None) -> Iterator[Result]:
+    """``task(item)`` for every item on ``backend``, yielded as each finishes (the order is
+    the items' only serially). ``task`` must be picklable (a module-level function or a
+    ``functools.partial`` of one) for the process pool and Ray."""
+    check_backend(backend)
+    play = {"serial": _serial, "process": _process_pool, "ray": _ray}[backend]
+    yield from play(task, items, workers=workers, address=address)
+
+
+def _serial(task: Callable[[Item], Result], items: Sequence[Item],
+            **_: Any) -> Iterator[Result]:
+    for item in items:
+        yield task(item)
+
+
+def _process_pool(task: Callable[[Item], Result], items: Sequence[Item], workers: int | None,
+                  **_: Any) -> Iterator[Result]:
     pool = multiprocessing.get_context("spawn").Pool(workers or os.cpu_count())
     try:
-        yield from pool.imap_unordered(functools.partial(play_seed, sweep), sweep.seeds)
+        yield from pool.imap_unordered(task, items)
     except BaseException:
-        pool.terminate()   # Ctrl-C or SIGTERM: no worker outlives the sweep
+        pool.terminate()   # Ctrl-C or SIGTERM: no worker outlives the work
         raise
     pool.close()
     pool.join()
 
 
-def _ray(sweep: Sweep, workers: int | None, address: str | None,
-         **_: Any) -> Iterator[EpisodeResult]:
+def _call(task: Callable[[Item], Result], item: Item) -> Result:
+    return task(item)
+
+
+def _ray(task: Callable[[Item], Result], items: Sequence[Item], workers: int | None,
+         address: str | None, **_: Any) -> Iterator[Result]:
     try:
         import ray
     except ImportError:
@@ -140,9 +166,9 @@ def _ray(sweep: Sweep, workers: int | None, address: str | None,
         ray.init(address=address, num_cpus=None if address else workers,
                  include_dashboard=False, log_to_driver=False,
                  runtime_env={"env_vars": {"REACHAVOID_CACHE_DIR": str(cache_dir())}})
-    task = ray.remote(play_seed)
-    shared = ray.put(sweep)
-    pending = [task.remote(shared, seed) for seed in sweep.seeds]
+    remote = ray.remote(_call)
+    shared = ray.put(task)
+    pending = [remote.remote(shared, item) for item in items]
     try:
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
