@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import json
 import os
 import re
@@ -39,6 +40,7 @@ from reachavoid_env.maps import (
     write_library,
 )
 from reachavoid_env.video import check_video_path
+from reachavoid_env.wrappers import PerMapPolicy
 from solvers.hj.cache import cache_dir
 
 EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 1, 130, 143
@@ -98,7 +100,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     play = commands.add_parser("play", help="play one episode and print the outcome",
                                description="Play one episode of a scenario.")
-    _scenario_option(play, "paper_6v2", "a built-in scenario name or a TOML scenario file")
+    _scenario_option(play, "paper_6v2", "a built-in scenario name, a TOML scenario file, or a "
+                                        "map library folder or index (the seed draws the map)")
     play.add_argument("--attackers", choices=ATTACKERS, default="shortest-path",
                       help=f"attacker policy (default: %(default)s). {_choices_help(ATTACKERS)}")
     play.add_argument("--defenders", choices=DEFENDERS, default="hj",
@@ -287,11 +290,17 @@ def _play(args: argparse.Namespace) -> int:
             _check(checks.positive, args.fps, "--fps", 240.0)
         _check(checks.integer, args.every, "--every", 1, 1_000_000)
         _check(checks.integer, args.width, "--width", 16, 4096)
-    scenario = _load(args.scenario)
-    attackers = _policy("attackers", args.attackers, scenario, args)
-    defenders = _policy("defenders", args.defenders, scenario, args)
+    scenarios = _library(args.scenario)
+    if len(scenarios) == 1:
+        attackers = _policy("attackers", args.attackers, scenarios[0], args)
+        defenders = _policy("defenders", args.defenders, scenarios[0], args)
+    else:   # a library: the seed draws the map; the policies are built for it
+        attackers = PerMapPolicy(functools.partial(_policy, "attackers", args.attackers,
+                                                   args=args), "attackers")
+        defenders = PerMapPolicy(functools.partial(_policy, "defenders", args.defenders,
+                                                   args=args), "defenders")
     env = reachavoid_env.parallel_env(
-        scenario=scenario, render_mode="rgb_array" if args.video else None,
+        scenario=scenarios, render_mode="rgb_array" if args.video else None,
         render_width=args.width)
     try:
         result = run_episode(env, attackers, defenders, seed=args.seed, video=args.video,

@@ -32,6 +32,7 @@ from pettingzoo import ParallelEnv
 from reachavoid_env import checks
 from reachavoid_env.environment import ReachAvoidEnv, check_agent_names
 from reachavoid_env.game_state import AttackerStatus, GameState, Overlay, Policy, merged_overlay
+from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.scenario import Scenario
 
 PolicySource = Policy | Callable[[Scenario], Policy]
@@ -57,14 +58,15 @@ def build_policy(source: Any, scenario: Scenario, field: str) -> Policy:
 
 class PerMapPolicy:
     """A policy per map of a library, built by ``factory`` the first time its map is played
-    (``first`` at once, so a bad factory fails early) and kept for later episodes on that
-    map. ``reset(scenario)`` picks the map's policy; ``act`` and ``overlay`` are its."""
+    (``first``, if given, at once, so that a bad factory fails early) and kept for later
+    episodes on that map. ``reset(scenario)`` picks the map's policy; ``act`` and
+    ``overlay`` are its."""
 
-    def __init__(self, factory: Callable[[Scenario], Policy], first: Scenario,
-                 field: str) -> None:
+    def __init__(self, factory: Callable[[Scenario], Policy], field: str,
+                 first: Scenario | None = None) -> None:
         self.factory, self.field = factory, field
         self.built: dict[Scenario, Policy] = {}
-        self.current = self._for(first)
+        self.current = self._for(first) if first is not None else None
 
     def _for(self, scenario: Scenario) -> Policy:
         key = replace(scenario, attackers=None, defenders=None)
@@ -77,6 +79,8 @@ class PerMapPolicy:
         self.current.reset(scenario)
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
+        if self.current is None:
+            raise RuntimeError("act: call reset(scenario) first")
         return self.current.act(state)
 
     def overlay(self) -> Overlay | None:
@@ -88,7 +92,7 @@ def scripted_policy(source: Any, game: ReachAvoidEnv, field: str) -> Policy:
     """``build_policy`` for ``game``'s one map; for a library of maps a ``PerMapPolicy``
     when ``source`` is a factory (a policy object must play every map itself)."""
     if len(game.scenarios) > 1 and callable(source) and not isinstance(source, (Policy, type)):
-        return PerMapPolicy(source, game.base_scenario, field)
+        return PerMapPolicy(source, field, first=game.base_scenario)
     return build_policy(source, game.base_scenario, field)
 
 
@@ -188,7 +192,7 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
         "is_parallelizable": True,
     }
 
-    def __init__(self, defenders: PolicySource, scenario: str | Scenario = "paper_2v1",
+    def __init__(self, defenders: PolicySource, scenario: ScenarioSource = "paper_2v1",
                  max_cycles: int | None = None, render_mode: str | None = None,
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
                  scripted_every: int = 1, render_width: int = 640,
@@ -313,7 +317,7 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
         "render_fps": ReachAvoidEnv.metadata["render_fps"],
     }
 
-    def __init__(self, defenders: PolicySource, scenario: str | Scenario = "paper_2v1",
+    def __init__(self, defenders: PolicySource, scenario: ScenarioSource = "paper_2v1",
                  attacker: int = 0, teammates: PolicySource | None = None,
                  max_cycles: int | None = None, render_mode: str | None = None,
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,

@@ -220,3 +220,25 @@ def test_attacker_envs_over_a_library_build_defenders_per_map_once(tmp_path):
         key = replace(scenario, attackers=None, defenders=None)
         assert first.defenders.built[key].vf11 is second.defenders.built[key].vf11
         assert first.defenders.built[key].vf11 is tubes.tube_1v1(scenario, 11)
+
+
+def test_a_library_is_accepted_by_the_registered_ids_and_by_play(tmp_path, capsys):
+    import json
+
+    import gymnasium
+
+    import policies  # noqa: F401  (registers the ids)
+    import reachavoid_env
+
+    write_library(tmp_path, SMALL, 2, 3)
+    env = gymnasium.make("reachavoid/Attacker-v0", scenario=str(tmp_path), defenders="greedy")
+    names = set()
+    for seed in range(6):
+        env.reset(seed=seed)
+        names.add(env.unwrapped.game.scenario.name)
+    assert len(names) >= 2
+    drawn = reachavoid_env.parallel_env(scenario=str(tmp_path))
+    drawn.reset(seed=4)
+    assert main(["play", "--scenario", str(tmp_path / INDEX), "--defenders", "greedy",
+                 "--attackers", "straight", "--seed", "4", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["scenario"] == drawn.scenario.name
