@@ -333,25 +333,26 @@ def map_name(seed: int, index: int) -> str:
     return f"gen-s{seed}-{index:04d}"
 
 
-def generate_map(options: MapOptions, seed: int, index: int = 0) -> Scenario:
+def generate_map(options: MapOptions, seed: int, index: int = 0,
+                 attempts: int = MAX_ATTEMPTS) -> Scenario:
     """Map ``index`` of the library of ``seed``: a validated ``Scenario`` with random starts.
 
     Draws whole maps from ``numpy.random.default_rng((seed, index))`` until one passes
     every check (module docstring); ``MapError`` naming the options to relax after
-    ``MAX_ATTEMPTS`` draws.
+    ``attempts`` draws.
     """
     checks.integer(seed, "seed", 0, 2**63 - 1, error=MapError)
     checks.integer(index, "index", 0, MAX_MAPS, error=MapError)
     rng = np.random.default_rng((seed, index))
     reasons: dict[str, int] = {}
-    for _ in range(MAX_ATTEMPTS):
+    for _ in range(attempts):
         scenario, reason = _attempt(options, rng, map_name(seed, index))
         if scenario is not None:
             return scenario
         reasons[reason] = reasons.get(reason, 0) + 1
     worst = max(reasons, key=reasons.get)
     raise MapError(f"{worst}: no map of seed {seed}, index {index} met the options in "
-                   f"{MAX_ATTEMPTS} draws (rejections: "
+                   f"{attempts} draws (rejections: "
                    f"{', '.join(f'{k} {v}' for k, v in sorted(reasons.items()))}); relax "
                    f"{worst}")
 

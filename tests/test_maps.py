@@ -123,7 +123,7 @@ def test_options_from_text():
 def test_impossible_options_fail_naming_the_option():
     with pytest.raises(MapError, match="^obstacles: "):
         generate_map(MapOptions(obstacles=(40, 40), obstacle_size=(0.4, 0.5),
-                                density=(0.0, 0.9)), 0)
+                                density=(0.0, 0.9)), 0, attempts=3)
 
 
 def test_write_library_is_repeatable_and_refuses_foreign_files(tmp_path):
