@@ -24,6 +24,7 @@ from policies.certificate import (
 from policies.lookups import DecisionTables, TubeArrays, decision_controls, decision_tables
 from policies.tubes import tube_1v1, tube_1v2, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario
+from reachavoid_env.game_state import EdgeKind
 from reachavoid_env.rules import unit_vectors
 from solvers.assignment import Assignment, AssignmentSolver
 from solvers.hj import ValueFunction
@@ -240,7 +241,12 @@ class _AssignmentDefender(ABC):
         method = "MIP" if self.solver.method == "mip" else "matching"
         teams = tuple((f"defender_{d}", f"attacker_{i}") for i, j, k in self._assignment.shared
                       for d in (j, k))
-        return Overlay(edges=tuple(self.assignment) + teams,
+        # a defender with two attackers plays a 2 vs 1 game (pair); a shared attacker a
+        # 1 vs 2 game (team)
+        by_defender = self._assignment.by_defender
+        kinds = tuple(EdgeKind.PAIR if len(by_defender[j]) == 2 else EdgeKind.ASSIGN
+                      for _, j in self._assignment.pairs) + (EdgeKind.TEAM,) * len(teams)
+        return Overlay(edges=tuple(self.assignment) + teams, kinds=kinds,
                        lines=(f"{method}: {self.guaranteed_captures} guaranteed, "
                               f"{self.nominal_captures} nominal",))
 

@@ -27,10 +27,11 @@ from policies.defenders import CERTIFICATE_CELLS
 from policies.registry import ATTACKERS, DEFENDERS, NamedPolicy, accepted_options, make_policy
 from reachavoid import paper as paper_table
 from reachavoid.evaluation import compare_defenders, write_csv
-from reachavoid.rollout import EpisodeResult, run_episode
+from reachavoid.rollout import EpisodeResult, episode_title, first_frame, run_episode
 from reachavoid.solve import DEFAULT_GRID, GAMES, solve_library, solve_scenario
 from reachavoid.sweep import BACKENDS
 from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
+from reachavoid_env.files import atomic_write
 from reachavoid_env.maps import (
     MAX_MAPS,
     MapError,
@@ -39,7 +40,7 @@ from reachavoid_env.maps import (
     options_from_text,
     write_library,
 )
-from reachavoid_env.video import check_video_path
+from reachavoid_env.video import check_video_path, realtime_every, realtime_fps
 from reachavoid_env.wrappers import PerMapPolicy
 from solvers.hj.cache import cache_dir
 
@@ -50,6 +51,9 @@ GRID_RANGE = {"grid1": (5, 201), "grid2": (5, 101)}
 refuses what this machine cannot hold)."""
 MAX_MARGIN_CELLS = 10.0
 """The largest certificate margin accepted (grid cells)."""
+MAX_FPS, GIF_MAX_FPS = 240.0, 50.0
+"""The highest video rates accepted (frames per second); a GIF's frame delay is counted in
+hundredths of a second and players slow down delays under two."""
 
 
 class UsageError(ValueError):
@@ -112,9 +116,17 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--video", metavar="OUT.mp4|OUT.gif",
                       help="write the episode to an MP4 (H.264) or GIF video")
     play.add_argument("--fps", type=float, default=None,
-                      help="video frames per second (default: the env's render_fps)")
-    play.add_argument("--every", type=int, default=1, metavar="N",
-                      help="put every N-th step in the video (default: %(default)s)")
+                      help="video frames per second (default: the env's render_fps, 50: with "
+                           "5 ms steps and --every 1 the video is 4x slow motion; it shows "
+                           "fps x every x dt seconds of game time per second)")
+    play.add_argument("--every", type=int, default=None, metavar="N",
+                      help="put every N-th step in the video (default: 1, or with --realtime "
+                           "the smallest N that keeps the rate at most 50 fps)")
+    play.add_argument("--realtime", action="store_true",
+                      help="play the video in game time: fps = 1 / (every x dt)")
+    play.add_argument("--preview", metavar="OUT.png",
+                      help="write the episode's first frame (with the first decision's overlay) "
+                           "as a PNG and stop, without playing")
     play.add_argument("--width", type=int, default=640,
                       help="video width in pixels, rounded up to a multiple of 16 "
                            "(default: %(default)s)")
@@ -211,6 +223,15 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--no-video", action="store_true", help="skip the videos")
     _grid_options(paper)
     paper.set_defaults(run=_paper)
+
+    validate = commands.add_parser(
+        "validate", help="check scenario files without playing them",
+        description="Load each scenario (a TOML file or a built-in name) and reset an env on "
+                    "it; print one line per file. Exit status 0 when all are valid, 2 when "
+                    "any is not (its error on stderr).")
+    validate.add_argument("files", nargs="+", metavar="FILE",
+                          help="TOML scenario files (or built-in names)")
+    validate.set_defaults(run=_validate)
     return parser
 
 
@@ -279,32 +300,63 @@ def _policy(side: str, name: str, scenario: Scenario, args: argparse.Namespace) 
 
 # -- commands -------------------------------------------------------------------------------
 
-def _play(args: argparse.Namespace) -> int:
+def _check_video_options(args: argparse.Namespace, scenario: Scenario) -> None:
+    """Check --video, --fps, --every, --realtime and --width; settle ``args.every`` and
+    ``args.fps`` (--realtime: the rate at which video time is game time)."""
     if args.video is not None:
         try:
             check_video_path(args.video)
         except ValueError as err:
             raise UsageError(str(err)) from None
         writable_file(args.video, "--video")
-        if args.fps is not None:
-            _check(checks.positive, args.fps, "--fps", 240.0)
+    if args.realtime and args.fps is not None:
+        raise UsageError("--realtime: sets the fps itself; drop --fps")
+    if args.fps is not None:
+        _check(checks.positive, args.fps, "--fps", MAX_FPS)
+    if args.every is not None:
         _check(checks.integer, args.every, "--every", 1, 1_000_000)
-        _check(checks.integer, args.width, "--width", 16, 4096)
+    _check(checks.integer, args.width, "--width", 16, 4096)
+    rate = reachavoid_env.ReachAvoidEnv.metadata["render_fps"]
+    if args.realtime:
+        args.every = args.every or realtime_every(scenario.dt, rate)
+        args.fps = realtime_fps(scenario.dt, args.every)
+        most = GIF_MAX_FPS if str(args.video).lower().endswith(".gif") else MAX_FPS
+        if args.fps > most:
+            raise UsageError(f"--realtime: --every {args.every} with {scenario.dt * 1e3:g} ms "
+                             f"steps needs {args.fps:g} fps, above this format's {most:g}; use "
+                             f"--every {realtime_every(scenario.dt, most)} or more")
+    args.every = args.every or 1
+    args.fps = args.fps or rate
+
+
+def _play(args: argparse.Namespace) -> int:
+    if args.preview is not None:
+        if args.video is not None:
+            raise UsageError("--preview: draws the first frame without playing; drop --video")
+        if Path(args.preview).suffix.lower() != ".png":
+            raise UsageError(f"--preview: {args.preview!r} must end in .png")
+        writable_file(args.preview, "--preview")
     scenarios = _library(args.scenario)
+    scenario = _drawn_map(scenarios, args.seed)
+    _check_video_options(args, scenario)
     if len(scenarios) == 1:
-        attackers = _policy("attackers", args.attackers, scenarios[0], args)
-        defenders = _policy("defenders", args.defenders, scenarios[0], args)
+        attackers = _policy("attackers", args.attackers, scenario, args)
+        defenders = _policy("defenders", args.defenders, scenario, args)
     else:   # a library: the seed draws the map; the policies are built for it
         attackers = PerMapPolicy(functools.partial(_policy, "attackers", args.attackers,
                                                    args=args), "attackers")
         defenders = PerMapPolicy(functools.partial(_policy, "defenders", args.defenders,
                                                    args=args), "defenders")
+    drawn = args.video is not None or args.preview is not None
     env = reachavoid_env.parallel_env(
-        scenario=scenarios, render_mode="rgb_array" if args.video else None,
+        scenario=scenarios, render_mode="rgb_array" if drawn else None,
         render_width=args.width)
+    title = episode_title(scenario.name, args.defenders, args.attackers, args.seed)
     try:
+        if args.preview is not None:
+            return _preview(env, attackers, defenders, title, args)
         result = run_episode(env, attackers, defenders, seed=args.seed, video=args.video,
-                             fps=args.fps, every=args.every,
+                             fps=args.fps, every=args.every, title=title,
                              progress=args.video is not None and not args.json
                              and args.progress)
     finally:
@@ -314,6 +366,51 @@ def _play(args: argparse.Namespace) -> int:
     else:
         print(_summary(result, args))
     return 0
+
+
+def _drawn_map(scenarios: tuple[Scenario, ...], seed: int) -> Scenario:
+    """The map an env over ``scenarios`` plays after ``reset(seed=seed)``."""
+    if len(scenarios) == 1:
+        return scenarios[0]
+    env = reachavoid_env.parallel_env(scenario=scenarios)
+    env.reset(seed=seed)
+    return next(s for s in scenarios if s.name == env.scenario.name)
+
+
+def _preview(env: Any, attackers: Any, defenders: Any, title: str,
+             args: argparse.Namespace) -> int:
+    """``play --preview``: the first frame as a PNG, written atomically."""
+    import imageio.v3 as iio
+
+    frame = first_frame(env, attackers, defenders, seed=args.seed, title=title)
+    with atomic_write(args.preview, "wb") as handle:
+        iio.imwrite(handle, frame, extension=".png")
+    if args.json:
+        print(json.dumps({"preview": args.preview, "width": frame.shape[1],
+                          "height": frame.shape[0]}))
+    else:
+        print(f"{title}\n  first frame: {args.preview} ({frame.shape[1]}x{frame.shape[0]})")
+    return 0
+
+
+def _validate(args: argparse.Namespace) -> int:
+    """``validate``: each file loaded and an env reset on it; one line per file."""
+    bad = 0
+    for source in args.files:
+        try:
+            scenario = load_scenario(source)
+            reachavoid_env.parallel_env(scenario=scenario).reset(seed=0)
+        except (ScenarioError, ValueError, OSError) as err:
+            bad += 1
+            words = getattr(err, "strerror", None) or str(err)
+            if not words.startswith(source):
+                words = f"{source}: {words}"
+            print(f"reachavoid validate: error: {words}", file=sys.stderr)
+            continue
+        starts = "given starts" if scenario.attackers is not None else "random starts"
+        print(f"{source}: ok ({scenario.name}: {scenario.num_attackers} attackers, "
+              f"{scenario.num_defenders} defenders, {starts})")
+    return EXIT_USAGE if bad else 0
 
 
 def _json_report(result: EpisodeResult, args: argparse.Namespace) -> dict[str, object]:
@@ -328,18 +425,31 @@ def _json_report(result: EpisodeResult, args: argparse.Namespace) -> dict[str, o
 
 
 def _summary(result: EpisodeResult, args: argparse.Namespace) -> str:
-    lines = [f"{result.scenario} (seed {result.seed}): {args.defenders} defenders vs "
-             f"{args.attackers} attackers"]
+    """What the episode came to, in the words its frames showed."""
+    lines = [episode_title(result.scenario, args.defenders, args.attackers, result.seed)]
     for word, names in (("captured", result.captured), ("arrived ", result.arrived)):
         lines.append(f"  {word} {len(names)}" + (f": {', '.join(names)}" if names else ""))
     lines.append(f"  {result.steps} steps, {result.game_time:.3f} s of game time, "
                  f"{result.seconds:.2f} s wall clock")
+    lines.append(f"  outcome: {result.outcome}")
+    for when, shown in (("start", result.first_lines), ("end", result.last_lines)):
+        if shown:
+            lines.append(f"  overlay at the {when}: {'; '.join(shown)}")
     if result.guarantees:
-        lines.append(f"  guaranteed captures: {result.guarantees[0]} at the start, "
-                     f"{result.guarantees[-1]} at the end")
+        lines.append(f"  captured so far + guaranteed: {result.guarantees[0]} at the first "
+                     f"decision, {result.guarantees[-1]} at the last")
     if args.video is not None:
-        lines.append(f"  video: {args.video} ({result.frames} frames)")
+        speed = args.fps * args.every * result.game_time / max(result.steps, 1)
+        lines.append(f"  video: {args.video} ({result.frames} frames at {args.fps:g} fps, "
+                     f"{_speed_words(speed)})")
     return "\n".join(lines)
+
+
+def _speed_words(speed: float) -> str:
+    """A playback ``speed`` (game seconds per video second) in words."""
+    if abs(speed - 1.0) < 1e-6:
+        return "real time"
+    return f"{1 / speed:.3g}x slow motion" if speed < 1 else f"{speed:.3g}x fast"
 
 
 def _solve(args: argparse.Namespace) -> int:

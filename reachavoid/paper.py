@@ -19,7 +19,7 @@ from typing import Any
 import reachavoid_env
 from policies.registry import accepted_options, make_policy
 from policies.tubes import tube_2v1
-from reachavoid.rollout import run_episode
+from reachavoid.rollout import episode_title, run_episode
 from reachavoid_env import Scenario
 from reachavoid_env.files import atomic_write
 from solvers.hj.plot import scenario_panels, tube_figure
@@ -64,6 +64,7 @@ def reproduce(out: Path, grid1: int, grid2: int, videos: bool = True,
             video = out / f"{scenario.name}_{method}.mp4" if videos else None
             try:
                 result = run_episode(env, attackers, defenders, seed=0, video=video,
+                                     title=episode_title(scenario.name, method, ATTACKERS, 0),
                                      progress=progress)
             finally:
                 env.close()

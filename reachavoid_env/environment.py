@@ -90,7 +90,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     ``ValueError`` naming the player.
 
     Rendering (``render_mode`` "rgb_array" or "human") draws ``game_state()`` with the
-    overlay last given to ``set_overlay``; "human" also draws after every reset and step.
+    overlay last given to ``set_overlay``, under the title given to ``set_caption``, and
+    the outcome once the episode is over; "human" also draws after every reset and step.
     """
 
     metadata = {
@@ -148,6 +149,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         self._world: World | None = None
         self._renderer: Any = None
         self._overlay: Overlay | None = None
+        self._caption: str | None = None
 
     # ----------------------------------------------------------------- spaces
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
@@ -187,6 +189,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         self._captured_count = 0
         self._arrived_count = 0
         self.agents = self.possible_agents[:]
+        self._overlay = None  # the last episode's decisions do not describe this one
         if self._renderer is not None:
             if self._renderer_key != (sc.map, sc.capture_radius):
                 self._renderer.close()
@@ -397,10 +400,15 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
 
     # -------------------------------------------------------------- rendering
     def set_overlay(self, overlay: Overlay | None) -> None:
-        """Draw ``overlay`` (a policy's assignment edges, text) on the following frames:
-        edges to attackers no longer in play are left out, and the whole overlay once no
-        attacker is in play."""
+        """Draw ``overlay`` (a policy's assignment edges, text) on the following frames of
+        this episode (``reset`` clears it): edges to attackers no longer in play are left
+        out; the text stays to the last frame."""
         self._overlay = overlay
+
+    def set_caption(self, caption: str | None) -> None:
+        """The title line of the following frames (``None``: the scenario and the seed);
+        ``run_episode`` names the scenario, the policies and the seed."""
+        self._caption = caption
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -415,7 +423,9 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             self._renderer = Renderer(sc.map, sc.capture_radius, width=self.render_width)
             self._renderer_key = (sc.map, sc.capture_radius)
         state = self.game_state()
-        self._renderer.draw(state, _live_part(self._overlay, state))
+        caption = self._caption or f"{self.scenario.name}, seed {self.np_random_seed}"
+        self._renderer.draw(state, _live_part(self._overlay, state), title=caption,
+                            game_over=not self.agents)
         if self.render_mode == "rgb_array":
             return self._renderer.rgb_array()
         self._renderer.show(self.metadata["render_fps"])
@@ -451,12 +461,14 @@ def check_agent_names(actions: dict[str, Any], agents: Sequence[str]) -> None:
 
 
 def _live_part(overlay: Overlay | None, state: GameState) -> Overlay | None:
-    """What of a policy's overlay still describes the game: its edges to attackers in play;
-    nothing once no attacker is in play (the last decision's text would be stale)."""
-    if overlay is None or not state.active_attackers.any():
+    """What of a policy's overlay still describes the game: its edges to attackers in play,
+    and its text lines (the last decision's, kept to the last frame)."""
+    if overlay is None:
         return None
-    live = set(state.attacker_names[i] for i in np.flatnonzero(state.active_attackers))
-    return Overlay(edges=tuple(e for e in overlay.edges if e[1] in live), lines=overlay.lines)
+    live = {state.attacker_names[i] for i in np.flatnonzero(state.active_attackers)}
+    kept = [edge for edge in overlay.kinded_edges if edge.attacker in live]
+    return Overlay(edges=tuple((e.defender, e.attacker) for e in kept), lines=overlay.lines,
+                   kinds=tuple(e.kind for e in kept))
 
 
 def _library(source: Any) -> tuple[Scenario, ...]:

@@ -5,12 +5,17 @@ ffmpeg process (imageio-ffmpeg), so memory stays flat however long the episode. 
 is written under a temporary name next to the destination and renamed into place on
 ``close``; an exception (Ctrl-C included) inside a ``with`` block, or ``abort()``, removes
 it. ``RecordEpisode`` wraps a ``ParallelEnv`` whose ``render_mode`` is ``"rgb_array"`` and
-records ``env.render()`` after every reset and step.
+records ``env.render()`` at the start of each episode and after its steps.
+
+Playback speed: a frame every ``every`` steps of ``dt`` seconds, played at ``fps``, shows
+``fps * every * dt`` seconds of game time per second of video; ``realtime_fps`` is the
+``fps`` that makes that 1 (the env's default 50 fps with 5 ms steps is 4x slow motion).
 """
 
 from __future__ import annotations
 
 import errno
+import math
 import os
 import secrets
 from collections.abc import Generator
@@ -27,6 +32,18 @@ VIDEO_SUFFIXES = (".mp4", ".gif")
 
 # One palette per frame keeps GIF colours exact without a second pass over the video.
 _GIF_FILTER = "split[a][b];[a]palettegen=stats_mode=single[p];[b][p]paletteuse=new=1"
+
+
+def realtime_fps(dt: float, every: int = 1) -> float:
+    """Frames per second at which a video with a frame every ``every`` steps of ``dt``
+    seconds plays in game time (one second of video per second of game time)."""
+    return 1.0 / (dt * every)
+
+
+def realtime_every(dt: float, max_fps: float) -> int:
+    """The smallest ``every`` whose real-time rate ``realtime_fps(dt, every)`` is at most
+    ``max_fps`` frames per second."""
+    return max(1, math.ceil(1.0 / (dt * max_fps) - 1e-9))
 
 
 class _Discard(BaseException):
@@ -175,11 +192,16 @@ class VideoWriter:
 
 
 class RecordEpisode(BaseParallelWrapper):
-    """Records ``env.render()`` after every reset and every ``every``-th step to a video.
+    """Records ``env.render()`` at the start of every episode and after every ``every``-th
+    step and the last one, to a video.
 
+    The start frame is drawn just before the first step (or when the episode ends without
+    one), not at ``reset``: what the caller sets between the two (the policies' first
+    decision through ``set_overlay``) is on it, as on every later frame.
     All episodes go into the one file at ``path``, finished by ``close()``; a ``path``
     containing ``{episode}`` (e.g. ``"run_{episode}.mp4"``) gets one file per episode,
-    finished when the episode ends. ``fps`` defaults to ``env.metadata["render_fps"]``.
+    finished when the episode ends. ``fps`` defaults to ``env.metadata["render_fps"]``
+    (``realtime_fps`` gives the one at which video time equals game time).
     Used as a context manager, an exception inside the block discards the unfinished
     video.
     """
@@ -199,6 +221,7 @@ class RecordEpisode(BaseParallelWrapper):
         self.episode = -1
         self.frames = 0
         self._steps = 0
+        self._start_pending = False
         self._writer: VideoWriter | None = None
 
     @property
@@ -207,19 +230,22 @@ class RecordEpisode(BaseParallelWrapper):
 
     def reset(self, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[dict, dict]:
+        self._record_start()  # a last episode that ended before its first step
+        if self.per_episode:
+            self.finish()
         result = self.env.reset(seed=seed, options=options)
         self.episode += 1
         self._steps = 0
-        if self.per_episode:
-            self.finish()
         if self._writer is None:
             path = self.path_template.format(episode=self.episode)
             self._writer = VideoWriter(path, self.fps)
-        self._record()
+        self._start_pending = True
         return result
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         live = bool(self.env.agents)
+        if live:
+            self._record_start()
         result = self.env.step(actions)
         if not live:
             return result
@@ -230,6 +256,12 @@ class RecordEpisode(BaseParallelWrapper):
         if ended and self.per_episode:
             self.finish()
         return result
+
+    def _record_start(self) -> None:
+        """The start frame of the episode, if it is still to be drawn."""
+        if self._start_pending and self._writer is not None:
+            self._record()
+        self._start_pending = False
 
     def _record(self) -> None:
         frame = self.env.render()
@@ -242,12 +274,14 @@ class RecordEpisode(BaseParallelWrapper):
 
     def finish(self) -> None:
         """Finish the video being written (the env stays open)."""
+        self._record_start()
         if self._writer is not None:
             writer, self._writer = self._writer, None
             writer.close()
 
     def abort(self) -> None:
         """Discard the video being written; its destination is left untouched."""
+        self._start_pending = False
         if self._writer is not None:
             writer, self._writer = self._writer, None
             writer.abort()

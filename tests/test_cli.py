@@ -7,6 +7,8 @@ import subprocess
 import sys
 
 import imageio.v3 as iio
+import imageio_ffmpeg
+import numpy as np
 import pytest
 
 from policies.registry import ATTACKERS, DEFENDERS
@@ -66,7 +68,7 @@ def test_scenario_file_and_human_summary(tmp_path, capsys):
     assert main(["play", "--scenario", str(path), "--defenders", "idle", "--attackers",
                  "straight"]) == 0
     out, _ = capsys.readouterr()
-    assert out.startswith("paper_2v1 (seed 0): idle defenders vs straight attackers")
+    assert out.startswith("paper_2v1: idle defenders vs straight attackers, seed 0")
     assert "arrived  2: attacker_0, attacker_1" in out
 
 
@@ -94,6 +96,12 @@ def write(tmp_path, text: str) -> str:
     (["play", "--attackers", "teleport"], "invalid choice: 'teleport'"),
     (["play", "--seed", "x"], "invalid int value: 'x'"),
     (["play", "--video", "a.mp4", "--every", "0"], "--every: must be an integer in [1, 1000000]"),
+    (["play", "--video", "a.mp4", "--realtime", "--fps", "10"], "--realtime: sets the fps"),
+    (["play", "--video", "a.gif", "--realtime", "--every", "1"],
+     "--realtime: --every 1 with 5 ms steps needs 200 fps, above this format's 50; use --every 4"),
+    (["play", "--preview", "a.jpg"], "--preview: 'a.jpg' must end in .png"),
+    (["play", "--preview", "a.png", "--video", "a.mp4"], "--preview: draws the first frame"),
+    (["validate"], "the following arguments are required: FILE"),
     ([], "required: COMMAND"),
     (["fly"], "invalid choice: 'fly'"),
 ])
@@ -185,3 +193,54 @@ def test_paper_command_writes_table_and_figure(tmp_path, capsys):
         assert row["hj"]["captured_count"] >= row["hj"]["guaranteed_captures_initial"] - 1
     assert (out / "tubes.png").stat().st_size > 10_000
     assert "2v1" in printed and "baseline" in printed
+
+
+def test_validate_good_and_bad_files(tmp_path, capsys):
+    good = tmp_path / "good.toml"
+    save_scenario(builtin_scenario("paper_6v2"), good)
+    assert main(["validate", str(good), "paper_2v1"]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    assert out.splitlines() == [
+        f"{good}: ok (paper_6v2: 6 attackers, 2 defenders, given starts)",
+        "paper_2v1: ok (paper_2v1: 2 attackers, 1 defenders, given starts)"]
+    outside = write(tmp_path, '[map]\ndomain = [0, 1, 0, 1]\n'
+                              'target = { type = "box", min = [0.6, 0.1], max = [0.8, 1.3] }\n')
+    malformed = tmp_path / "malformed.toml"
+    malformed.write_text("[map\n")
+    assert main(["validate", str(good), outside, str(malformed), str(tmp_path / "no.toml")]) == 2
+    out, err = capsys.readouterr()
+    assert out.splitlines() == [f"{good}: ok (paper_6v2: 6 attackers, 2 defenders, given starts)"]
+    lines = err.splitlines()
+    assert len(lines) == 3
+    assert lines[0].startswith(f"reachavoid validate: error: {outside}: map.target: extends "
+                               "outside the domain")
+    assert lines[1].startswith(f"reachavoid validate: error: {malformed}: malformed TOML")
+    assert "no such file" in lines[2]
+
+
+def test_preview_writes_the_first_frame_without_playing(tmp_path, capsys):
+    preview, video = tmp_path / "first.png", tmp_path / "episode.gif"
+    assert main(["play", "--scenario", "paper_6v2", *SIMPLE, "--width", "320",
+                 "--preview", str(preview)]) == 0
+    out, _ = capsys.readouterr()
+    assert out.splitlines()[1] == f"  first frame: {preview} (320x400)"
+    assert sorted(tmp_path.iterdir()) == [preview]  # nothing else: no episode played
+    play_json(capsys, "--scenario", "paper_6v2", *SIMPLE, "--width", "320", "--video", str(video))
+    drawn, first = iio.imread(preview), iio.imread(video)[0]
+    assert drawn.shape == first.shape
+    assert np.abs(drawn.astype(int) - first).mean() < 1.0  # the GIF's palette rounding
+
+
+def test_realtime_video_lasts_the_game_time(tmp_path, capsys):
+    path = tmp_path / "realtime.mp4"
+    report = play_json(capsys, "--scenario", "paper_2v1", *SIMPLE, "--width", "320",
+                       "--video", str(path), "--realtime")
+    frames, seconds = imageio_ffmpeg.count_frames_and_secs(str(path))
+    fps = 50.0  # 5 ms steps, a frame every 4 steps
+    assert frames == len(range(0, report["steps"], 4)) + 1
+    # the last frame shows the end of the game at its time in the video (to one frame)
+    assert abs((seconds - 1 / fps) - report["game_time"]) <= 1 / fps
+    assert main(["play", "--scenario", "paper_2v1", *SIMPLE, "--video", str(path),
+                 "--realtime"]) == 0
+    assert "at 50 fps, real time)" in capsys.readouterr()[0]

@@ -12,6 +12,7 @@ from policies import HJAttacker, HJDefenderPolicy, HJPairsDefenderPolicy, Shorte
 from policies.registry import make_policy, named_policy
 from reachavoid.cli import main
 from reachavoid.rollout import run_episode
+from reachavoid_env.game_state import EdgeKind
 from solvers.hj import solve_1v1, solve_1v2, solve_2v1
 
 SCENARIO = "paper_6v4_equal"
@@ -79,6 +80,7 @@ def test_a_team_stops_an_attacker_neither_defender_stops_alone(equal_tubes):
         assert np.isclose(np.linalg.norm(actions[name]), 1.0, atol=1e-5)
     overlay = teams.overlay()
     assert set(overlay.edges) == {("defender_0", "attacker_0"), ("defender_1", "attacker_0")}
+    assert overlay.kinds == (EdgeKind.TEAM, EdgeKind.TEAM)  # a 1 vs 2 game
     assert "guaranteed" in overlay.lines[0] and "1 nominal" in overlay.lines[0]
     for attacker in (ShortestPathAttacker(), HJAttacker(vf11)):
         result = run_episode(env, attacker, HJPairsDefenderPolicy(vf11, vf21, vf12,
