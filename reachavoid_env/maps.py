@@ -63,6 +63,7 @@ MAX_ATTEMPTS = 200
 error)."""
 _OUTLINE_STEP = 0.005
 """Spacing of the outline samples of the clearance check (map units)."""
+_PLAYER_RADIUS = {f.name: f.default for f in fields(Scenario)}["player_radius"]
 
 
 ScenarioSource = Union[str, "os.PathLike[str]", Scenario, Sequence[Any]]
@@ -157,10 +158,17 @@ class MapOptions:
         object.__setattr__(self, "raster", checks.integer(self.raster, "raster", 32, 2048,
                                                           error=MapError))
         cell = math.hypot(d[1] - d[0], d[3] - d[2]) / self.raster
-        if cell >= max(self.start_clearance, 0.005):
-            raise MapError(f"raster: a cell's diagonal {cell:.3g} must be below start_clearance "
-                           f"{self.start_clearance:g} for a sound connectivity check; raise "
-                           f"raster or start_clearance")
+        if cell >= self.free_clearance:
+            raise MapError(f"raster: a cell's diagonal {cell:.3g} must be below the start "
+                           f"clearance {self.free_clearance:g} for a sound connectivity check; "
+                           f"raise raster or start_clearance")
+
+    @property
+    def free_clearance(self) -> float:
+        """Least distance of a random start to obstacles and walls, as ``Scenario.starts``
+        keeps it (``start_clearance``, at least the player radius): the connectivity
+        check's free region."""
+        return max(self.start_clearance, _PLAYER_RADIUS)
 
     def to_dict(self) -> dict[str, Any]:
         """The options as TOML-ready data (``None`` fields left out)."""
@@ -387,7 +395,7 @@ def _attempt(options: MapOptions, rng: np.random.Generator,
     if not options.density[0] <= covered / domain_area <= options.density[1]:
         return None, "density"
     game_map = GameMap(domain, (target,), tuple(obstacles))
-    if not connected_to_target(game_map, options.start_clearance, options.raster):
+    if not connected_to_target(game_map, options.free_clearance, options.raster):
         return None, "clearance"
     try:
         scenario = Scenario(game_map, options.attackers, options.defenders,

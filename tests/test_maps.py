@@ -49,7 +49,7 @@ def test_every_generated_map_passes_the_checks(options, seed):
         assert (scenario.num_attackers, scenario.num_defenders) == (options.attackers,
                                                                     options.defenders)
         assert options.obstacles[0] <= len(game_map.obstacles) <= options.obstacles[1]
-        assert connected_to_target(game_map, options.start_clearance, options.raster)
+        assert connected_to_target(game_map, options.free_clearance, options.raster)
         shapes = list(game_map.obstacles)
         for k, shape in enumerate(shapes):
             assert shape.type in options.shapes
