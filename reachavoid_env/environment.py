@@ -19,8 +19,9 @@ from pettingzoo.utils import ClipOutOfBoundsWrapper, OrderEnforcingWrapper, para
 
 from reachavoid_env import checks, rules
 from reachavoid_env.game_state import AttackerStatus, GameState, Overlay
+from reachavoid_env.maps import ScenarioSource, load_library
 from reachavoid_env.observations import Normaliser, agent_rows, player_table
-from reachavoid_env.scenario import MAX_STEPS, Scenario, ScenarioError, load_scenario
+from reachavoid_env.scenario import MAX_STEPS, Scenario, ScenarioError
 from reachavoid_env.world import World
 
 _STATUSES = tuple(AttackerStatus)   # index = AttackerStatus.code
@@ -80,11 +81,16 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     ``info_format="readable"`` ``status`` is an ``AttackerStatus`` and ``captured_by``
     (the defender's name) appears only on the step of the capture.
 
+    ``scenario``: a built-in name, a TOML file, a ``Scenario``, or a library of maps (a
+    folder or ``index.toml`` written by ``reachavoid maps``, or a list of any of these;
+    ``maps.load_library``) whose maps share the player counts: each reset then plays one
+    map drawn with the env's generator, so the seed of ``reset`` decides map and starts.
+
     **Starts**: ``starts="scenario"`` (the default) plays the scenario's start positions
     (drawn at random only where the scenario gives none); ``starts="random"`` draws every
     player's start at every reset, uniformly over the map's free space
-    (``Scenario.with_players`` with the scenario's player counts), from the env's
-    generator, so ``reset(seed=s)`` gives the same starts for the same ``s``.
+    (``Scenario.with_players`` with the scenario's player counts; every map of a library),
+    from the env's generator, so ``reset(seed=s)`` gives the same starts for the same ``s``.
 
     ``reset(seed=, options=)`` options (all optional, for this episode only):
     ``{"scenario": Scenario}`` with the same numbers of players, and/or
@@ -106,7 +112,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
 
     def __init__(
         self,
-        scenario: str | Scenario = "paper_2v1",
+        scenario: ScenarioSource = "paper_2v1",
         max_cycles: int | None = None,
         render_mode: str | None = None,
         shaping: float = 0.0,
@@ -117,13 +123,14 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         EzPickle.__init__(self, scenario=scenario, max_cycles=max_cycles,
                           render_mode=render_mode, shaping=shaping, render_width=render_width,
                           info_format=info_format, starts=starts)
-        if isinstance(scenario, Scenario):
-            self.base_scenario = scenario
-        elif isinstance(scenario, str):
-            self.base_scenario = load_scenario(scenario)
-        else:
-            raise TypeError(f"scenario: expected a built-in name, a TOML path or a Scenario, "
-                            f"got {type(scenario).__name__}")
+        if starts not in STARTS:
+            raise ValueError(f"starts: {starts!r} is not one of {STARTS}")
+        self.starts = starts
+        self.scenarios = _library(scenario)
+        if starts == "random":
+            self.scenarios = tuple(s.with_players(s.num_attackers, s.num_defenders)
+                                   for s in self.scenarios)
+        self.base_scenario = self.scenarios[0]
         if max_cycles is not None:
             checks.integer(max_cycles, "max_cycles", 1, MAX_STEPS)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -131,12 +138,6 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                              f"{self.metadata['render_modes']} or None")
         if info_format not in INFO_FORMATS:
             raise ValueError(f"info_format: {info_format!r} is not one of {INFO_FORMATS}")
-        if starts not in STARTS:
-            raise ValueError(f"starts: {starts!r} is not one of {STARTS}")
-        if starts == "random":
-            self.base_scenario = self.base_scenario.with_players(
-                self.base_scenario.num_attackers, self.base_scenario.num_defenders)
-        self.starts = starts
         self.info_format = info_format
         self.max_cycles = max_cycles if max_cycles is not None else self.base_scenario.max_steps
         self.render_mode = render_mode
@@ -217,6 +218,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
 
     def _episode_scenario(self, options: dict[str, Any]) -> Scenario:
         scenario = self.base_scenario
+        if len(self.scenarios) > 1 and "scenario" not in options:
+            scenario = self.scenarios[int(self.np_random.integers(len(self.scenarios)))]
         if "scenario" in options:
             scenario = options["scenario"]
             if not isinstance(scenario, Scenario):
@@ -481,6 +484,21 @@ def _live_part(overlay: Overlay | None, state: GameState) -> Overlay | None:
     kept = [edge for edge in overlay.kinded_edges if edge.attacker in live]
     return Overlay(edges=tuple((e.defender, e.attacker) for e in kept), lines=overlay.lines,
                    kinds=tuple(e.kind for e in kept))
+
+
+def _library(source: Any) -> tuple[Scenario, ...]:
+    """The scenarios an env plays (``maps.load_library``), checked to share the player
+    counts (the spaces depend on them)."""
+    scenarios = load_library(source)
+    first = scenarios[0]
+    for scenario in scenarios[1:]:
+        if (scenario.num_attackers, scenario.num_defenders) != (first.num_attackers,
+                                                                first.num_defenders):
+            raise ScenarioError(f"scenario: {scenario.name!r} has {scenario.num_attackers} "
+                                f"attackers and {scenario.num_defenders} defenders, "
+                                f"{first.name!r} {first.num_attackers} and "
+                                f"{first.num_defenders}; a library's maps share the counts")
+    return scenarios
 
 
 def _checked_options(options: Any) -> dict[str, Any]:
