@@ -1,0 +1,119 @@
+"""The open-space 1 vs 1 certificates (``solvers.open_space``) against solved tubes, and
+parallel navigation played out."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from reachavoid_env import Box, Circle, GameMap, builtin_map
+from solvers import open_space
+from solvers.hj import solve_1v1
+
+VA, VD, R = 1.0, 1.5, 0.1
+OPEN = GameMap((-1.0, 1.0, -1.0, 1.0), (Circle((0.2, 0.1), 0.2),))
+
+
+def _states(game_map: GameMap, count: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    xmin, xmax, ymin, ymax = game_map.domain
+    states = rng.uniform((xmin, ymin, xmin, ymin), (xmax, ymax, xmax, ymax), (count, 4))
+    free = ~game_map.in_obstacle(states[:, :2]) & ~game_map.in_obstacle(states[:, 2:])
+    return states[free]
+
+
+def _decide(game_map: GameMap, states: np.ndarray):
+    a, d = states[:, :2], states[:, 2:]
+    return (open_space.attacker_certifies(game_map, a, d, (VA, VD), R),
+            open_space.defender_certifies(game_map, a, d, (VA, VD)))
+
+
+def _agreement(game_map: GameMap, grid_points: int, count: int):
+    """Certified states and the tube's value there; the tube's own error is about one
+    cell, so the sign is compared on states whose value is more than ``slack`` from 0."""
+    vf = solve_1v1(game_map, (VA, VD), R, grid_points, cache=False, progress=False)
+    states = _states(game_map, count, seed=grid_points)
+    attacker, defender = _decide(game_map, states)
+    assert not (attacker & defender).any()
+    value = vf.value(states)
+    return vf.grid.spacing[0], attacker, defender, value
+
+
+@pytest.mark.parametrize(("game_map", "decided"), [(OPEN, 0.3), (builtin_map("paper"), 0.05)],
+                         ids=["open", "paper"])
+def test_certificates_agree_with_the_tube_where_they_decide(game_map, decided):
+    """The paper map's walls and central obstacles leave few defender certificates (the
+    disc's radius is 1.2 times the players' distance)."""
+    h, attacker, defender, value = _agreement(game_map, 41, 20000)
+    assert attacker.mean() > 0.25 and defender.mean() > decided
+    # sign errors of a converged first-order tube stay within a cell or so of zero
+    assert (value[attacker] <= h).all() and (value[defender] > -h).all()
+    assert np.mean(value[attacker] <= 0) >= 0.98 and np.mean(value[defender] > 0) >= 0.99
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("game_map", [OPEN, builtin_map("paper")], ids=["open", "paper"])
+def test_certificates_agree_with_a_fine_tube(game_map):
+    h, attacker, defender, value = _agreement(game_map, 81, 50000)
+    assert (value[attacker] <= h).all() and (value[defender] > -h).all()
+    assert np.mean(value[attacker] <= 0) >= 0.99 and np.mean(value[defender] > 0) >= 0.995
+
+
+def test_attacker_run_avoids_obstacles_and_defender_needs_clear_space():
+    walled = GameMap((-1.0, 1.0, -1.0, 1.0), (Box((0.6, -0.1), (0.8, 0.1)),),
+                     (Box((0.0, -0.5), (0.1, 0.5)),))
+    a, d = np.array([[-0.5, 0.0]]), np.array([[-0.9, 0.9]])
+    # without the wall a straight run wins; with it every straight run is blocked
+    assert open_space.attacker_certifies(GameMap(walled.domain, walled.target), a, d,
+                                         (VA, VD), R)[0]
+    slack, point = open_space.attacker_target_point(walled, a, d, (VA, VD), R)
+    assert slack[0] == -np.inf and np.isnan(point).all()
+    assert not open_space.segment_clear(walled, a, np.array([[0.6, 0.0]]))[0]
+    a = np.array([[0.5, 0.6]])
+    slack, point = open_space.attacker_target_point(walled, a, d, (VA, VD), R)
+    assert slack[0] > 0 and open_space.segment_clear(walled, a, point)[0]
+    # the defender's region crosses the wall: no certificate there, one in the open
+    a, d = np.array([[-0.6, 0.0]]), np.array([[0.3, 0.0]])
+    assert not open_space.defender_certifies(walled, a, d, (VA, VD))[0]
+    a, d = np.array([[-0.6, -0.7]]), np.array([[-0.4, -0.7]])
+    assert open_space.defender_certifies(walled, a, d, (VA, VD))[0]
+
+
+def test_region_contains_the_disc_and_the_defender():
+    rng = np.random.default_rng(1)
+    a, d = rng.normal(size=(50, 2)), rng.normal(size=(50, 2))
+    centres, radii, corners = open_space.play_region(a, d, (VA, VD))
+    assert np.allclose(corners[:, 2], d)
+    k = VA / VD
+    np.testing.assert_allclose(np.linalg.norm(a - centres, axis=1), k * np.linalg.norm(
+        d - centres, axis=1) * k)  # |a - c| = k^2 |d - c|
+    np.testing.assert_allclose(radii, k * np.linalg.norm(d - centres, axis=1))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_parallel_navigation_captures_inside_the_first_disc(seed):
+    """Against an attacker that changes heading at random every step, parallel
+    navigation (reading the attacker's last velocity) captures it inside the first
+    Apollonius disc grown by the discrete-time drift, and the defender stays in the
+    capsule of ``play_region``."""
+    rng = np.random.default_rng(seed)
+    dt = 0.01
+    a, d = np.array([[0.0, 0.0]]), np.array([[0.8, 0.3]])
+    centre, radius, _ = open_space.play_region(a, d, (VA, VD))
+    velocity = np.zeros((1, 2))
+    for _ in range(2000):
+        if np.linalg.norm(a - d) <= R:
+            break
+        heading = open_space.parallel_navigation(a, d, velocity, VD)
+        assert np.isclose(np.linalg.norm(heading), 1.0)
+        angle = rng.uniform(0, 2 * np.pi)
+        velocity = VA * np.array([[np.cos(angle), np.sin(angle)]])
+        a = a + dt * velocity
+        d = d + dt * VD * heading
+        assert np.linalg.norm(a - centre) <= radius[0] + 2 * VA * dt * 10
+        axis = d - centre
+        along = np.clip(np.dot(axis[0], (np.array([0.8, 0.3]) - centre[0])) / np.sum(
+            (np.array([0.8, 0.3]) - centre[0]) ** 2), 0, 1)
+        nearest = centre[0] + along * (np.array([0.8, 0.3]) - centre[0])
+        assert np.linalg.norm(d[0] - nearest) <= radius[0] + 2 * VD * dt * 10
+    assert np.linalg.norm(a - d) <= R
