@@ -90,30 +90,41 @@ def test_region_contains_the_disc_and_the_defender():
     np.testing.assert_allclose(radii, k * np.linalg.norm(d - centres, axis=1))
 
 
-@pytest.mark.parametrize("seed", range(3))
-def test_parallel_navigation_captures_inside_the_first_disc(seed):
-    """Against an attacker that changes heading at random every step, parallel
-    navigation (reading the attacker's last velocity) captures it inside the first
-    Apollonius disc grown by the discrete-time drift, and the defender stays in the
-    capsule of ``play_region``."""
-    rng = np.random.default_rng(seed)
+def _inside_region(point, centre, radius, corners, grow) -> bool:
+    """Whether ``point`` lies within ``grow`` of the disc or of the convex polygon of the
+    ``(5, 2)`` corners."""
+    if np.linalg.norm(point - centre) <= radius + grow:
+        return True
+    edges = np.roll(corners, -1, axis=0) - corners
+    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    normals *= np.sign(np.sum((corners - corners.mean(axis=0)) * normals, axis=1))[:, None]
+    return bool((np.sum((point - corners) * normals, axis=1) <= grow).all())
+
+
+@pytest.mark.parametrize("attacker", ["random", "zigzag", "outward", "across"])
+def test_parallel_navigation_captures_inside_the_first_disc(attacker):
+    """Whatever the attacker does (the defender reads its velocity of the last step),
+    parallel navigation captures it while both players stay in ``play_region``, up to one
+    step's drift."""
+    rng = np.random.default_rng(0)
     dt = 0.01
     a, d = np.array([[0.0, 0.0]]), np.array([[0.8, 0.3]])
-    centre, radius, _ = open_space.play_region(a, d, (VA, VD))
+    centre, radius, corners = open_space.play_region(a, d, (VA, VD))
+    centre, radius, corners = centre[0], radius[0], corners[0]
     velocity = np.zeros((1, 2))
-    for _ in range(2000):
+    for step in range(1000):
         if np.linalg.norm(a - d) <= R:
             break
         heading = open_space.parallel_navigation(a, d, velocity, VD)
         assert np.isclose(np.linalg.norm(heading), 1.0)
-        angle = rng.uniform(0, 2 * np.pi)
-        velocity = VA * np.array([[np.cos(angle), np.sin(angle)]])
-        a = a + dt * velocity
-        d = d + dt * VD * heading
-        assert np.linalg.norm(a - centre) <= radius[0] + 2 * VA * dt * 10
-        axis = d - centre
-        along = np.clip(np.dot(axis[0], (np.array([0.8, 0.3]) - centre[0])) / np.sum(
-            (np.array([0.8, 0.3]) - centre[0]) ** 2), 0, 1)
-        nearest = centre[0] + along * (np.array([0.8, 0.3]) - centre[0])
-        assert np.linalg.norm(d[0] - nearest) <= radius[0] + 2 * VD * dt * 10
+        sight = (d - a)[0] / np.linalg.norm(d - a)
+        across = np.array([-sight[1], sight[0]])
+        move = {"random": np.array([np.cos(t := rng.uniform(0, 2 * np.pi)), np.sin(t)]),
+                "zigzag": across * (-1) ** step, "across": across,
+                "outward": (a - centre)[0] / max(np.linalg.norm(a - centre), 1e-12)}[attacker]
+        velocity = VA * move[None]
+        a, d = a + dt * velocity, d + dt * VD * heading
+        assert np.linalg.norm(a[0] - centre) <= radius + VA * dt
+        assert _inside_region(d[0], centre, radius, corners, VA * dt)
     assert np.linalg.norm(a - d) <= R
