@@ -41,7 +41,9 @@ class SolverSettings:
       nodes), interpolated, plus ``warm_margin`` map units (``reach_avoid``).
     - ``clip_start``: clip the start at the proved bound of the value where the attackers
       can reach the target (``start``: the capture radius in the paper's games; Godunov
-      only); the same fixed point in about 20% fewer sweeps.
+      only); the same fixed point, in fewer sweeps where the defender-win region's
+      settling sets the count (BENCHMARKS.md: 1 vs 1 25^4 -24%, 45^4 -7%; 2 vs 1 20^6
+      unchanged).
     """
 
     scheme: Scheme = GODUNOV

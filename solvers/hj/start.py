@@ -1,11 +1,12 @@
 """A tighter start for the solve: the cold start clipped where the attackers can reach the target.
 
 The solve marches the monotone update ``T(V) = max(min(V + dt H(V), l), g)`` from a start
-above the largest fixed point ``V*`` (``reach_avoid``); the nearer the start is to ``V*``
-the fewer sweeps it takes. Most of the slow part is the defender-win region settling from
-``max(l, g)`` (up to the map's size) down to about the capture radius. This module bounds
-``V*`` from above by a constant ``C`` on a set ``S`` of nodes and starts from
-``min(start, C)`` there.
+above the largest fixed point ``V*`` (``reach_avoid``). In the defender-win region the
+cold start ``max(l, g)`` (up to the map's size) has to settle down to about the capture
+radius; this module bounds ``V*`` from above by a constant ``C`` on a set ``S`` of nodes
+and starts from ``min(start, C)`` there. It saves the sweeps that settling takes where it
+decides when the solve stops (the stopping rule looks at the nodes next to the zero level
+set only; BENCHMARKS.md, "Clipped start").
 
 **The sets.** For every attacker ``k`` on its planar grid: ``F_k``, the free nodes
 (``free >= 0``); ``T_k``, the nodes of ``F_k`` in the target (``target <= 0``); ``K_k``,
