@@ -148,13 +148,14 @@ def test_layout_with_symmetry_keeps_sets_symmetric():
 
     game_map = builtin_map("paper")
     game = game_2v1((1.0, 1.5), 0.1)
-    grid = Grid.for_players(game_map.domain, 3, 7)
-    extra = {"value_1v1": np.zeros((7, 7, 7, 7), dtype=np.float32)}
+    grid = Grid.for_players(game_map.domain, 3, 9)
+    extra = {"value_1v1": np.zeros((9, 9, 9, 9), dtype=np.float32)}
     problem = map_problem(game, game_map, grid, extra)
     stored = node_sets(problem, layout_of(grid, ((0, 1),)))
     full_layout = layout_of(grid)
     full = node_sets(problem, full_layout)
-    rows = full_layout.row_nodes[:, 0] * 49 + full_layout.row_nodes[:, 1]
+    assert stored is not None and full is not None and 0 < full.row_inside.mean() < 1
+    rows = full_layout.row_nodes[:, 0] * 81 + full_layout.row_nodes[:, 1]
     canonical = layout_of(grid, ((0, 1),)).stored_of[rows]
     np.testing.assert_array_equal(full.row_inside, stored.row_inside[canonical])
     np.testing.assert_array_equal(full.row_arrived, stored.row_arrived[canonical])
