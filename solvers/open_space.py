@@ -124,7 +124,7 @@ def attacker_certifies(game_map: GameMap, attackers: np.ndarray, defenders: np.n
         ``(K,)`` bool.
     """
     return _attacker_slack(game_map, attackers, defenders, speeds, capture_radius,
-                           points, candidates)[0] > margin
+                           points, candidates, margin)[0] > margin
 
 
 def attacker_target_point(game_map: GameMap, attackers: np.ndarray, defenders: np.ndarray,
@@ -134,7 +134,7 @@ def attacker_target_point(game_map: GameMap, attackers: np.ndarray, defenders: n
     """The attacker's certified run: ``(slack (K,) seconds, target point (K, 2))``, the
     best clear straight run found (slack ``-inf`` and the point NaN where none is)."""
     return _attacker_slack(game_map, attackers, defenders, speeds, capture_radius, points,
-                           candidates)
+                           candidates, -np.inf)
 
 
 _CHUNK = 4096
@@ -142,7 +142,7 @@ _CHUNK = 4096
 
 
 def _attacker_slack(game_map, attackers, defenders, speeds, capture_radius, points,
-                    candidates):
+                    candidates, floor):
     a = np.asarray(attackers, dtype=np.float64).reshape(-1, 2)
     d = np.asarray(defenders, dtype=np.float64).reshape(-1, 2)
     z = target_points(game_map) if points is None else np.asarray(points, dtype=np.float64)
@@ -151,11 +151,11 @@ def _attacker_slack(game_map, attackers, defenders, speeds, capture_radius, poin
     for lo in range(0, len(a), _CHUNK):
         block = slice(lo, lo + _CHUNK)
         found[block], point[block] = _slack_block(game_map, a[block], d[block], speeds,
-                                                  capture_radius, z, candidates)
+                                                  capture_radius, z, candidates, floor)
     return found, point
 
 
-def _slack_block(game_map, a, d, speeds, capture_radius, z, candidates):
+def _slack_block(game_map, a, d, speeds, capture_radius, z, candidates, floor):
     va, vd = speeds
     run = np.linalg.norm(a[:, None, :] - z[None], axis=2) / va
     if vd >= va:
@@ -164,18 +164,15 @@ def _slack_block(game_map, a, d, speeds, capture_radius, z, candidates):
         reach = _segment_distance(d[:, None, :], a[:, None, :], z[None])
     slack = (reach - capture_radius) / vd - run
     best = np.argsort(-slack, axis=1)[:, :candidates]
+    value = np.take_along_axis(slack, best, axis=1)
+    state, rank = np.nonzero(value > floor)  # only runs that would decide are traced
+    clear = np.zeros(value.shape, dtype=bool)
+    clear[state, rank] = segment_clear(game_map, a[state], z[best[state, rank]])
+    first = np.argmax(clear, axis=1)
     rows = np.arange(len(a))
-    found = np.full(len(a), -np.inf)
-    point = np.full((len(a), 2), np.nan)
-    for j in range(best.shape[1]):
-        pick = best[:, j]
-        value = slack[rows, pick]
-        todo = np.flatnonzero(np.isinf(found) & (value > -np.inf))
-        if todo.size == 0:
-            break
-        ok = segment_clear(game_map, a[todo], z[pick[todo]])
-        found[todo[ok]] = value[todo[ok]]
-        point[todo[ok]] = z[pick[todo[ok]]]
+    has = clear[rows, first]
+    found = np.where(has, value[rows, first], -np.inf)
+    point = np.where(has[:, None], z[best[rows, first]], np.nan)
     return found, point
 
 
