@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from reachavoid_env import load_scenario
-from solvers.hj import ValueFunction, solve_1v1, solve_1v2, solve_2v1
+from solvers.hj import ValueFunction, check_tubes_memory, solve_1v1, solve_1v2, solve_2v1
 from solvers.hj.plot import scenario_panels, tube_figure
 from solvers.hj.value import refuse_foreign
 
@@ -68,6 +68,9 @@ def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
                              f"{defenders} defender start(s); scenario {sc.name!r} has "
                              f"{len(sc.attackers)} and {len(sc.defenders)}")
     grid_points = grid_points or DEFAULT_GRID[game]
+    check_tubes_memory(sc.map, (sc.attacker_speed, sc.defender_speed), sc.capture_radius,
+                       grid_points if game == "1v1" else grid_points_1v1,
+                       None if game == "1v1" else grid_points)
     started = time.perf_counter()
     vf = solve_1v1(sc.map, (sc.attacker_speed, sc.defender_speed), sc.capture_radius,
                    grid_points if game == "1v1" else grid_points_1v1, progress=progress)

@@ -3,7 +3,15 @@ avoid functions and symmetries (``game``); the paper's 1 vs 1 and 2 vs 1, and 1 
 in ``games``."""
 
 from solvers.hj.game import Game, Player, attacker, defender, distance, maximum, minimum, table
-from solvers.hj.games import game_1v1, game_1v2, game_2v1, solve_1v1, solve_1v2, solve_2v1
+from solvers.hj.games import (
+    check_tubes_memory,
+    game_1v1,
+    game_1v2,
+    game_2v1,
+    solve_1v1,
+    solve_1v2,
+    solve_2v1,
+)
 from solvers.hj.grid import Grid
 from solvers.hj.reach_avoid import InsufficientMemoryError, SolveResult
 from solvers.hj.schemes import ENO2, GODUNOV, LAX_FRIEDRICHS, Scheme
@@ -17,6 +25,7 @@ from solvers.hj.value import (
 )
 
 __all__ = [
+    "check_tubes_memory",
     "ENO2",
     "GODUNOV",
     "LAX_FRIEDRICHS",
