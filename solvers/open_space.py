@@ -108,7 +108,7 @@ def segment_clear(game_map: GameMap, start: np.ndarray, end: np.ndarray,
 def attacker_certifies(game_map: GameMap, attackers: np.ndarray, defenders: np.ndarray,
                        speeds: tuple[float, float], capture_radius: float,
                        margin: float = 0.0, points: np.ndarray | None = None,
-                       candidates: int = 8) -> np.ndarray:
+                       candidates: int = 8, clearance: float = 0.0) -> np.ndarray:
     """Whether the attacker provably wins each 1 vs 1 state (module docstring).
 
     Args:
@@ -119,22 +119,25 @@ def attacker_certifies(game_map: GameMap, attackers: np.ndarray, defenders: np.n
         points: target points to try (default ``target_points(game_map)``).
         candidates: how many of the best target points per state are checked for a clear
             straight segment.
+        clearance: how far the run keeps from obstacles (map units; the players' radius
+            in the physics world).
 
     Returns:
         ``(K,)`` bool.
     """
     return _attacker_slack(game_map, attackers, defenders, speeds, capture_radius,
-                           points, candidates, margin)[0] > margin
+                           points, candidates, margin, clearance)[0] > margin
 
 
 def attacker_target_point(game_map: GameMap, attackers: np.ndarray, defenders: np.ndarray,
                           speeds: tuple[float, float], capture_radius: float,
-                          points: np.ndarray | None = None, candidates: int = 8
-                          ) -> tuple[np.ndarray, np.ndarray]:
+                          points: np.ndarray | None = None, candidates: int = 8,
+                          clearance: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """The attacker's certified run: ``(slack (K,) seconds, target point (K, 2))``, the
-    best clear straight run found (slack ``-inf`` and the point NaN where none is)."""
+    best clear straight run found (slack ``-inf`` and the point NaN where none is);
+    arguments as ``attacker_certifies``."""
     return _attacker_slack(game_map, attackers, defenders, speeds, capture_radius, points,
-                           candidates, -np.inf)
+                           candidates, -np.inf, clearance)
 
 
 _CHUNK = 4096
@@ -142,7 +145,7 @@ _CHUNK = 4096
 
 
 def _attacker_slack(game_map, attackers, defenders, speeds, capture_radius, points,
-                    candidates, floor):
+                    candidates, floor, clearance):
     a = np.asarray(attackers, dtype=np.float64).reshape(-1, 2)
     d = np.asarray(defenders, dtype=np.float64).reshape(-1, 2)
     z = target_points(game_map) if points is None else np.asarray(points, dtype=np.float64)
@@ -151,11 +154,12 @@ def _attacker_slack(game_map, attackers, defenders, speeds, capture_radius, poin
     for lo in range(0, len(a), _CHUNK):
         block = slice(lo, lo + _CHUNK)
         found[block], point[block] = _slack_block(game_map, a[block], d[block], speeds,
-                                                  capture_radius, z, candidates, floor)
+                                                  capture_radius, z, candidates, floor,
+                                                  clearance)
     return found, point
 
 
-def _slack_block(game_map, a, d, speeds, capture_radius, z, candidates, floor):
+def _slack_block(game_map, a, d, speeds, capture_radius, z, candidates, floor, clearance):
     va, vd = speeds
     run = np.linalg.norm(a[:, None, :] - z[None], axis=2) / va
     if vd >= va:
@@ -167,7 +171,7 @@ def _slack_block(game_map, a, d, speeds, capture_radius, z, candidates, floor):
     value = np.take_along_axis(slack, best, axis=1)
     state, rank = np.nonzero(value > floor)  # only runs that would decide are traced
     clear = np.zeros(value.shape, dtype=bool)
-    clear[state, rank] = segment_clear(game_map, a[state], z[best[state, rank]])
+    clear[state, rank] = segment_clear(game_map, a[state], z[best[state, rank]], clearance)
     first = np.argmax(clear, axis=1)
     rows = np.arange(len(a))
     has = clear[rows, first]
@@ -217,7 +221,8 @@ def play_region(attackers: np.ndarray, defenders: np.ndarray, speeds: tuple[floa
 
 
 def defender_certifies(game_map: GameMap, attackers: np.ndarray, defenders: np.ndarray,
-                       speeds: tuple[float, float], margin: float = 0.0) -> np.ndarray:
+                       speeds: tuple[float, float], margin: float = 0.0,
+                       clearance: float = 0.0) -> np.ndarray:
     """Whether the defender provably wins each 1 vs 1 state by parallel navigation
     (module docstring): the Apollonius disc grown by ``margin`` (map units) misses the
     target, the capsule around the segment from its centre to the defender (radius the
@@ -233,6 +238,8 @@ def defender_certifies(game_map: GameMap, attackers: np.ndarray, defenders: np.n
         attackers, defenders: ``(K, 2)`` positions, map units.
         speeds: ``(vA, vD)`` with ``vD > vA``.
         margin: map units.
+        clearance: how far the defender's region keeps from obstacles and walls (map
+            units; the players' radius in the physics world).
 
     Returns:
         ``(K,)`` bool.
@@ -251,19 +258,20 @@ def defender_certifies(game_map: GameMap, attackers: np.ndarray, defenders: np.n
         # region must lie inside it
         facing = sign * e[:, axis]
         safe = (facing <= 0) | (facing >= k)
-        inside = ((sign * centres[:, axis] + radii <= edge)
-                  & (sign * corners[..., axis] <= edge).all(axis=1))
+        inside = ((sign * centres[:, axis] + radii <= edge - clearance)
+                  & (sign * corners[..., axis] <= edge - clearance).all(axis=1))
         certified &= safe | inside
     # the region: the capsule of the disc's radius from its centre to the shoulder, then
     # the cone in _CONE_PIECES pieces, each inside the capsule of its widest half-width
     shoulder = (corners[:, 1] + corners[:, 3]) / 2  # on the axis, where the cone meets the band
     todo = np.flatnonzero(certified)
-    certified[todo] = segment_clear(game_map, centres[todo], shoulder[todo], radii[todo])
+    certified[todo] = segment_clear(game_map, centres[todo], shoulder[todo],
+                                    radii[todo] + clearance)
     for j in range(_CONE_PIECES):
         todo = np.flatnonzero(certified)
         start = shoulder[todo] + j / _CONE_PIECES * (d[todo] - shoulder[todo])
         end = shoulder[todo] + (j + 1) / _CONE_PIECES * (d[todo] - shoulder[todo])
-        width = radii[todo] * (1 - j / _CONE_PIECES)
+        width = radii[todo] * (1 - j / _CONE_PIECES) + clearance
         certified[todo] = segment_clear(game_map, start, end, width)
     return certified
 

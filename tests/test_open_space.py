@@ -75,11 +75,15 @@ def test_attacker_run_avoids_obstacles_and_defender_needs_clear_space():
     a = np.array([[0.5, 0.6]])
     slack, point = open_space.attacker_target_point(walled, a, d, (VA, VD), R)
     assert slack[0] > 0 and open_space.segment_clear(walled, a, point)[0]
+    # a run that must keep 0.45 from the wall (x <= 0.1) cannot start at x = 0.5
+    assert not open_space.attacker_certifies(walled, a, d, (VA, VD), R, clearance=0.45)[0]
     # the defender's region crosses the wall: no certificate there, one in the open
     a, d = np.array([[-0.6, 0.0]]), np.array([[0.3, 0.0]])
     assert not open_space.defender_certifies(walled, a, d, (VA, VD))[0]
     a, d = np.array([[-0.6, -0.7]]), np.array([[-0.4, -0.7]])
     assert open_space.defender_certifies(walled, a, d, (VA, VD))[0]
+    # the defender at x = -0.4 cannot keep 0.4 from the wall at x = 0
+    assert not open_space.defender_certifies(walled, a, d, (VA, VD), clearance=0.4)[0]
 
 
 def test_region_contains_the_disc_and_the_defender():
