@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -44,6 +45,14 @@ def games_of(assignment: Assignment) -> list[Game]:
     return alone + [Game((j, k), (i,)) for i, j, k in assignment.shared]
 
 
+class Margins(NamedTuple):
+    """The margin each tube's value must clear to certify a game (map units)."""
+
+    m11: float
+    m21: float
+    m12: float
+
+
 @dataclass(frozen=True)
 class Tubes:
     """The tubes a game's value is read from (``vf21`` / ``vf12`` ``None`` where the policy
@@ -52,10 +61,10 @@ class Tubes:
     vf11: ValueFunction
     vf21: ValueFunction | None
     vf12: ValueFunction | None
-    margins: tuple[float, float, float]
+    margins: Margins
 
     def slack(self, games: list[Game], state: GameState, values11: np.ndarray,
-              margins: tuple[float, float, float] | None = None,
+              margins: Margins | None = None,
               values21: np.ndarray | None = None) -> np.ndarray:
         """``(len(games),)``: the smallest ``value - margin`` over what makes each game a
         defender win (``margins`` default: the tubes'; zeros for "still winning"); the
@@ -140,7 +149,7 @@ def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
         left = tuple(i for i in game.attackers if active[i])
         if left:
             games.append(Game(game.defenders, left))
-    keep = tubes.slack(games, state, values11, (0.0, 0.0, 0.0), values21) > 0.0
+    keep = tubes.slack(games, state, values11, Margins(0.0, 0.0, 0.0), values21) > 0.0
     return [game for game, on in zip(games, keep, strict=True) if on]
 
 

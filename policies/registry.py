@@ -19,6 +19,7 @@ from policies.defenders import (
     IdleDefender,
     MatchingDefenderPolicy,
 )
+from policies.intercept import InterceptDefender
 from reachavoid_env import Policy, Scenario
 
 
@@ -36,14 +37,22 @@ DEFENDERS: dict[str, NamedPolicy] = {
     "hj": NamedPolicy("the reference: HJ tubes + the paper's assignment MIP (CP-SAT), "
                       "re-solved every step",
                       HJDefenderPolicy.for_scenario,
-                      frozenset({"grid1", "grid2", "idle", "margin_cells", "progress"})),
+                      frozenset({"grid1", "grid2", "idle", "margin_cells", "progress",
+                                 "shield"})),
     "hj-pairs": NamedPolicy("the reference with defender teams: two defenders may share an "
                             "attacker neither stops alone (1 vs 2 tube), re-solved every step",
                             HJPairsDefenderPolicy.for_scenario,
                             frozenset({"grid1", "grid2", "idle", "margin_cells", "progress"})),
+    "paper": NamedPolicy("the paper's Algorithm 1 exactly: HJ tubes + the assignment MIP, "
+                         "every value > 0 a defender win, unassigned defenders stand still",
+                         HJDefenderPolicy.paper, frozenset({"grid1", "grid2", "progress"})),
     "matching": NamedPolicy("the maximum-matching baseline (unmatched defenders stand still)",
                             MatchingDefenderPolicy.for_scenario,
                             frozenset({"grid1", "unmatched", "margin_cells", "progress"})),
+    "intercept": NamedPolicy("the time-to-intercept heuristic: each defender races the most "
+                             "threatening attacker it can cut off to a point of its shortest "
+                             "path, spare defenders back up",
+                             lambda scenario, **o: InterceptDefender(**o), frozenset({"cells"})),
     "greedy": NamedPolicy("chase the nearest active attacker",
                           lambda scenario: GreedyDefender()),
     "idle": NamedPolicy("stand still", lambda scenario: IdleDefender()),
