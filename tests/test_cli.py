@@ -44,8 +44,8 @@ def test_every_policy_choice_plays(capsys, attackers, defenders):
     report = play_json(capsys, "--scenario", "paper_2v1", "--attackers", attackers,
                        "--defenders", defenders, *COARSE)
     assert (report["attackers"], report["defenders"]) == (attackers, defenders)
-    if defenders in ("hj", "hj-pairs", "matching"):
-        promised = {"hj": 2, "hj-pairs": 2, "matching": 1}[defenders]
+    if defenders in ("hj", "hj-pairs", "paper", "matching"):
+        promised = {"hj": 2, "hj-pairs": 2, "paper": 2, "matching": 1}[defenders]
         assert report["nominal_captures_initial"] == promised
         assert report["guaranteed_captures_initial"] <= promised
     else:
