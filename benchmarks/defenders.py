@@ -60,7 +60,7 @@ def play(task: Task) -> dict[str, Any]:
     name, m, n = CONFIGS[task.config]
     scenario = reachavoid_env.builtin_scenario(name).with_players(m, n)
     method, *settings = task.method.split("+")
-    options = dict(setting.split("=", 1) for setting in settings)
+    options = {key: _option(value) for key, value in (x.split("=", 1) for x in settings)}
     sweep = sweep_of(scenario, method, task.attackers, [task.seed], grid1=task.grid1,
                      grid2=task.grid2, progress=False, **options)
     result = play_seed(sweep, task.seed)
@@ -69,6 +69,14 @@ def play(task: Task) -> dict[str, Any]:
                              "seconds": result.seconds,
                              "guaranteed_initial": result.guarantees[0]
                              if result.guarantees else None}
+
+
+def _option(text: str) -> Any:
+    """A variant's option value: JSON (numbers, ``true``/``false``) where it parses."""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        return text
 
 
 def stored(path: Path) -> list[dict[str, Any]]:
