@@ -37,8 +37,7 @@ DEFENDERS: dict[str, NamedPolicy] = {
     "hj": NamedPolicy("the reference: HJ tubes + the paper's assignment MIP (CP-SAT), "
                       "re-solved every step",
                       HJDefenderPolicy.for_scenario,
-                      frozenset({"grid1", "grid2", "idle", "margin_cells", "progress",
-                                 "shield"})),
+                      frozenset({"grid1", "grid2", "idle", "margin_cells", "progress"})),
     "hj-pairs": NamedPolicy("the reference with defender teams: two defenders may share an "
                             "attacker neither stops alone (1 vs 2 tube), re-solved every step",
                             HJPairsDefenderPolicy.for_scenario,
