@@ -136,16 +136,12 @@ def team_states(attackers: np.ndarray, defenders: np.ndarray, teams: np.ndarray)
 
 CERTIFICATE_CELLS = 1.0
 """Default certificate margin in grid cells of each tube: a game becomes certified where
-its value exceeds this many of the tube's largest grid spacing (map units). Above every
-tube error measured on the paper map (BENCHMARKS.md "Guarantee"; the largest coarse value
-at random states where a finer tube says the attacker side wins): 1 vs 1 with the paper's
-faster defenders 0.23-0.33 cells (25^4-45^4 against 81^4), with equal speeds 0.50-0.56
-cells (about 0.8 against the exact value, adding the 81^4 tube's own error), where half a
-cell let two certified games be lost in 1,260 episodes; 2 vs 1 0.18-0.24 cells (13^6-20^6
-against 30^6), 1 vs 2 0.28 cells (13^6 against 21^6)."""
+its value exceeds this many of the tube's largest grid spacing (map units). It lies
+above every tube error measured on the paper map (the figures: BENCHMARKS.md
+"Guarantee")."""
 
 
-def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
+def control_headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
     """``controls (K, 2)`` where non-zero, else the unit vectors along ``fallbacks``."""
     still = ~controls.any(axis=1)
     controls = controls.astype(np.float32)
@@ -370,7 +366,7 @@ class _AssignmentDefender(ABC):
         states = team_states(attackers, defenders, teams)
         for column, player in ((1, "D1"), (2, "D2")):
             j = teams[:, column]
-            actions[j] = _headings(self.vf12.control(states, player),
+            actions[j] = control_headings(self.vf12.control(states, player),
                                    attackers[teams[:, 0]] - defenders[j])
 
     def _play_free(self, decision: _Decision, actions: np.ndarray) -> None:

@@ -24,10 +24,14 @@ from reachavoid_env.video import RecordEpisode
 @runtime_checkable
 class CertifiesCaptures(Protocol):
     """Defenders that say, after each ``act``, how many of the attackers still in play they
-    are guaranteed to stop (``None`` before the first decision)."""
+    are guaranteed to stop, and how many the paper's rule (every value > 0 a defender
+    win) counts (both ``None`` before the first decision and once no attacker is left)."""
 
     @property
     def guaranteed_captures(self) -> int | None: ...
+
+    @property
+    def nominal_captures(self) -> int | None: ...
 
 
 @dataclass(frozen=True)
@@ -153,8 +157,9 @@ def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
             actions = {**attackers.act(state), **defenders.act(state)}
             if certifies and defenders.guaranteed_captures is not None:
                 guarantees.append(len(state.captured) + defenders.guaranteed_captures)
-                if getattr(defenders, "nominal_captures", None) is not None:
-                    nominals.append(len(state.captured) + defenders.nominal_captures)
+                nominal = defenders.nominal_captures
+                if nominal is not None:
+                    nominals.append(len(state.captured) + nominal)
             game.set_overlay(merged_overlay(attackers, defenders))
             played.step({agent: a for agent, a in actions.items() if agent in live})
             bar.update(1)

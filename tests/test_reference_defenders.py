@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from lookups_reference import still_winning
 
 import reachavoid_env
 from policies import (
@@ -16,7 +17,7 @@ from policies import (
     RandomAttacker,
     ShortestPathAttacker,
 )
-from policies.certificate import Game, games_of, still_winning
+from policies.certificate import Game, games_of
 from policies.defenders import pair_states
 from reachavoid.rollout import run_episode
 
