@@ -33,6 +33,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 import reachavoid_env
+from reachavoid.evaluation import Z95, wilson_interval
 from reachavoid.sweep import play_seed, sweep_of
 
 CONFIGS = {"2v1": ("paper_2v1", 2, 1), "6v2": ("paper_2v1", 6, 2),
@@ -41,7 +42,6 @@ CONFIGS = {"2v1": ("paper_2v1", 2, 1), "6v2": ("paper_2v1", 6, 2),
 ATTACKERS = ("shortest-path", "hj", "random")
 METHODS = ("hj", "hj-pairs", "paper", "intercept", "greedy", "matching")
 REFERENCE = "hj"
-Z95 = 1.959963984540054
 
 
 class Task(NamedTuple):
@@ -103,17 +103,6 @@ def run(tasks: list[Task], path: Path, workers: int) -> Iterator[dict[str, Any]]
             yield row
 
 
-def wilson(successes: int, trials: int) -> tuple[float, float]:
-    """95% Wilson score interval of a proportion."""
-    if trials == 0:
-        return (0.0, 1.0)
-    p = successes / trials
-    denominator = 1 + Z95**2 / trials
-    centre = (p + Z95**2 / (2 * trials)) / denominator
-    half = Z95 * math.sqrt(p * (1 - p) / trials + Z95**2 / (4 * trials**2)) / denominator
-    return (centre - half, centre + half)
-
-
 def mean_interval(samples: np.ndarray) -> tuple[float, float, float]:
     """Mean and 95% normal interval half-width of ``samples``: ``(mean, low, high)``."""
     mean = float(np.mean(samples))
@@ -141,7 +130,7 @@ def report(rows: list[dict[str, Any]], grid: tuple[int, int] | None = None) -> s
                                   for r in episodes.values()])
             everyone = sum(r["captured"] == r["attackers_total"] for r in episodes.values())
             rate, low, high = mean_interval(fractions)
-            all_low, all_high = wilson(everyone, len(episodes))
+            all_low, all_high = wilson_interval(everyone, len(episodes))
             arrivals = np.mean([r["arrived"] for r in episodes.values()])
             paired = "-"
             common = sorted(set(episodes) & set(reference))

@@ -24,9 +24,15 @@ from policies.certificate import (
     no_team_values,
 )
 from policies.geodesic import DistanceField, distance_field
+from policies.intercept import Races, plan_intercepts, race_all
 from policies.intercept import headings as intercept_headings
-from policies.intercept import plan_for
-from policies.lookups import DecisionTables, TubeArrays, decision_controls, decision_tables
+from policies.lookups import (
+    HEADING_FLOOR,
+    DecisionTables,
+    TubeArrays,
+    decision_controls,
+    decision_tables,
+)
 from policies.tubes import tube_1v1, tube_1v2, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario
 from reachavoid_env.rules import unit_vectors
@@ -150,6 +156,10 @@ def control_headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
     return controls
 
 
+CONE_SLACK = 0.05
+"""Added to the cosine a certified defender's heading keeps with its optimal control
+(``_AssignmentDefender._steer_certified``), beyond what holds the value to first order."""
+
 FREE_PLAY = ("intercept", "assignment")
 """What the defenders outside the held games do (``_AssignmentDefender``)."""
 
@@ -227,6 +237,7 @@ class _AssignmentDefender(ABC):
         self._nominal_solver.reset()
         self._decision = self._nominal = None
         self._certified = []
+        self._dt = scenario.dt
         if self.free == "intercept":
             self._field = distance_field(scenario.map, scenario.player_radius)
 
@@ -314,7 +325,9 @@ class _AssignmentDefender(ABC):
         self._certified = decision.kept + fresh
         self._play_teams(decision, actions)
         if self.free == "intercept":
-            self._play_free(decision, actions)
+            race = race_all(self._field, state)
+            self._steer_certified(state, actions)
+            self._play_free(decision, race, actions)
         return dict(zip(names, actions, strict=True))
 
     @property
@@ -369,7 +382,46 @@ class _AssignmentDefender(ABC):
             actions[j] = control_headings(self.vf12.control(states, player),
                                    attackers[teams[:, 0]] - defenders[j])
 
-    def _play_free(self, decision: _Decision, actions: np.ndarray) -> None:
+    def _steer_certified(self, state: GameState, actions: np.ndarray) -> None:
+        """Within each certified 1 vs 1 game, head as close to straight at the attacker as
+        the value allows. Where the value clears the margin by more than one step of both
+        players can change it (``(v_A + v_D) dt``, the value being 1-Lipschitz in each
+        position), straight at the attacker: the game stays above its margin. Else among
+        the headings ``u`` that keep the value
+        from falling whatever the attacker does, ``v_D grad_D V . u >= v_A |grad_A V|``
+        (a cone around the optimal control), the one nearest the aim; the optimal control
+        where the cone is empty or the gradient vanishes."""
+        games = [game for game in self._certified
+                 if len(game.defenders) == 1 and len(game.attackers) == 1]
+        if not games:
+            return
+        i = np.array([game.attackers[0] for game in games])
+        j = np.array([game.defenders[0] for game in games])
+        attackers, defenders = state.attacker_positions, state.defender_positions
+        value, gradient = self.vf11.value_and_gradient(pair_states(attackers, defenders)[i, j])
+        axes = [2 * self.vf11.players.index(p) + np.arange(2)
+                for p in (self.vf11.attackers[0], self.vf11.defenders[0])]
+        grad_a, grad_d = gradient[:, axes[0]], gradient[:, axes[1]]
+        size_d = np.hypot(grad_d[:, 0], grad_d[:, 1])
+        floor = size_d > HEADING_FLOOR
+        cone = np.where(floor, state.attacker_speed * np.hypot(grad_a[:, 0], grad_a[:, 1])
+                        / (state.defender_speed * np.maximum(size_d, HEADING_FLOOR)), np.inf)
+        cone = cone + CONE_SLACK
+        best = grad_d / np.maximum(size_d, HEADING_FLOOR)[:, None]
+        aim = unit_vectors(attackers[i] - defenders[j])
+        along = np.einsum("kd,kd->k", aim, best)
+        across = aim - along[:, None] * best
+        width = np.hypot(across[:, 0], across[:, 1])
+        across = across / np.maximum(width, 1e-12)[:, None]
+        edge = (cone[:, None] * best
+                + np.sqrt(np.clip(1.0 - cone**2, 0.0, None))[:, None] * across)
+        step = (state.attacker_speed + state.defender_speed) * self._dt
+        clear = value - self.tubes.margins.m11 > step
+        heading = np.where((clear | (along >= cone))[:, None], aim, edge)
+        steer = clear | (cone < 1.0) & (width > 1e-9) | (along >= cone)
+        actions[j[steer]] = heading[steer]
+
+    def _play_free(self, decision: _Decision, race: Races, actions: np.ndarray) -> None:
         """Every defender outside a certified game (with ``margin_cells=0`` every game of
         the assignment is) races an attacker no held game covers
         (``policies.intercept.plan_intercepts``; all active attackers where every one is
@@ -383,7 +435,7 @@ class _AssignmentDefender(ABC):
         active = state.active_attackers
         open_ = active.copy()
         open_[[i for game in held for i in game.attackers]] = False
-        plan = plan_for(self._field, state, free, open_ if open_.any() else active)
+        plan = plan_intercepts(race, free, open_ if open_.any() else active)
         actions[free] = intercept_headings(plan, state.defender_positions,
                                            state.attacker_positions)[free]
 

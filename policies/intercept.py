@@ -213,7 +213,8 @@ class InterceptDefender:
         actions = np.zeros((len(names), 2), dtype=np.float32)
         active = state.active_attackers
         if active.any():
-            plan = plan_for(self.field, state, np.ones(len(names), dtype=bool), active)
+            plan = plan_intercepts(race_all(self.field, state),
+                                   np.ones(len(names), dtype=bool), active)
             actions[:] = headings(plan, state.defender_positions, state.attacker_positions)
             self._edges = tuple((names[j], f"attacker_{i}")
                                 for j, i in enumerate(plan.targets.tolist()) if i >= 0)
@@ -225,17 +226,17 @@ class InterceptDefender:
         return Overlay(edges=self._edges)
 
 
-def plan_for(field: DistanceField, state: GameState, free: np.ndarray,
-             open_: np.ndarray) -> Plan:
-    """``plan_intercepts`` of the ``free`` defenders against the ``open_`` attackers of
-    ``state`` (only the open attackers' paths are traced)."""
+def race_all(field: DistanceField, state: GameState) -> Races:
+    """``races`` of every defender of ``state`` against every active attacker (the paths of
+    the active ones traced); an inactive attacker's rows are never won, at infinite
+    times."""
+    active = state.active_attackers
     attackers = state.attacker_positions
-    paths = trace_paths(field, attackers[open_])
-    race = races(paths, state.defender_positions, state.attacker_speed,
-                 state.defender_speed, state.capture_radius)
-    m, n = len(attackers), len(free)
+    race = races(trace_paths(field, attackers[active]), state.defender_positions,
+                 state.attacker_speed, state.defender_speed, state.capture_radius)
+    m, n = len(attackers), len(state.defender_positions)
     full = Races(np.zeros((m, n), dtype=bool), np.zeros((m, n, 2)), np.full((m, n), np.inf),
                  np.full(m, np.inf))
     for name, array in zip(Races._fields, race, strict=True):
-        getattr(full, name)[open_] = array
-    return plan_intercepts(full, free, open_)
+        getattr(full, name)[active] = array
+    return full
