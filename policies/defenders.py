@@ -207,7 +207,9 @@ class _AssignmentDefender(ABC):
     **The free defenders.** ``free="intercept"``: every defender outside the certified
     games (with ``margin_cells=0`` every game of the assignment is one) plays
     ``policies.intercept.plan_intercepts`` against the attackers no certified game covers
-    (all active attackers where every one is covered), never touching a certified game.
+    (all active attackers where every one is covered), never touching a certified game;
+    and the defender of a certified 1 vs 1 game closes on its attacker as far as the value
+    allows (``_steer_certified``).
     ``free="assignment"``: every assigned defender plays its game's optimal control and
     the unassigned ones do what ``_idle_targets`` says.
     """
@@ -384,13 +386,15 @@ class _AssignmentDefender(ABC):
 
     def _steer_certified(self, state: GameState, actions: np.ndarray) -> None:
         """Within each certified 1 vs 1 game, head as close to straight at the attacker as
-        the value allows. Where the value clears the margin by more than one step of both
-        players can change it (``(v_A + v_D) dt``, the value being 1-Lipschitz in each
-        position), straight at the attacker: the game stays above its margin. Else among
-        the headings ``u`` that keep the value
-        from falling whatever the attacker does, ``v_D grad_D V . u >= v_A |grad_A V|``
-        (a cone around the optimal control), the one nearest the aim; the optimal control
-        where the cone is empty or the gradient vanishes."""
+        the value allows, over the optimal control already in ``actions``.
+
+        Where the value clears the game's margin by more than one step of both players
+        can change it (``(v_A + v_D) dt`` map units, taking the value 1-Lipschitz in each
+        position), straight at the attacker: the game stays above its margin. Else, among
+        the headings ``u`` that keep the value from falling whatever the attacker does to
+        first order, ``v_D grad_D V . u >= v_A |grad_A V|`` (a cone around the optimal
+        control, narrowed by ``CONE_SLACK``), the one nearest the attacker's direction;
+        the optimal control where the cone is empty."""
         games = [game for game in self._certified
                  if len(game.defenders) == 1 and len(game.attackers) == 1]
         if not games:
