@@ -198,12 +198,10 @@ class InterceptDefender:
     def __init__(self, cells: int = DEFAULT_CELLS) -> None:
         self.cells = cells
         self.field: DistanceField | None = None
-        self._scenario: Scenario | None = None
         self._edges: tuple[tuple[str, str], ...] = ()
 
     def reset(self, scenario: Scenario) -> None:
         self.field = distance_field(scenario.map, scenario.player_radius, self.cells)
-        self._scenario = scenario
         self._edges = ()
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
