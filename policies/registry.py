@@ -40,6 +40,7 @@ from policies.defenders import (
     IdleDefender,
     MatchingDefenderPolicy,
 )
+from policies.intercept import InterceptDefender
 from reachavoid_env import Policy, Scenario
 
 Factory = Callable[..., Policy]
@@ -116,13 +117,20 @@ def _first_line(factory: Any) -> str:
 
 DEFENDERS: dict[str, NamedPolicy] = {
     "hj": NamedPolicy("the reference: HJ tubes + the paper's assignment MIP (CP-SAT), "
-                      "re-solved every step",
+                      "re-solved every step; certified games kept, every other defender "
+                      "races to intercept",
                       HJDefenderPolicy.for_scenario),
     "hj-pairs": NamedPolicy("the reference with defender teams: two defenders may share an "
                             "attacker neither stops alone (1 vs 2 tube), re-solved every step",
                             HJPairsDefenderPolicy.for_scenario),
+    "paper": NamedPolicy("the paper's Algorithm 1 exactly: HJ tubes + the assignment MIP, "
+                         "every value > 0 a defender win, unassigned defenders stand still",
+                         HJDefenderPolicy.paper),
     "matching": NamedPolicy("the maximum-matching baseline (unmatched defenders stand still)",
                             MatchingDefenderPolicy.for_scenario),
+    "intercept": NamedPolicy("the time-to-intercept heuristic: each defender races the most "
+                             "threatening attacker it can cut off to a point of its shortest "
+                             "path, spare defenders back up", scenario_free(InterceptDefender)),
     "greedy": NamedPolicy("chase the nearest active attacker", scenario_free(GreedyDefender)),
     "idle": NamedPolicy("stand still", scenario_free(IdleDefender)),
 }

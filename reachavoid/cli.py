@@ -757,9 +757,9 @@ def _paper(args: argparse.Namespace) -> int:
           f"{paper_table.ATTACKERS} attackers)")
     print(f"  {'game':<10} {'ours':>6} {'paper':>6} {'baseline':>9} {'paper':>6}")
     for row in rows:
-        ours, baseline = row.measured["hj"], row.measured["matching"]
+        ours, baseline = row.measured["paper"], row.measured["matching"]
         print(f"  {row.scenario.split('_')[-1]:<10} {ours['captured_count']:>6} "
-              f"{row.reported['hj']:>6} {baseline['captured_count']:>9} "
+              f"{row.reported['paper']:>6} {baseline['captured_count']:>9} "
               f"{row.reported['matching']:>6}")
     print(f"  videos, table.json and tubes.png in {out}/")
     return 0

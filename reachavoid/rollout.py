@@ -25,10 +25,14 @@ from reachavoid_env.video import RecordEpisode
 @runtime_checkable
 class CertifiesCaptures(Protocol):
     """Defenders that say, after each ``act``, how many of the attackers still in play they
-    are guaranteed to stop (``None`` before the first decision)."""
+    are guaranteed to stop, and how many the paper's rule (every value > 0 a defender
+    win) counts (both ``None`` before the first decision and once no attacker is left)."""
 
     @property
     def guaranteed_captures(self) -> int | None: ...
+
+    @property
+    def nominal_captures(self) -> int | None: ...
 
 
 @dataclass(frozen=True)
@@ -206,8 +210,9 @@ def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
             actions, overlay = _decide(played, state, attackers, defenders)
             if certifies and defenders.guaranteed_captures is not None:
                 guarantees.append(len(state.captured) + defenders.guaranteed_captures)
-                if getattr(defenders, "nominal_captures", None) is not None:
-                    nominals.append(len(state.captured) + defenders.nominal_captures)
+                nominal = defenders.nominal_captures
+                if nominal is not None:
+                    nominals.append(len(state.captured) + nominal)
             last_lines = overlay.lines if overlay is not None else ()
             if first_lines is None:
                 first_lines = last_lines
