@@ -7,60 +7,64 @@ benchmarks build their policies from.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import pkgutil
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from policies.attackers import HJAttacker, RandomAttacker, ShortestPathAttacker, StraightAttacker
-from policies.defenders import (
-    GreedyDefender,
-    HJDefenderPolicy,
-    HJPairsDefenderPolicy,
-    IdleDefender,
-    MatchingDefenderPolicy,
-)
-from reachavoid_env import Policy, Scenario
+if TYPE_CHECKING:
+    from reachavoid_env import Policy, Scenario
 
 
 @dataclass(frozen=True)
 class NamedPolicy:
-    """A policy choice: one line of help, ``build(scenario, **options)`` and the option
-    names it accepts."""
+    """A policy choice: one line of help, its factory and the option names it accepts.
+
+    ``factory`` is ``"module:attribute"`` (imported on first use, so the tables cost
+    nothing to read); it is called as ``factory(scenario, **options)``, or
+    ``factory(**options)`` when ``scenario`` is false.
+    """
 
     help: str
-    build: Callable[..., Policy]
+    factory: str
     options: frozenset[str] = frozenset()
+    scenario: bool = True
+
+    def build(self, scenario: Scenario, **options: Any) -> Policy:
+        """The policy for ``scenario`` with ``options`` (already checked)."""
+        factory = pkgutil.resolve_name(self.factory)
+        return factory(scenario, **options) if self.scenario else factory(**options)
 
 
 DEFENDERS: dict[str, NamedPolicy] = {
     "hj": NamedPolicy("the reference: HJ tubes + the paper's assignment MIP (CP-SAT), "
                       "re-solved every step",
-                      HJDefenderPolicy.for_scenario,
+                      "policies.defenders:HJDefenderPolicy.for_scenario",
                       frozenset({"grid1", "grid2", "idle", "margin_cells", "progress"})),
     "hj-pairs": NamedPolicy("the reference with defender teams: two defenders may share an "
                             "attacker neither stops alone (1 vs 2 tube), re-solved every step",
-                            HJPairsDefenderPolicy.for_scenario,
+                            "policies.defenders:HJPairsDefenderPolicy.for_scenario",
                             frozenset({"grid1", "grid2", "idle", "margin_cells", "progress"})),
     "matching": NamedPolicy("the maximum-matching baseline (unmatched defenders stand still)",
-                            MatchingDefenderPolicy.for_scenario,
+                            "policies.defenders:MatchingDefenderPolicy.for_scenario",
                             frozenset({"grid1", "unmatched", "margin_cells", "progress"})),
     "greedy": NamedPolicy("chase the nearest active attacker",
-                          lambda scenario: GreedyDefender()),
-    "idle": NamedPolicy("stand still", lambda scenario: IdleDefender()),
+                          "policies.defenders:GreedyDefender", scenario=False),
+    "idle": NamedPolicy("stand still", "policies.defenders:IdleDefender", scenario=False),
 }
 
 ATTACKERS: dict[str, NamedPolicy] = {
     "shortest-path": NamedPolicy("the time-optimal path to the target around obstacles, "
                                  "ignoring defenders (the paper's attackers)",
-                                 lambda scenario, **o: ShortestPathAttacker(**o),
-                                 frozenset({"cells"})),
+                                 "policies.attackers:ShortestPathAttacker",
+                                 frozenset({"cells"}), scenario=False),
     "hj": NamedPolicy("1 vs 1 optimal control against the most dangerous defender",
-                      HJAttacker.for_scenario, frozenset({"grid1", "progress"})),
+                      "policies.attackers:HJAttacker.for_scenario",
+                      frozenset({"grid1", "progress"})),
     "straight": NamedPolicy("run straight for the nearest target centre",
-                            lambda scenario: StraightAttacker()),
+                            "policies.attackers:StraightAttacker", scenario=False),
     "random": NamedPolicy("run in random directions, redrawn every 0.25 s",
-                          lambda scenario, **o: RandomAttacker(**o),
-                          frozenset({"seed", "hold"})),
+                          "policies.attackers:RandomAttacker", frozenset({"seed", "hold"}),
+                          scenario=False),
 }
 
 TABLES = {"defenders": DEFENDERS, "attackers": ATTACKERS}

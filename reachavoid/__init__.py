@@ -2,9 +2,22 @@
 
 The ``reachavoid`` command (``cli``), the one episode loop (``rollout``), many episodes and
 their statistics (``evaluation``), the paper's table (``paper``) and the ``solve`` driver.
+The names below load their modules on first use (PEP 562).
 """
 
-from reachavoid.evaluation import compare_defenders, run_episodes, summarize
-from reachavoid.rollout import EpisodeResult, run_episode
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from reachavoid_env import lazy
+
+if TYPE_CHECKING:
+    from reachavoid.evaluation import compare_defenders, run_episodes, summarize
+    from reachavoid.rollout import EpisodeResult, run_episode
 
 __all__ = ["EpisodeResult", "compare_defenders", "run_episode", "run_episodes", "summarize"]
+
+__getattr__, __dir__ = lazy.attributes(__name__, {
+    "EpisodeResult": "reachavoid.rollout", "run_episode": "reachavoid.rollout",
+    **dict.fromkeys(["compare_defenders", "run_episodes", "summarize"], "reachavoid.evaluation"),
+})

@@ -17,19 +17,21 @@ import signal
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import reachavoid_env
-from policies.defenders import CERTIFICATE_CELLS
 from policies.registry import ATTACKERS, DEFENDERS, NamedPolicy, accepted_options, make_policy
-from reachavoid import paper as paper_table
-from reachavoid.evaluation import compare_defenders, write_csv
-from reachavoid.rollout import EpisodeResult, run_episode
-from reachavoid.solve import DEFAULT_GRID, GAMES, solve_scenario
+from reachavoid.solve import GAMES
 from reachavoid.sweep import BACKENDS
-from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
-from reachavoid_env.video import check_video_path
-from solvers.hj.cache import cache_dir
+from reachavoid_env import checks
+from solvers.hj.settings import PAPER_GRIDS
+
+if TYPE_CHECKING:
+    from reachavoid.rollout import EpisodeResult
+    from reachavoid_env import Scenario
+
+# The commands import what they run (the solver, OR-Tools, matplotlib, the env) when they
+# run it, so that ``--help`` and bad arguments answer at once.
 
 EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 1, 130, 143
 MAX_SEED = 2**63 - 1
@@ -63,18 +65,19 @@ def _scenario_option(parser: argparse.ArgumentParser, default: str, what: str) -
 
 
 def _grid_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--grid1", type=int, default=DEFAULT_GRID["1v1"], metavar="N",
+    parser.add_argument("--grid1", type=int, default=PAPER_GRIDS.grid1, metavar="N",
                         help="1 vs 1 tube nodes per axis (default: %(default)s, the paper's)")
-    parser.add_argument("--grid2", type=int, default=DEFAULT_GRID["2v1"], metavar="N",
+    parser.add_argument("--grid2", type=int, default=PAPER_GRIDS.grid2, metavar="N",
                         help="2 vs 1 tube nodes per axis (default: %(default)s, the paper's)")
 
 
 def _margin_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--margin-cells", type=float, default=CERTIFICATE_CELLS, metavar="C",
+    parser.add_argument("--margin-cells", type=float, default=None, metavar="C",
                         help="certificate margin of the hj, hj-pairs and matching defenders in "
                              "grid cells of each tube: a game counts as a defender win where "
                              "its value exceeds C cells, or stays > 0 once taken (default: "
-                             "%(default)s; 0 reads the tubes as the paper does)")
+                             "the defenders' CERTIFICATE_CELLS; 0 reads the tubes as the "
+                             "paper does)")
 
 
 def _seed_option(parser: argparse.ArgumentParser, help_text: str) -> None:
@@ -117,7 +120,12 @@ def build_parser() -> argparse.ArgumentParser:
     solve.add_argument("--game", choices=GAMES, default="1v1",
                        help="which game (default: %(default)s)")
     solve.add_argument("--grid", type=int, default=None, metavar="N",
-                       help="grid nodes per axis (default: 45 for 1v1, 30 for 2v1 and 1v2)")
+                       help=f"the game's grid nodes per axis (default: the paper's, "
+                            f"{PAPER_GRIDS.grid1} for 1v1, {PAPER_GRIDS.grid2} for 2v1 and 1v2)")
+    solve.add_argument("--grid1", type=int, default=PAPER_GRIDS.grid1, metavar="N",
+                       help="nodes per axis of the 1 vs 1 tube: the tube under a 2v1 or 1v2 "
+                            "game, the game itself for 1v1 without --grid (default: "
+                            "%(default)s; as --grid1 of play, bench and paper)")
     solve.add_argument("--out", metavar="DIR", help="also save the value function here")
     solve.add_argument("--plot", metavar="OUT.png",
                        help="draw the value's slices at the scenario's starts (paper Fig. 2)")
@@ -183,8 +191,10 @@ def _check_common(args: argparse.Namespace) -> None:
             _check(checks.integer, getattr(args, name), f"--{name}", *GRID_RANGE[name])
     if hasattr(args, "seed"):
         _check(checks.integer, args.seed, "--seed", 0, MAX_SEED)
-    if hasattr(args, "margin_cells"):
+    if getattr(args, "margin_cells", None) is not None:
         _check(checks.real, args.margin_cells, "--margin-cells", 0.0, MAX_MARGIN_CELLS)
+    from solvers.hj.cache import cache_dir
+
     location = cache_dir()
     if location.exists() and not location.is_dir():
         raise UsageError(f"cache: {str(location)!r} ($REACHAVOID_CACHE_DIR) is not a folder")
@@ -219,21 +229,29 @@ def writable_folder(path: str, field: str) -> Path:
 
 def _load(source: str) -> Scenario:
     try:
-        return load_scenario(source)
+        return reachavoid_env.load_scenario(source)
     except OSError as err:
         raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}") from None
+
+
+def _margin(args: argparse.Namespace) -> dict[str, float]:
+    """``--margin-cells`` as a policy option, absent when not given (the policy's default)."""
+    return {} if args.margin_cells is None else {"margin_cells": args.margin_cells}
 
 
 def _policy(side: str, name: str, scenario: Scenario, args: argparse.Namespace) -> Any:
     """The named policy, given whichever of --seed, --grid1, --grid2 it takes."""
     options = accepted_options(side, name, seed=args.seed, grid1=args.grid1, grid2=args.grid2,
-                               margin_cells=args.margin_cells, progress=args.progress)
+                               progress=args.progress, **_margin(args))
     return make_policy(side, name, scenario, **options)
 
 
 # -- commands -------------------------------------------------------------------------------
 
 def _play(args: argparse.Namespace) -> int:
+    from reachavoid.rollout import run_episode
+    from reachavoid_env.video import check_video_path
+
     if args.video is not None:
         try:
             check_video_path(args.video)
@@ -298,8 +316,12 @@ def _solve(args: argparse.Namespace) -> int:
         writable_folder(args.out, "--out")
     if args.plot is not None:
         writable_file(args.plot, "--plot")
+    from reachavoid.solve import solve_scenario
+
     try:
-        report = solve_scenario(args.scenario, args.game, args.grid, out=args.out,
+        grid = args.grid1 if args.game == "1v1" and args.grid is None else args.grid
+        report = solve_scenario(args.scenario, args.game, grid, out=args.out,
+                                grid_points_1v1=args.grid1,
                                 plot=args.plot, progress=args.progress)
     except (ValueError, MemoryError) as err:
         raise UsageError(str(err)) from None
@@ -308,6 +330,8 @@ def _solve(args: argparse.Namespace) -> int:
 
 
 def _bench(args: argparse.Namespace) -> int:
+    from reachavoid.evaluation import compare_defenders, write_csv
+
     match = re.fullmatch(r"(\d+)v(\d+)", args.config)
     if match is None:
         raise UsageError(f"--config: expected MvN such as 6v2, got {args.config!r}")
@@ -329,8 +353,7 @@ def _bench(args: argparse.Namespace) -> int:
     comparison = compare_defenders(scenario, methods, args.attackers, args.episodes,
                                    seed=args.seed, backend=args.backend, workers=args.workers,
                                    address=args.address, progress=args.progress,
-                                   grid1=args.grid1, grid2=args.grid2,
-                                   margin_cells=args.margin_cells)
+                                   grid1=args.grid1, grid2=args.grid2, **_margin(args))
     if args.csv:
         write_csv(args.csv, [{k: (";".join(v) if isinstance(v, list) else v)
                               for k, v in row.items()} for row in comparison.rows])
@@ -357,6 +380,8 @@ def _bench(args: argparse.Namespace) -> int:
 
 
 def _paper(args: argparse.Namespace) -> int:
+    from reachavoid import paper as paper_table
+
     out = writable_folder(args.out, "--out")
     out.mkdir(parents=True, exist_ok=True)
     rows = paper_table.reproduce(out, args.grid1, args.grid2, videos=not args.no_video,
@@ -388,7 +413,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         _check_common(args)
         return args.run(args)
-    except (UsageError, ScenarioError) as err:
+    except (UsageError, reachavoid_env.ScenarioError) as err:
         print(f"reachavoid {args.command}: error: {err}", file=sys.stderr)
         return EXIT_USAGE
     except OSError as err:

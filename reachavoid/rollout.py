@@ -11,14 +11,15 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
-from pettingzoo.utils.env import ParallelEnv
 from tqdm import tqdm
 
 from reachavoid_env import Policy, Scenario, checks, merged_overlay
-from reachavoid_env.video import RecordEpisode
+
+if TYPE_CHECKING:
+    from pettingzoo.utils.env import ParallelEnv
 
 
 @runtime_checkable
@@ -135,6 +136,8 @@ def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
     """
     checks.integer(every, "every", 1)
     game = env.unwrapped
+    if video is not None:
+        from reachavoid_env.video import RecordEpisode
     recorder = RecordEpisode(env, video, fps, every=every) if video is not None else None
     played = recorder if recorder is not None else env
     started = time.perf_counter()

@@ -5,18 +5,18 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from reachavoid_env import load_scenario
-from solvers.hj import ValueFunction, solve_1v1, solve_1v2, solve_2v1
-from solvers.hj.plot import scenario_panels, tube_figure
-from solvers.hj.value import refuse_foreign
+from solvers.hj.settings import PAPER_GRIDS
+
+if TYPE_CHECKING:
+    from solvers.hj import ValueFunction
 
 GAMES = ("1v1", "2v1", "1v2")
-DEFAULT_GRID = {"1v1": 45, "2v1": 30, "1v2": 30}
+DEFAULT_GRID = {"1v1": PAPER_GRIDS.grid1, "2v1": PAPER_GRIDS.grid2, "1v2": PAPER_GRIDS.grid2}
 """The paper's grids (nodes per axis); the 1 vs 2 game takes the 2 vs 1 game's."""
 PLAYERS = {"1v1": (1, 1), "2v1": (2, 1), "1v2": (1, 2)}
 """Attackers and defenders of each game."""
-_SOLVE_6D = {"2v1": solve_2v1, "1v2": solve_1v2}
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class SolveReport:
 
 
 def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
-                   out: str | None = None, grid_points_1v1: int = 45,
+                   out: str | None = None, grid_points_1v1: int = PAPER_GRIDS.grid1,
                    plot: str | None = None, progress: bool = True) -> SolveReport:
     """Solve a scenario's 1 vs 1, 2 vs 1 or 1 vs 2 game.
 
@@ -53,6 +53,10 @@ def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
     the value's slices at the scenario's fixed starts (the paper's Fig. 2), which must hold
     as many attackers and defenders as the game has (checked before the solve).
     """
+    from reachavoid_env import load_scenario
+    from solvers.hj import solve_1v1, solve_1v2, solve_2v1
+    from solvers.hj.value import refuse_foreign
+
     if game not in GAMES:
         raise ValueError(f"game: expected one of {', '.join(GAMES)}, got {game!r}")
     if out is not None:
@@ -71,10 +75,13 @@ def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
     started = time.perf_counter()
     vf = solve_1v1(sc.map, (sc.attacker_speed, sc.defender_speed), sc.capture_radius,
                    grid_points if game == "1v1" else grid_points_1v1, progress=progress)
-    if game in _SOLVE_6D:
-        vf = _SOLVE_6D[game](sc.map, vf, grid_points, progress=progress)
+    if game != "1v1":
+        solve_6d = solve_2v1 if game == "2v1" else solve_1v2
+        vf = solve_6d(sc.map, vf, grid_points, progress=progress)
     path = vf.save(out) if out is not None else _cached_location(vf)
     if plot is not None:
+        from solvers.hj.plot import scenario_panels, tube_figure
+
         tube_figure(scenario_panels(vf, sc.attackers, sc.defenders), plot)
     return SolveReport(path=path, game=game, shape=vf.grid.shape,
                        iterations=int(vf.solver.get("iterations", 0)),

@@ -15,19 +15,17 @@ workers in ``runtime_env``), or a cache filled on each node beforehand.
 from __future__ import annotations
 
 import functools
-import multiprocessing
 import os
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any
-
-from tqdm import tqdm
+from typing import TYPE_CHECKING, Any
 
 import reachavoid_env
 from policies.registry import accepted_options, make_policy, named_policy
-from reachavoid.rollout import EpisodeResult, run_episode
-from reachavoid_env import Policy, Scenario
-from solvers.hj.cache import cache_dir
+
+if TYPE_CHECKING:
+    from reachavoid.rollout import EpisodeResult
+    from reachavoid_env import Policy, Scenario
 
 BACKENDS = ("serial", "process", "ray")
 
@@ -87,6 +85,8 @@ def play_seed(sweep: Sweep, seed: int) -> EpisodeResult:
     scenario = sweep.scenario
     if scenario not in _ENVS:
         _ENVS[scenario] = reachavoid_env.parallel_env(scenario=scenario)
+    from reachavoid.rollout import run_episode
+
     return run_episode(_ENVS[scenario], _policy(sweep.attackers, scenario, seed),
                        _policy(sweep.defenders, scenario, seed), seed=seed)
 
@@ -104,6 +104,8 @@ def run_sweep(sweep: Sweep, backend: str = "serial", workers: int | None = None,
         raise ValueError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
     _policy(sweep.defenders, sweep.scenario, sweep.seeds[0])   # solves missing tubes once
     results = {}
+    from tqdm import tqdm
+
     with tqdm(total=len(sweep.seeds), desc=description, unit="episode", disable=not progress,
               leave=False) as bar:
         play = {"serial": _serial, "process": _process_pool, "ray": _ray}[backend]
@@ -119,6 +121,8 @@ def _serial(sweep: Sweep, **_: Any) -> Iterator[EpisodeResult]:
 
 
 def _process_pool(sweep: Sweep, workers: int | None, **_: Any) -> Iterator[EpisodeResult]:
+    import multiprocessing
+
     pool = multiprocessing.get_context("spawn").Pool(workers or os.cpu_count())
     try:
         yield from pool.imap_unordered(functools.partial(play_seed, sweep), sweep.seeds)
@@ -131,6 +135,8 @@ def _process_pool(sweep: Sweep, workers: int | None, **_: Any) -> Iterator[Episo
 
 def _ray(sweep: Sweep, workers: int | None, address: str | None,
          **_: Any) -> Iterator[EpisodeResult]:
+    from solvers.hj.cache import cache_dir
+
     try:
         import ray
     except ImportError:

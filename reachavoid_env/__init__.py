@@ -1,9 +1,9 @@
 """reachavoid_env: the multi-agent reach-avoid game (design.md).
 
-The ground floor (shapes, ``GameMap``, ``Scenario``, the rules and the game state) imports
-numpy alone and loads with the package; the env (``ReachAvoidEnv``, ``env``,
-``parallel_env``, ``raw_env``) loads on first use (PEP 562), so the solvers can stand on
-the map without PettingZoo, Gymnasium, pymunk or pygame.
+Every name below loads its module on first use (PEP 562). The ground floor (shapes,
+``GameMap``, ``Scenario``, the rules and the game state) imports numpy alone; only the
+env (``ReachAvoidEnv``, ``env``, ``parallel_env``, ``raw_env``) loads PettingZoo,
+Gymnasium and pymunk, so the solvers stand on the map without the simulator.
 
 Importing the package registers the env with PettingZoo as ``reachavoid/ReachAvoid-v0``
 (both ``pettingzoo.make("parallel", ...)`` and ``pettingzoo.make("aec", ...)``): at once
@@ -12,28 +12,31 @@ when PettingZoo is loaded already, else the moment it is imported.
 
 from __future__ import annotations
 
-import importlib
-import importlib.abc
-import importlib.util
-import sys
 from typing import TYPE_CHECKING, Any
 
-from reachavoid_env.game_map import GameMap
-from reachavoid_env.game_state import AttackerStatus, GameState, Overlay, Policy, merged_overlay
-from reachavoid_env.scenario import (
-    Scenario,
-    ScenarioError,
-    builtin_map,
-    builtin_names,
-    builtin_scenario,
-    load_scenario,
-    save_scenario,
-)
-from reachavoid_env.shapes import Box, Circle, Polygon, ShapeError
+from reachavoid_env import lazy
 
 if TYPE_CHECKING:
     from reachavoid_env.environment import ReachAvoidEnv
+    from reachavoid_env.game_map import GameMap
+    from reachavoid_env.game_state import (
+        AttackerStatus,
+        GameState,
+        Overlay,
+        Policy,
+        merged_overlay,
+    )
     from reachavoid_env.reach_avoid_v0 import env, parallel_env, raw_env
+    from reachavoid_env.scenario import (
+        Scenario,
+        ScenarioError,
+        builtin_map,
+        builtin_names,
+        builtin_scenario,
+        load_scenario,
+        save_scenario,
+    )
+    from reachavoid_env.shapes import Box, Circle, Polygon, ShapeError
 
 __all__ = [
     "AttackerStatus",
@@ -60,22 +63,18 @@ __all__ = [
 ]
 
 ENV_ID = "reachavoid/ReachAvoid-v0"
-_LAZY = {"ReachAvoidEnv": "reachavoid_env.environment", "env": "reachavoid_env.reach_avoid_v0",
-         "parallel_env": "reachavoid_env.reach_avoid_v0",
-         "raw_env": "reachavoid_env.reach_avoid_v0"}
-"""Names of the env, loaded on first use: name -> module."""
 
-
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy.attributes(__name__, {
+    "GameMap": "reachavoid_env.game_map",
+    **dict.fromkeys(["AttackerStatus", "GameState", "Overlay", "Policy", "merged_overlay"],
+                    "reachavoid_env.game_state"),
+    **dict.fromkeys(["Scenario", "ScenarioError", "builtin_map", "builtin_names",
+                     "builtin_scenario", "load_scenario", "save_scenario"],
+                    "reachavoid_env.scenario"),
+    **dict.fromkeys(["Box", "Circle", "Polygon", "ShapeError"], "reachavoid_env.shapes"),
+    "ReachAvoidEnv": "reachavoid_env.environment",
+    **dict.fromkeys(["env", "parallel_env", "raw_env"], "reachavoid_env.reach_avoid_v0"),
+})
 
 
 def _register(pettingzoo: Any) -> None:
@@ -84,29 +83,4 @@ def _register(pettingzoo: Any) -> None:
     pettingzoo.register("aec", ENV_ID, entry_point="reachavoid_env.reach_avoid_v0:env")
 
 
-class _RegisterWhenImported(importlib.abc.MetaPathFinder):
-    """Registers the env right after ``pettingzoo`` itself is imported (then leaves
-    ``sys.meta_path``), so importing this package does not load PettingZoo."""
-
-    def find_spec(self, name: str, path: Any = None, target: Any = None) -> Any:
-        if name != "pettingzoo":
-            return None
-        sys.meta_path.remove(self)
-        spec = importlib.util.find_spec(name)
-        if spec is None or spec.loader is None:
-            return spec
-        loader = spec.loader
-        exec_module = loader.exec_module
-
-        def exec_and_register(module: Any) -> None:
-            exec_module(module)
-            _register(module)
-
-        loader.exec_module = exec_and_register  # type: ignore[method-assign]
-        return spec
-
-
-if "pettingzoo" in sys.modules:
-    _register(sys.modules["pettingzoo"])
-elif not any(isinstance(finder, _RegisterWhenImported) for finder in sys.meta_path):
-    sys.meta_path.insert(0, _RegisterWhenImported())
+lazy.after_import("pettingzoo", _register)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import pkgutil
 
 import numpy as np
 import pytest
@@ -109,7 +110,8 @@ def test_tubes_of_another_game_are_refused(equal_tubes):
 
 
 def test_registry_and_cli_offer_hj_pairs(capsys):
-    assert named_policy("defenders", "hj-pairs").build == HJPairsDefenderPolicy.for_scenario
+    assert (pkgutil.resolve_name(named_policy("defenders", "hj-pairs").factory)
+            == HJPairsDefenderPolicy.for_scenario)
     sc = reachavoid_env.builtin_scenario(SCENARIO)
     with pytest.raises(ValueError, match="unknown option"):
         make_policy("defenders", "hj-pairs", sc, grid3=5)

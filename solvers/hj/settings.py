@@ -3,13 +3,28 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 from solvers.hj.schemes import GODUNOV, Scheme, scheme_named
 
 SOLVER_VERSION = "2"
 """Bumped whenever a change can alter solved values or files; part of every cache key and
 checked when a value file is loaded (files of another version are solved again)."""
+
+
+
+class Grids(NamedTuple):
+    """Nodes per axis of a scenario's tubes: ``grid1`` for the 1 vs 1 game (``grid1^4``
+    nodes), ``grid2`` for the 2 vs 1 and 1 vs 2 games (``grid2^6``)."""
+
+    grid1: int
+    grid2: int
+
+
+PAPER_GRIDS = Grids(45, 30)
+"""The paper's grids: the defaults of every solve, tube and command."""
+TRAINING_GRIDS = Grids(31, 15)
+"""Coarser grids for training attackers against the HJ defenders (many envs, fast starts)."""
 
 Iteration = Literal["red_black", "jacobi"]
 Accuracy = Literal["low", "medium", "high"]
