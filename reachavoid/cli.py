@@ -250,9 +250,10 @@ def _policy(side: str, name: str, scenario: Scenario, args: argparse.Namespace) 
 
 def _play(args: argparse.Namespace) -> int:
     from reachavoid.rollout import run_episode
-    from reachavoid_env.video import check_video_path
 
     if args.video is not None:
+        from reachavoid_env.video import check_video_path
+
         try:
             check_video_path(args.video)
         except ValueError as err:
