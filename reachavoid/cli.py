@@ -319,9 +319,10 @@ def _solve(args: argparse.Namespace) -> int:
         writable_file(args.plot, "--plot")
     from reachavoid.solve import solve_scenario
 
+    scenario = _load(args.scenario)
     try:
         grid = args.grid1 if args.game == "1v1" and args.grid is None else args.grid
-        report = solve_scenario(args.scenario, args.game, grid, out=args.out,
+        report = solve_scenario(scenario, args.game, grid, out=args.out,
                                 grid_points_1v1=args.grid1,
                                 plot=args.plot, progress=args.progress)
     except (ValueError, MemoryError) as err:

@@ -1,5 +1,7 @@
-"""The one episode loop: the command line, the examples, the benchmarks and the tests all
-play through ``run_episode``.
+"""The one episode loop of scripted policies: ``play``, ``bench`` and ``paper``, the sweeps,
+the recording example and the guarantee and sweep benchmarks play through ``run_episode``.
+The training wrappers and the learning examples step the env for their learners, and the
+throughput benchmarks step it directly to time the env alone.
 
 Policies follow ``reachavoid_env.Policy``. Defenders that certify captures (the paper's
 Algorithm 1) also report ``guaranteed_captures`` (``CertifiesCaptures``); the loop records

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 from solvers.hj.settings import PAPER_GRIDS
 
 if TYPE_CHECKING:
+    from reachavoid_env import Scenario
     from solvers.hj import ValueFunction
 
 GAMES = ("1v1", "2v1", "1v2")
@@ -40,12 +41,13 @@ class SolveReport:
         return text + (f"\nslices -> {self.plot}" if self.plot is not None else "")
 
 
-def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
+def solve_scenario(scenario: str | Scenario, game: str, grid_points: int | None = None,
                    out: str | None = None, grid_points_1v1: int = PAPER_GRIDS.grid1,
                    plot: str | None = None, progress: bool = True) -> SolveReport:
     """Solve a scenario's 1 vs 1, 2 vs 1 or 1 vs 2 game.
 
-    ``scenario`` is a built-in name or a TOML file; speeds and capture radius come from it.
+    ``scenario`` is a built-in name, a TOML file or a loaded ``Scenario``; speeds and capture
+    radius come from it.
     ``grid_points`` defaults to the paper's grids (``DEFAULT_GRID``). The 2 vs 1 and
     1 vs 2 games use the scenario's 1 vs 1 value at ``grid_points_1v1``. The value goes to
     the cache, and is also saved to ``out`` when given (refused before any work when
@@ -53,7 +55,7 @@ def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
     the value's slices at the scenario's fixed starts (the paper's Fig. 2), which must hold
     as many attackers and defenders as the game has (checked before the solve).
     """
-    from reachavoid_env import load_scenario
+    from reachavoid_env import Scenario, load_scenario
     from solvers.hj import solve_1v1, solve_1v2, solve_2v1
     from solvers.hj.value import refuse_foreign
 
@@ -61,7 +63,7 @@ def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
         raise ValueError(f"game: expected one of {', '.join(GAMES)}, got {game!r}")
     if out is not None:
         refuse_foreign(Path(out))
-    sc = load_scenario(scenario)
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     if plot is not None and (sc.attackers is None or sc.defenders is None):
         raise ValueError(f"plot: scenario {sc.name!r} has random starts; the slices need "
                          "fixed ones")

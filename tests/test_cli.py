@@ -125,6 +125,19 @@ def test_bad_scenario_files(capsys, tmp_path, text, message):
     assert out == "" and err.count("\n") == 1 and message in err
 
 
+@pytest.mark.parametrize("command", ["play", "solve"])
+def test_unreadable_scenario_file_is_status_2(capsys, tmp_path, monkeypatch, command):
+    path = write(tmp_path, "")
+
+    def refuse(self):
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(type(tmp_path), "read_bytes", refuse)
+    assert main([command, "--scenario", path]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"scenario: cannot read {path!r}: Permission denied" in err
+
+
 def test_help_exits_zero(capsys):
     assert main(["play", "--help"]) == 0
     out, _ = capsys.readouterr()

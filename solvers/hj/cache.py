@@ -54,7 +54,7 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def sweep_stale_temporaries(folder: Path) -> list[Path]:
+def remove_stale_temporaries(folder: Path) -> list[Path]:
     """Remove the temporaries of dead processes in ``folder``; returns what was removed."""
     removed = []
     try:
@@ -94,7 +94,7 @@ def cached(game: str, shape: tuple[int, ...], parts: dict[str, Any], expected: M
     (memory-mapped).
     """
     folder = cache_dir()
-    sweep_stale_temporaries(folder)
+    remove_stale_temporaries(folder)
     path = cache_path(game, shape, parts)
     if path.exists():
         try:

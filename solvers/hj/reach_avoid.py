@@ -7,7 +7,7 @@ coarse grid's value plus a margin (warm, ``warm_start``). Every fixed point lies
 the largest fixed point and ``max(l, g)`` the iterates are squeezed onto the largest fixed
 point, the one the cold start reaches. The loop stops when the largest change of ``V``
 over one unit of game time, on the nodes next to the zero level set, falls below
-``settings.tolerance`` (or after ``settings.max_iterations`` sweeps).
+``settings.tolerance`` (or after ``settings.max_iterations`` iterations).
 """
 
 from __future__ import annotations
@@ -204,11 +204,11 @@ def _renamed(expr: Expr, player: str) -> Expr:
 Order = tuple[np.ndarray, np.ndarray, bool]
 
 
-def sweep_orders(layout: Layout, settings: SolverSettings) -> list[Order]:
-    """``(rows, planes, reverse)`` of successive sweeps (the generated ``sweep``).
+def iteration_orders(layout: Layout, settings: SolverSettings) -> list[Order]:
+    """``(rows, planes, reverse)`` of successive iterations (``iteration.iterate``).
 
     Jacobi: all stored rows in one plane. Red-black: the rows of each colour
-    (``Layout.colours``) form a plane, forwards and then backwards on the next sweep.
+    (``Layout.colours``) form a plane, forwards and then backwards on the next iteration.
     """
     stored = np.arange(layout.stored_rows, dtype=np.int64)
     if settings.iteration == "jacobi":
@@ -221,8 +221,8 @@ def sweep_orders(layout: Layout, settings: SolverSettings) -> list[Order]:
 
 
 @dataclass(frozen=True, eq=False)
-class Sweeper:
-    """A problem ready for the generated kernels: its layout, tables and motion arrays."""
+class Marcher:
+    """A problem ready for the generated kernels: its layout, tables and kernel module."""
 
     problem: Problem
     settings: SolverSettings
@@ -231,7 +231,7 @@ class Sweeper:
     module: object
 
     @classmethod
-    def prepare(cls, problem: Problem, settings: SolverSettings) -> Sweeper:
+    def prepare(cls, problem: Problem, settings: SolverSettings) -> Marcher:
         kernel = compile_kernel(problem.game, settings.scheme)
         layout = layout_of(problem.grid, stored_groups(problem.game, settings.exchange_symmetry))
         return cls(problem, settings, layout, _fill_tables(problem, kernel.tables), kernel.module)
@@ -241,21 +241,22 @@ class Sweeper:
         rows = np.arange(self.layout.stored_rows, dtype=np.int64)
         self.module.project(values, rows, self.layout.row_nodes, self.tables)
 
-    def sweep(self, values: np.ndarray, out: np.ndarray, order: Order, dt: float,
-              n_chunks: int | None = None) -> float:
-        """One update of ``order``'s rows (``sweep_orders``) from ``values`` into ``out``
-        (the same array: in place); returns the largest change near the zero level set."""
+    def iterate(self, values: np.ndarray, out: np.ndarray, order: Order, dt: float,
+                n_chunks: int | None = None) -> float:
+        """One iteration over ``order``'s rows (``iteration_orders``) from ``values`` into
+        ``out`` (the same array: in place); returns the largest change near the zero level
+        set."""
         game, grid = self.problem.game, self.problem.grid
         layout = self.layout
-        layout_arrays = (layout.row_nodes, layout.row_shape, layout.row_stride,
-                         layout.stored_of, np.int64(grid.shape[-1]))
-        motion = ((1.0 / np.asarray(grid.spacing)).astype(np.float32),
-                  np.array([p.speed for p in game.players], dtype=np.float32),
-                  np.array([p.role == "defender" for p in game.players]))
+        row_layout = kernels.RowLayout(layout.row_nodes, layout.row_shape, layout.row_stride,
+                                       layout.stored_of, np.int64(grid.shape[-1]))
+        motion = kernels.Motion((1.0 / np.asarray(grid.spacing)).astype(np.float32),
+                                np.array([p.speed for p in game.players], dtype=np.float32),
+                                np.array([p.role == "defender" for p in game.players]))
         rows, planes, reverse = order
         chunks = n_chunks or 4 * numba.get_num_threads()
-        return float(self.module.sweep(values, out, rows, planes, reverse, layout_arrays,
-                                       motion, np.float32(dt), self.tables, chunks))
+        return float(self.module.iterate(values, out, rows, planes, reverse, row_layout,
+                                         motion, np.float32(dt), self.tables, chunks))
 
 
 def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
@@ -267,19 +268,19 @@ def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
     ``warm_start``: a converged solve of the same game on a coarser grid; the start is its
     interpolation plus ``settings.warm_margin`` (module docstring). The caller checks the
     memory first (``check_memory``, as ``solve.solve_declared`` does). Nothing is written
-    anywhere; an interrupt (Ctrl-C) between sweeps propagates and frees the arrays.
+    anywhere; an interrupt (Ctrl-C) between iterations propagates and frees the arrays.
     """
-    sweeper = Sweeper.prepare(problem, settings)
-    layout = sweeper.layout
+    marcher = Marcher.prepare(problem, settings)
+    layout = marcher.layout
     dt = time_step(problem.game, problem.grid, settings)
     current = np.empty(layout.stored_shape, dtype=np.float32)
     if warm_start is None:
         current.fill(np.float32(1e30))
     else:
         _interpolate_start(warm_start, layout, settings.warm_margin, current)
-    sweeper.project(current)
+    marcher.project(current)
     spare = np.empty_like(current) if settings.iteration == "jacobi" else current
-    orders = sweep_orders(layout, settings)
+    orders = iteration_orders(layout, settings)
     first = residual = math.inf
     iterations = 0
     converged = False
@@ -287,7 +288,7 @@ def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
     bar_format = "{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}{postfix}"
     with tqdm(total=100, desc=label, disable=not progress, bar_format=bar_format) as bar:
         while iterations < settings.max_iterations:
-            change = sweeper.sweep(current, spare, orders[iterations % len(orders)], dt)
+            change = marcher.iterate(current, spare, orders[iterations % len(orders)], dt)
             current, spare = spare, current
             iterations += 1
             residual = change / dt

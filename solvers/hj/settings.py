@@ -42,12 +42,12 @@ class SolverSettings:
       is second order). A name or a ``Scheme``.
     - ``iteration``: ``"red_black"`` (Gauss-Seidel) updates the value array in place, the
       rows of one colour at a time (``layout.Layout.colours``: one value array in memory);
-      ``"jacobi"`` computes every sweep from the previous one (two arrays).
+      ``"jacobi"`` computes every iteration from the previous one (two arrays).
     - ``cfl``: fraction of the scheme's largest stable time step, in (0, 1].
     - ``tolerance``: convergence when the largest change of the value over one unit of game
       time, on the grid nodes next to the zero level set, falls below this (value units per
       second; values are map units).
-    - ``max_iterations``: give up (``converged=False``) after this many sweeps.
+    - ``max_iterations``: give up (``converged=False``) after this many iterations.
     - ``exchange_symmetry``: store and solve one ordering of the game's exchangeable players
       (``Game.symmetries``) and read the others by index mapping; exact, halves the memory
       and work of 2 vs 1.
