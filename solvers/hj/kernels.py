@@ -1,6 +1,6 @@
 """Numba kernels of the reach-avoid solver (the game-independent parts) and interpolation.
 
-Every kernel takes plain arrays; ``kernels_reference`` holds a slow numpy twin of each.
+Every kernel takes plain arrays; ``tests/kernels_reference.py`` holds a slow numpy twin of each.
 
 Row layout (``layout``): a game's value is held as a 2-D float32 array ``(rows, m)``. The
 last player's plane is a row: its two axes flattened into ``m = nx * ny`` contiguous

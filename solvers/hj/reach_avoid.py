@@ -17,6 +17,7 @@ import os
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -201,23 +202,29 @@ def _renamed(expr: Expr, player: str) -> Expr:
     return expr
 
 
-Order = tuple[np.ndarray, np.ndarray, bool]
+class Order(NamedTuple):
+    """One iteration's order: the stored ``rows`` (int64) in plane order, plane ``p`` being
+    ``rows[planes[p]:planes[p + 1]]``, walked backwards when ``reverse``."""
+
+    rows: np.ndarray
+    planes: np.ndarray
+    reverse: bool
 
 
 def iteration_orders(layout: Layout, settings: SolverSettings) -> list[Order]:
-    """``(rows, planes, reverse)`` of successive iterations (``iteration.iterate``).
+    """The ``Order`` of successive iterations (``iteration.iterate``).
 
     Jacobi: all stored rows in one plane. Red-black: the rows of each colour
     (``Layout.colours``) form a plane, forwards and then backwards on the next iteration.
     """
     stored = np.arange(layout.stored_rows, dtype=np.int64)
     if settings.iteration == "jacobi":
-        return [(stored, np.array([0, stored.size], dtype=np.int64), False)]
+        return [Order(stored, np.array([0, stored.size], dtype=np.int64), False)]
     colours = layout.colours(settings.scheme.width)
     rows = np.argsort(colours, kind="stable").astype(np.int64)
     counts = np.bincount(colours, minlength=settings.scheme.width + 1)
     planes = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    return [(rows, planes, False), (rows, planes, True)]
+    return [Order(rows, planes, False), Order(rows, planes, True)]
 
 
 @dataclass(frozen=True, eq=False)
@@ -253,10 +260,10 @@ class Marcher:
         motion = kernels.Motion((1.0 / np.asarray(grid.spacing)).astype(np.float32),
                                 np.array([p.speed for p in game.players], dtype=np.float32),
                                 np.array([p.role == "defender" for p in game.players]))
-        rows, planes, reverse = order
         chunks = n_chunks or 4 * numba.get_num_threads()
-        return float(self.module.iterate(values, out, rows, planes, reverse, row_layout,
-                                         motion, np.float32(dt), self.tables, chunks))
+        return float(self.module.iterate(values, out, order.rows, order.planes, order.reverse,
+                                         row_layout, motion, np.float32(dt), self.tables,
+                                         chunks))
 
 
 def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
