@@ -4,8 +4,9 @@
 
     python benchmarks/startup.py /work/main . --rounds 5 -- --grid1 25 --grid2 15
 
-Every process is ``python -X importtime -m reachavoid.cli ...`` with ``PYTHONPATH`` set to
-the checkout it times, so only the library code differs. Per checkout the table gives the
+Every process is ``python -X importtime -m reachavoid.cli ...`` run in the checkout it
+times (``-m`` puts the working folder first on ``sys.path``), with ``PYTHONPATH`` set to it
+too, so only the library code differs. Per checkout the table gives the
 wall time of ``--help``; of ``play`` (arguments after ``--``; the tubes must be cached, and
 a first untimed round fills numba's caches) its wall time, the time spent importing
 modules (the top-level entries of ``-X importtime``, whenever they were imported: at start
@@ -50,7 +51,8 @@ def run(checkout: Path, arguments: list[str]) -> tuple[float, str, str]:
                SDL_AUDIODRIVER="dummy")
     started = time.perf_counter()
     done = subprocess.run([sys.executable, "-X", "importtime", "-m", "reachavoid.cli",
-                           *arguments], env=env, capture_output=True, text=True, check=True)
+                           *arguments], env=env, cwd=checkout, capture_output=True, text=True,
+                          check=True)
     return time.perf_counter() - started, done.stdout, done.stderr
 
 
