@@ -126,3 +126,12 @@ def test_the_solver_stands_on_geometry_alone():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert done.stdout.strip() == "[]"
+
+
+def test_the_env_registers_when_pettingzoo_is_imported_later():
+    code = ("import sys, reachavoid_env; assert 'pettingzoo' not in sys.modules; "
+            "import pettingzoo; env = pettingzoo.make('parallel', reachavoid_env.ENV_ID, "
+            "scenario='paper_2v1'); print(type(env).__name__, env.possible_agents)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert done.stdout.strip() == "ReachAvoidEnv ['attacker_0', 'attacker_1', 'defender_0']"
