@@ -21,12 +21,16 @@ from typing import Any
 def attributes(package: str, names: Mapping[str, str]) -> tuple[Callable[[str], Any],
                                                                  Callable[[], list[str]]]:
     """``__getattr__`` and ``__dir__`` for the face of ``package``: reading ``name`` imports
-    the module ``names[name]`` and keeps its attribute ``name`` in the package."""
+    the module ``names[name]`` and keeps its attribute ``name`` in the package; reading a
+    submodule's name imports the submodule (as an eager face would have)."""
 
     def __getattr__(name: str) -> Any:
-        if name not in names:
+        if name in names:
+            value = getattr(importlib.import_module(names[name]), name)
+        elif not name.startswith("__") and importlib.util.find_spec(f"{package}.{name}"):
+            value = importlib.import_module(f"{package}.{name}")
+        else:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
-        value = getattr(importlib.import_module(names[name]), name)
         setattr(sys.modules[package], name, value)
         return value
 

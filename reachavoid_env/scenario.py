@@ -20,10 +20,13 @@ import tomli_w
 from reachavoid_env import checks, rules
 from reachavoid_env.files import atomic_write
 from reachavoid_env.game_map import MAX_COORDINATE, MIN_EXTENT, GameMap, ScenarioError
+from reachavoid_env.shapes import Box, Shape, ShapeError, shape_from_dict
 
-__all__ = ["MAX_COORDINATE", "MIN_EXTENT", "GameMap", "Scenario", "ScenarioError",
-           "builtin_map", "builtin_names", "builtin_scenario", "load_scenario", "save_scenario",
-           "substeps_for"]
+__all__ = ["MAX_COORDINATE", "MIN_EXTENT", "Box", "GameMap", "Scenario", "ScenarioError",
+           "Shape", "ShapeError", "builtin_map", "builtin_names", "builtin_scenario",
+           "load_scenario", "save_scenario", "shape_from_dict", "substeps_for"]
+"""Also the names that lived here before ``game_map`` (``GameMap``, ``ScenarioError``, the
+shapes), so that older imports keep working."""
 
 if sys.version_info >= (3, 11):
     import tomllib

@@ -266,11 +266,18 @@ class Marcher:
                                          chunks))
 
 
+class Solved(NamedTuple):
+    """A marched problem: the stored value rows (float32, ``layout.stored_shape``), their
+    layout and how the solve went."""
+
+    values: np.ndarray
+    layout: Layout
+    result: SolveResult
+
+
 def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
-          label: str = "reach-avoid", warm_start: ValueFunction | None = None,
-          ) -> tuple[np.ndarray, Layout, SolveResult]:
-    """March ``problem`` to convergence; returns the stored value rows (float32,
-    ``layout.stored_shape``), their layout and how it went.
+          label: str = "reach-avoid", warm_start: ValueFunction | None = None) -> Solved:
+    """March ``problem`` to convergence (``Solved``).
 
     ``warm_start``: a converged solve of the same game on a coarser grid; the start is its
     interpolation plus ``settings.warm_margin`` (module docstring). The caller checks the
@@ -311,7 +318,7 @@ def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
     del spare
     result = SolveResult(iterations=iterations, residual=residual, converged=converged,
                          seconds=time.perf_counter() - start, dt=dt)
-    return current, layout, result
+    return Solved(current, layout, result)
 
 
 def _interpolate_start(coarse: ValueFunction, layout: Layout, margin: float,
