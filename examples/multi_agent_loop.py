@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 import pettingzoo
 
+import policies  # noqa: F401  (registers reachavoid/Attackers-v0)
 from policies.attackers import target_centres
 from policies.training import PETTINGZOO_ID, add_defender_arguments, defender_options
 from reachavoid_env import AttackerStatus, Scenario

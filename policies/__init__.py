@@ -1,11 +1,16 @@
 """Defender and attacker policies (design.md section 3).
 
-The names below load their modules on first use (PEP 562). Importing
-``policies.training`` registers the attacker-training envs with Gymnasium and PettingZoo.
+The names below load their modules on first use (PEP 562). Importing the package after
+Gymnasium or PettingZoo (as ``gymnasium.make("policies:reachavoid/Attacker-v0")`` does)
+registers the attacker-training envs with both (``policies.training``); importing
+``policies.training`` registers them in any case. Without either library loaded, the
+package imports neither (the command line's path).
 """
 
 from __future__ import annotations
 
+import importlib
+import sys
 from typing import TYPE_CHECKING
 
 from reachavoid_env import lazy
@@ -47,3 +52,6 @@ __getattr__, __dir__ = lazy.attributes(__name__, {
                      "IdleDefender", "MatchingDefenderPolicy"], "policies.defenders"),
     **dict.fromkeys(["make_attacker_env", "make_attackers_parallel_env"], "policies.training"),
 })
+
+if "gymnasium" in sys.modules or "pettingzoo" in sys.modules:
+    importlib.import_module("policies.training")
