@@ -88,7 +88,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecMonitor
 from tqdm import tqdm
 
-from policies.registry import ATTACKERS, accepted_options, make_policy
+from policies.registry import ATTACKERS, PolicySpec
 from policies.training import (
     add_defender_arguments,
     add_reward_arguments,
@@ -593,9 +593,9 @@ class TeamResult:
 def scripted_team(name: str, args: argparse.Namespace, scenario: Scenario) -> ScriptedTeam:
     """The scripted attackers ``name`` (``policies.registry.ATTACKERS``): ``random`` seeded
     with ``--seed``, ``hj`` on the defenders' 1 vs 1 tube (``--grid1``)."""
-    options = accepted_options("attackers", name, seed=args.seed, grid1=args.grid1,
-                               progress=False)
-    return ScriptedTeam(make_policy("attackers", name, scenario, **options))
+    grid = {"grid1": args.grid1} if PolicySpec("attackers", name).choice.takes("grid1") else {}
+    spec = PolicySpec.of("attackers", name, **grid)
+    return ScriptedTeam(spec(scenario, seed=args.seed, progress=False))
 
 
 def make_team(name: str, model: PPO | None, args: argparse.Namespace,

@@ -23,7 +23,8 @@ from policies.certificate import (
 )
 from policies.lookups import DecisionTables, TubeArrays, decision_controls, decision_tables
 from policies.tubes import tube_1v1, tube_1v2, tube_2v1
-from reachavoid_env import GameState, Overlay, Scenario
+from reachavoid_env import GameState, Overlay, Scenario, checks
+from reachavoid_env.game_state import EdgeKind
 from reachavoid_env.rules import unit_vectors
 from solvers.assignment import Assignment, AssignmentSolver
 from solvers.hj import ValueFunction
@@ -130,6 +131,14 @@ cells (about 0.8 against the exact value, adding the 81^4 tube's own error), whe
 cell let two certified games be lost in 1,260 episodes; 2 vs 1 0.18-0.24 cells (13^6-20^6
 against 30^6), 1 vs 2 0.28 cells (13^6 against 21^6)."""
 
+MAX_MARGIN_CELLS = 10.0
+"""The largest certificate margin accepted (grid cells)."""
+
+
+def check_margin_cells(value: float, field: str = "margin_cells") -> float:
+    """The one rule for a certificate margin: a number in [0, ``MAX_MARGIN_CELLS``]."""
+    return checks.real(value, field, 0.0, MAX_MARGIN_CELLS)
+
 
 def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
     """``controls (K, 2)`` where non-zero, else the unit vectors along ``fallbacks``."""
@@ -165,11 +174,9 @@ class _AssignmentDefender(ABC):
 
     def __init__(self, vf11: ValueFunction, vf21: ValueFunction | None, method: str,
                  margin_cells: float = CERTIFICATE_CELLS) -> None:
-        if not margin_cells >= 0:
-            raise ValueError(f"margin_cells: expected a number >= 0, got {margin_cells}")
         self.vf11 = vf11
         self.vf21 = vf21
-        self.margin_cells = float(margin_cells)
+        self.margin_cells = check_margin_cells(margin_cells)
         self.solver = AssignmentSolver(method)
         self._nominal_solver = AssignmentSolver(method)
         self._assignment: Assignment | None = None
@@ -240,7 +247,12 @@ class _AssignmentDefender(ABC):
         method = "MIP" if self.solver.method == "mip" else "matching"
         teams = tuple((f"defender_{d}", f"attacker_{i}") for i, j, k in self._assignment.shared
                       for d in (j, k))
-        return Overlay(edges=tuple(self.assignment) + teams,
+        # a defender with two attackers plays a 2 vs 1 game (pair); a shared attacker a
+        # 1 vs 2 game (team)
+        by_defender = self._assignment.by_defender
+        kinds = tuple(EdgeKind.PAIR if len(by_defender[j]) == 2 else EdgeKind.ASSIGN
+                      for _, j in self._assignment.pairs) + (EdgeKind.TEAM,) * len(teams)
+        return Overlay(edges=tuple(self.assignment) + teams, kinds=kinds,
                        lines=(f"{method}: {self.guaranteed_captures} guaranteed, "
                               f"{self.nominal_captures} nominal",))
 

@@ -1,5 +1,22 @@
-"""Policies by name: the one table that the command line, the training envs and the
+"""Policies by name or spec: the one table that the command line, the training envs and the
 benchmarks build their policies from.
+
+A policy is chosen by a *spec*:
+
+- a name of the built-in tables ``DEFENDERS`` / ``ATTACKERS``;
+- a name that an installed package declares in the entry-point group
+  ``reachavoid.defenders`` / ``reachavoid.attackers`` (built-in names win);
+- ``pkg.module:factory``: any importable callable;
+- ``SCHEME:REST`` for a scheme of ``SCHEMES`` (policies made from a file, say);
+- in Python, the factory itself.
+
+A factory is ``factory(scenario, **options) -> reachavoid_env.Policy`` (a class whose
+constructor takes the scenario first works). Its options are its own keyword parameters
+(``inspect.signature``; a ``**kwargs`` factory takes any), never a hand-kept list:
+``make_policy`` refuses an option the factory does not take, and ``policy_specs`` hands
+each of several policies the options it takes and refuses an option that none takes
+(VMAS's ``check_kwargs_consumed``). ``seed`` and ``progress`` are *supplied* options: the
+program passes them (an episode's seed, progress bars) to the factories that take them.
 
     from policies.registry import make_policy
     defenders = make_policy("defenders", "hj", scenario, grid1=31, grid2=15)
@@ -7,46 +24,110 @@ benchmarks build their policies from.
 
 from __future__ import annotations
 
-import pkgutil
+import functools
+import importlib
+import inspect
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from importlib import metadata
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from reachavoid_env import Policy, Scenario
 
+Factory = Callable[..., "Policy"]
+"""``factory(scenario, **options) -> Policy``."""
+
+SUPPLIED = ("seed", "progress")
+"""Options the program supplies when it builds a policy (an episode's seed, progress bars),
+to the factories that take them; ``policy_specs`` does not hand them out."""
+
+ENTRY_POINT_GROUPS = {"defenders": "reachavoid.defenders", "attackers": "reachavoid.attackers"}
+
+SCHEMES: dict[str, str] = {}
+"""Spec prefixes: a spec ``SCHEME:REST`` is resolved by the function ``SCHEMES[SCHEME]`` (a
+``module:function`` reference, imported on first use) called as ``function(side, spec)``;
+it returns the ``NamedPolicy`` (options from its ``build``'s signature) or raises a
+``ValueError`` naming ``side``. A prefix listed here wins over a module of that name."""
+
+
+def scenario_free(policy: type) -> Factory:
+    """The factory of a policy class whose constructor does not need the scenario: it takes
+    the scenario and the constructor's own keyword parameters as options."""
+    def build(scenario: Scenario, **options: Any) -> Policy:
+        return policy(**options)
+    own = inspect.signature(policy).parameters.values()
+    scenario_parameter = inspect.Parameter("scenario", inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    build.__signature__ = inspect.Signature([scenario_parameter, *own])  # type: ignore[attr-defined]
+    build.__doc__ = policy.__doc__
+    return build
+
 
 @dataclass(frozen=True)
 class NamedPolicy:
-    """A policy choice: one line of help, its factory and the option names it accepts.
+    """A policy choice: one line of help and its factory, ``build(scenario, **options)``.
 
-    ``factory`` is ``"module:attribute"`` (imported on first use, so the tables cost
-    nothing to read); it is called as ``factory(scenario, **options)``, or
-    ``factory(**options)`` when ``scenario`` is false.
+    ``factory`` is the factory or ``"module:attribute"``, imported on first use (so reading
+    the tables, as ``--help`` does, imports no policy); ``scenario=False`` marks a policy
+    class whose constructor takes no scenario (``scenario_free``).
     """
 
     help: str
-    factory: str
-    options: frozenset[str] = frozenset()
+    factory: str | Factory
     scenario: bool = True
 
-    def build(self, scenario: Scenario, **options: Any) -> Policy:
-        """The policy for ``scenario`` with ``options`` (already checked)."""
-        factory = pkgutil.resolve_name(self.factory)
-        return factory(scenario, **options) if self.scenario else factory(**options)
+    @functools.cached_property
+    def build(self) -> Factory:
+        factory = (_import(self.factory, self.help) if isinstance(self.factory, str)
+                   else self.factory)
+        return factory if self.scenario else scenario_free(factory)
+
+    @functools.cached_property
+    def options(self) -> frozenset[str] | None:
+        """The option names ``build`` takes (its keyword parameters after the scenario), or
+        ``None`` when it takes any (``**kwargs``)."""
+        return factory_options(self.build)
+
+    def takes(self, option: str) -> bool:
+        return self.options is None or option in self.options
+
+
+def factory_options(factory: Factory) -> frozenset[str] | None:
+    """The keyword parameters of ``factory`` after its first (the scenario); ``None`` when
+    it has ``**kwargs``. A factory that takes no scenario is a ``ValueError``."""
+    try:
+        parameters = list(inspect.signature(factory).parameters.values())
+    except (TypeError, ValueError):
+        raise ValueError(f"{_label(factory)}: cannot read the factory's signature") from None
+    positional = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                  inspect.Parameter.VAR_POSITIONAL)
+    if not parameters or parameters[0].kind not in positional:
+        raise ValueError(f"{_label(factory)}: a policy factory takes the scenario first, "
+                         f"as factory(scenario, **options)")
+    rest = parameters[1:]
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in rest):
+        return None
+    return frozenset(p.name for p in rest if p.kind in (
+        inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY))
+
+
+def _label(factory: Any) -> str:
+    return f"{getattr(factory, '__module__', '?')}:{getattr(factory, '__qualname__', factory)}"
+
+
+def _first_line(factory: Any) -> str:
+    return (inspect.getdoc(factory) or "").strip().split("\n")[0]
 
 
 DEFENDERS: dict[str, NamedPolicy] = {
     "hj": NamedPolicy("the reference: HJ tubes + the paper's assignment MIP (CP-SAT), "
                       "re-solved every step",
-                      "policies.defenders:HJDefenderPolicy.for_scenario",
-                      frozenset({"grid1", "grid2", "idle", "margin_cells", "progress"})),
+                      "policies.defenders:HJDefenderPolicy.for_scenario"),
     "hj-pairs": NamedPolicy("the reference with defender teams: two defenders may share an "
                             "attacker neither stops alone (1 vs 2 tube), re-solved every step",
-                            "policies.defenders:HJPairsDefenderPolicy.for_scenario",
-                            frozenset({"grid1", "grid2", "idle", "margin_cells", "progress"})),
+                            "policies.defenders:HJPairsDefenderPolicy.for_scenario"),
     "matching": NamedPolicy("the maximum-matching baseline (unmatched defenders stand still)",
-                            "policies.defenders:MatchingDefenderPolicy.for_scenario",
-                            frozenset({"grid1", "unmatched", "margin_cells", "progress"})),
+                            "policies.defenders:MatchingDefenderPolicy.for_scenario"),
     "greedy": NamedPolicy("chase the nearest active attacker",
                           "policies.defenders:GreedyDefender", scenario=False),
     "idle": NamedPolicy("stand still", "policies.defenders:IdleDefender", scenario=False),
@@ -55,42 +136,166 @@ DEFENDERS: dict[str, NamedPolicy] = {
 ATTACKERS: dict[str, NamedPolicy] = {
     "shortest-path": NamedPolicy("the time-optimal path to the target around obstacles, "
                                  "ignoring defenders (the paper's attackers)",
-                                 "policies.attackers:ShortestPathAttacker",
-                                 frozenset({"cells"}), scenario=False),
+                                 "policies.attackers:ShortestPathAttacker", scenario=False),
     "hj": NamedPolicy("1 vs 1 optimal control against the most dangerous defender",
-                      "policies.attackers:HJAttacker.for_scenario",
-                      frozenset({"grid1", "progress"})),
+                      "policies.attackers:HJAttacker.for_scenario"),
     "straight": NamedPolicy("run straight for the nearest target centre",
                             "policies.attackers:StraightAttacker", scenario=False),
     "random": NamedPolicy("run in random directions, redrawn every 0.25 s",
-                          "policies.attackers:RandomAttacker", frozenset({"seed", "hold"}),
-                          scenario=False),
+                          "policies.attackers:RandomAttacker", scenario=False),
 }
 
 TABLES = {"defenders": DEFENDERS, "attackers": ATTACKERS}
 
 
-def named_policy(side: str, name: str) -> NamedPolicy:
-    """The table entry of ``name`` on ``side`` (``"defenders"`` or ``"attackers"``)."""
+def _check_side(side: str) -> None:
     if side not in TABLES:
         raise ValueError(f"side: expected 'defenders' or 'attackers', got {side!r}")
-    if name not in TABLES[side]:
-        raise ValueError(f"{side}: unknown policy {name!r} (choices: {', '.join(TABLES[side])})")
-    return TABLES[side][name]
 
 
-def make_policy(side: str, name: str, scenario: Scenario, **options: Any) -> Policy:
-    """Build the policy ``name`` for ``scenario``; unknown options are an error."""
-    entry = named_policy(side, name)
-    unknown = sorted(set(options) - entry.options)
-    if unknown:
-        accepted = ", ".join(sorted(entry.options)) or "none"
-        raise ValueError(f"{side} {name!r}: unknown option(s) {unknown} (accepted: {accepted})")
-    return entry.build(scenario, **options)
+def installed(side: str) -> dict[str, metadata.EntryPoint]:
+    """The entry points of installed packages in ``side``'s group (built-in names win)."""
+    _check_side(side)
+    found = metadata.entry_points(group=ENTRY_POINT_GROUPS[side])
+    return {ep.name: ep for ep in found if ep.name not in TABLES[side]}
 
 
-def accepted_options(side: str, name: str, **available: Any) -> dict[str, Any]:
-    """The subset of ``available`` options that policy ``name`` accepts (for callers, such as
-    the command line, that hold one set of options for every choice)."""
-    entry = named_policy(side, name)
-    return {key: value for key, value in available.items() if key in entry.options}
+def policy_names(side: str) -> list[str]:
+    """Every name a spec may use on ``side``: the built-ins, then the installed ones."""
+    _check_side(side)
+    return [*TABLES[side], *installed(side)]
+
+
+def names_help(side: str) -> str:
+    """One line per choice for ``--help``: built-ins with their help, installed names with
+    their package (not imported: help stays fast)."""
+    built_in = [f"{name}: {choice.help}" for name, choice in TABLES[side].items()]
+    plugins = [f"{name}: from {ep.dist.name if ep.dist else ep.value}"
+               for name, ep in installed(side).items()]
+    return "; ".join(built_in + plugins)
+
+
+def _import(reference: str, field: str) -> Any:
+    """The object of ``module:attribute`` (dots allowed on both sides)."""
+    module_name, _, attribute = reference.partition(":")
+    if not module_name or not attribute:
+        raise ValueError(f"{field}: expected pkg.module:factory, got {reference!r}")
+    try:
+        target: Any = importlib.import_module(module_name)
+    except ImportError as err:
+        raise ValueError(f"{field}: cannot import {module_name!r} ({err})") from None
+    for part in attribute.split("."):
+        if not hasattr(target, part):
+            raise ValueError(f"{field}: module {module_name!r} has no {attribute!r}")
+        target = getattr(target, part)
+    if not callable(target):
+        raise ValueError(f"{field}: {reference!r} is not callable")
+    return target
+
+
+@functools.cache
+def resolve(side: str, spec: str) -> NamedPolicy:
+    """The policy of a string ``spec`` on ``side`` (see the module docstring); a spec that
+    names nothing is a ``ValueError`` naming ``side``."""
+    _check_side(side)
+    if spec in TABLES[side]:
+        return TABLES[side][spec]
+    plugins = installed(side)
+    if spec in plugins:
+        factory = plugins[spec].load()
+        factory_options(factory)
+        return NamedPolicy(_first_line(factory), factory)
+    scheme, colon, _ = spec.partition(":")
+    if colon and scheme in SCHEMES:
+        choice = _import(SCHEMES[scheme], f"{side} scheme {scheme!r}")(side, spec)
+        factory_options(choice.build)
+        return choice
+    if colon:
+        factory = _import(spec, side)
+    else:
+        raise ValueError(f"{side}: unknown policy {spec!r} (choices: "
+                         f"{', '.join(policy_names(side))}, or pkg.module:factory)")
+    factory_options(factory)
+    return NamedPolicy(_first_line(factory), factory)
+
+
+@dataclass(frozen=True)
+class PolicySpec:
+    """A policy choice and its options as a picklable value: what the sweeps' workers and
+    the training envs' subprocesses build their policies from (they resolve ``source``
+    themselves: a module spec is imported there).
+
+    ``side``: ``"defenders"`` or ``"attackers"``; ``source``: a string spec or a factory;
+    ``options``: sorted ``(key, value)`` pairs, each taken by the factory. Calling it with a
+    scenario builds the policy; ``supplied`` options (``seed``, ``progress``) go in only
+    where the factory takes them.
+    """
+
+    side: str
+    source: str | Factory
+    options: tuple[tuple[str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        choice = self.choice
+        unknown = sorted(key for key, _ in self.options if not choice.takes(key))
+        if unknown:
+            accepted = ", ".join(sorted(choice.options or ())) or "none"
+            raise ValueError(f"{self.side} {self.label!r}: unknown option(s) {unknown} "
+                             f"(accepted: {accepted})")
+
+    @classmethod
+    def of(cls, side: str, source: str | Factory, **options: Any) -> PolicySpec:
+        return cls(side, source, tuple(sorted(options.items())))
+
+    @property
+    def choice(self) -> NamedPolicy:
+        if isinstance(self.source, str):
+            return resolve(self.side, self.source)
+        _check_side(self.side)
+        factory_options(self.source)
+        return NamedPolicy(_first_line(self.source), self.source)
+
+    @property
+    def label(self) -> str:
+        """The spec as given, or ``module:name`` of a factory."""
+        return self.source if isinstance(self.source, str) else _label(self.source)
+
+    @property
+    def seeded(self) -> bool:
+        """Whether the factory takes a ``seed`` (then every episode gets its own)."""
+        return self.choice.takes("seed")
+
+    def __call__(self, scenario: Scenario, **supplied: Any) -> Policy:
+        unknown = sorted(set(supplied) - set(SUPPLIED))
+        if unknown:
+            raise ValueError(f"{unknown}: not supplied options ({', '.join(SUPPLIED)}); "
+                             f"options go in the spec")
+        choice = self.choice
+        extra = {key: value for key, value in supplied.items() if choice.takes(key)}
+        return choice.build(scenario, **(dict(self.options) | extra))
+
+
+def make_policy(side: str, source: str | Factory, scenario: Scenario, **options: Any) -> Policy:
+    """Build the policy ``source`` (a spec or a factory) for ``scenario``; an option it does
+    not take is an error."""
+    return PolicySpec.of(side, source, **options)(scenario)
+
+
+def policy_specs(choices: Sequence[tuple[str, str | Factory]], options: Mapping[str, Any],
+                 names: Mapping[str, str] | None = None) -> list[PolicySpec]:
+    """One ``PolicySpec`` per ``(side, source)`` choice, each with the ``options`` its
+    factory takes. An option that no choice takes is a ``ValueError`` naming it (as
+    ``names[option]`` when given, e.g. the command-line flag); ``seed`` and ``progress``
+    are supplied when building, not here."""
+    resolved = [PolicySpec(side, source) for side, source in choices]
+    for option in options:
+        if option in SUPPLIED:
+            raise ValueError(f"{option}: supplied to each policy when it is built, "
+                             f"not an option here")
+        if not any(spec.choice.takes(option) for spec in resolved):
+            field = (names or {}).get(option, option)
+            chosen = ", ".join(spec.label for spec in resolved)
+            raise ValueError(f"{field}: no chosen policy takes it ({chosen})")
+    return [PolicySpec.of(spec.side, spec.source,
+                          **{k: v for k, v in options.items() if spec.choice.takes(k)})
+            for spec in resolved]

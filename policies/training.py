@@ -28,48 +28,27 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import gymnasium
 import pettingzoo
 
-from policies.registry import DEFENDERS, make_policy, named_policy
-from reachavoid_env import Policy
+from policies.registry import DEFENDERS, PolicySpec
 from reachavoid_env.scenario import Scenario, builtin_names
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 from solvers.hj.settings import TRAINING_GRIDS
 
 
-@dataclass(frozen=True)
-class PolicyFactory:
-    """A picklable ``scenario -> policy`` factory for a named policy.
-
-    ``side`` is ``"defenders"`` or ``"attackers"``; ``name`` a key of
-    ``policies.registry.DEFENDERS`` or ``ATTACKERS``; ``options`` the keyword arguments of
-    its constructor (or
-    ``for_scenario``), as sorted ``(key, value)`` pairs.
-    """
-
-    side: str
-    name: str
-    options: tuple[tuple[str, Any], ...] = ()
-
-    def __post_init__(self) -> None:
-        named_policy(self.side, self.name)
-
-    def __call__(self, scenario: Scenario) -> Policy:
-        return make_policy(self.side, self.name, scenario, **dict(self.options))
+def defender_factory(name: str = "hj", **options: Any) -> PolicySpec:
+    """Factory of the defender policy ``name`` (a spec of ``policies.registry``) with
+    ``options``."""
+    return PolicySpec.of("defenders", name, **options)
 
 
-def defender_factory(name: str = "hj", **options: Any) -> PolicyFactory:
-    """Factory of the defender policy ``name`` (a key of ``DEFENDERS``) with ``options``."""
-    return PolicyFactory("defenders", name, tuple(sorted(options.items())))
-
-
-def attacker_factory(name: str = "shortest-path", **options: Any) -> PolicyFactory:
-    """Factory of the attacker policy ``name`` (a key of ``ATTACKERS``) with ``options``."""
-    return PolicyFactory("attackers", name, tuple(sorted(options.items())))
+def attacker_factory(name: str = "shortest-path", **options: Any) -> PolicySpec:
+    """Factory of the attacker policy ``name`` (a spec of ``policies.registry``) with
+    ``options``."""
+    return PolicySpec.of("attackers", name, **options)
 
 
 def add_defender_arguments(parser: argparse.ArgumentParser, scenario: str = "paper_6v2",
@@ -120,7 +99,7 @@ def attackers_from_args(args: argparse.Namespace) -> AttackerParallelEnv:
 def _source(value: Any, options: Mapping[str, Any] | None, side: str, field: str) -> Any:
     """A name becomes its factory; a policy or factory passes through."""
     if isinstance(value, str):
-        return PolicyFactory(side, value, tuple(sorted((options or {}).items())))
+        return PolicySpec.of(side, value, **(options or {}))
     if options:
         raise ValueError(f"{field}_options: only used with a policy name, got a "
                          f"{type(value).__name__} for {field}")

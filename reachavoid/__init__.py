@@ -1,8 +1,10 @@
 """reachavoid: the application above the game (design.md).
 
-The ``reachavoid`` command (``cli``), the one episode loop (``rollout``), many episodes and
-their statistics (``evaluation``), the paper's table (``paper``) and the ``solve`` driver.
-The names below load their modules on first use (PEP 562).
+The ``reachavoid`` command (``cli``, started by ``__main__``), the one episode loop
+(``rollout``), many episodes and their statistics (``evaluation``), benchmark suites
+(``suite``), the paper's table (``paper``) and the ``solve`` driver. The names below are
+imported on first use (PEP 562), so that starting the command loads nothing before it can
+handle Ctrl-C.
 """
 
 from __future__ import annotations

@@ -1,45 +1,65 @@
 """The ``reachavoid`` command (design.md, "Command line"): argument parsing and printing.
 
 ``play`` runs one episode (``rollout``), ``solve`` one game (``solve``), ``bench`` many
-seeded starts (``evaluation``), ``paper`` the paper's table (``paper``). Every argument and
-output path is checked before any work starts. Bad arguments or input files end with a
-one-line message and exit status 2; a failed write with one line naming the path and
-status 1; Ctrl-C (130) and SIGTERM (143) stop the work and leave no partial file.
+seeded starts of a suite (``suite``, ``evaluation``), ``paper`` the paper's table
+(``paper``). Every argument, output path and the cache are checked before any work starts.
+Bad arguments or input files end with a one-line message and exit status 2; a failed write
+with one line naming the path and status 1; Ctrl-C (130), SIGTERM (143) and SIGHUP (129)
+stop the work and leave no partial file; a closed standard output (``| head``) ends quietly
+(141). Outputs follow one rule (README "Files and failures"): an existing file is replaced
+only with ``--force``.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
-import re
 import signal
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import Any, NoReturn
 
 import reachavoid_env
-from policies.registry import ATTACKERS, DEFENDERS, NamedPolicy, accepted_options, make_policy
-from reachavoid.solve import GAMES
+from policies.defenders import CERTIFICATE_CELLS, check_margin_cells
+from policies.registry import PolicySpec, names_help, policy_specs
+from reachavoid import paper as paper_table
+from reachavoid.evaluation import MIN_BOOTSTRAP, one_start, write_csv
+from reachavoid.rollout import EpisodeResult, episode_title, first_frame, run_episode
+from reachavoid.solve import DEFAULT_GRID, GAMES, solve_scenario
+from reachavoid.suite import (
+    Cell,
+    Suite,
+    SuiteResult,
+    load_suite,
+    parse_players,
+    plot_suite,
+    run_suite,
+    suite_names,
+)
 from reachavoid.sweep import BACKENDS
-from reachavoid_env import checks
-from solvers.hj.settings import PAPER_GRIDS
+from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
+from reachavoid_env.files import STDOUT, atomic_write, destination, is_stream
+from reachavoid_env.video import FPS_RANGE, check_video_path, realtime_every, realtime_fps
+from solvers.hj.cache import CacheLocationError, check_cache
+from solvers.hj.reach_avoid import InsufficientMemoryError
 
-if TYPE_CHECKING:
-    from reachavoid.rollout import EpisodeResult
-    from reachavoid_env import Scenario
-
-# The commands import what they run (the solver, OR-Tools, matplotlib, the env) when they
-# run it, so that ``--help`` and bad arguments answer at once.
-
-EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_TERMINATED = 2, 1, 130, 143
+EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_PIPE = 2, 1, 130, 141
+TEMPORARY_NAME_ROOM = 48
+"""Characters an output's temporary names add to its file name (``.NAME.PID.RANDOM.tmp``)."""
 MAX_SEED = 2**63 - 1
 GRID_RANGE = {"grid1": (5, 201), "grid2": (5, 101)}
 """Nodes per axis accepted for the 1 vs 1 and 2 vs 1 tubes (the memory guard still
 refuses what this machine cannot hold)."""
-MAX_MARGIN_CELLS = 10.0
-"""The largest certificate margin accepted (grid cells)."""
+OPTION_FLAGS = {"grid1": "--grid1", "grid2": "--grid2", "margin_cells": "--margin-cells"}
+"""The policy options the command line takes (each goes to the chosen policies that take
+it; one that none takes is an error)."""
+GIF_MAX_FPS = 50.0
+"""The highest video rates accepted (frames per second); a GIF's frame delay is counted in
+hundredths of a second and players slow down delays under two."""
 
 
 class UsageError(ValueError):
@@ -47,7 +67,14 @@ class UsageError(ValueError):
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised where the program is so that it unwinds as on Ctrl-C."""
+    """SIGTERM or SIGHUP, raised where the program is so that it unwinds as on Ctrl-C."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+STOP_SIGNALS = {signal.SIGTERM: "terminated", signal.SIGHUP: "hung up"}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -55,8 +82,9 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def _choices_help(table: dict[str, NamedPolicy]) -> str:
-    return "; ".join(f"{name}: {choice.help}" for name, choice in table.items())
+SPEC = "NAME|pkg.module:factory"
+ONE_CELL = {"scenario": "paper_2v1", "config": "6v2", "attackers": "shortest-path"}
+"""``bench``'s single cell without ``--suite`` (defaults of the flags that make it)."""
 
 
 def _scenario_option(parser: argparse.ArgumentParser, default: str, what: str) -> None:
@@ -64,20 +92,28 @@ def _scenario_option(parser: argparse.ArgumentParser, default: str, what: str) -
                         help=f"{what} (default: %(default)s)")
 
 
-def _grid_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--grid1", type=int, default=PAPER_GRIDS.grid1, metavar="N",
-                        help="1 vs 1 tube nodes per axis (default: %(default)s, the paper's)")
-    parser.add_argument("--grid2", type=int, default=PAPER_GRIDS.grid2, metavar="N",
-                        help="2 vs 1 tube nodes per axis (default: %(default)s, the paper's)")
+def _grid_options(parser: argparse.ArgumentParser, for_policies: bool = True) -> None:
+    """``--grid1`` / ``--grid2``: policy options (given only when set: each policy that
+    takes them gets them, its own default is the paper's), or the grids of a command."""
+    whose = " of the policies that take it" if for_policies else ""
+    for name, game in (("grid1", "1v1"), ("grid2", "2v1")):
+        parser.add_argument(f"--{name}", type=int, metavar="N",
+                            default=None if for_policies else DEFAULT_GRID[game],
+                            help=f"{game[0]} vs {game[2]} tube nodes per axis{whose} "
+                                 f"(default: {DEFAULT_GRID[game]}, the paper's)")
 
 
 def _margin_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--margin-cells", type=float, default=None, metavar="C",
                         help="certificate margin of the hj, hj-pairs and matching defenders in "
                              "grid cells of each tube: a game counts as a defender win where "
-                             "its value exceeds C cells, or stays > 0 once taken (default: "
-                             "the defenders' CERTIFICATE_CELLS; 0 reads the tubes as the "
-                             "paper does)")
+                             f"its value exceeds C cells, or stays > 0 once taken (default: "
+                             f"{CERTIFICATE_CELLS}; 0 reads the tubes as the paper does)")
+
+
+def _force_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--force", action="store_true",
+                        help="replace existing output files (default: refuse, before any work)")
 
 
 def _seed_option(parser: argparse.ArgumentParser, help_text: str) -> None:
@@ -92,24 +128,33 @@ def build_parser() -> argparse.ArgumentParser:
     play = commands.add_parser("play", help="play one episode and print the outcome",
                                description="Play one episode of a scenario.")
     _scenario_option(play, "paper_6v2", "a built-in scenario name or a TOML scenario file")
-    play.add_argument("--attackers", choices=ATTACKERS, default="shortest-path",
-                      help=f"attacker policy (default: %(default)s). {_choices_help(ATTACKERS)}")
-    play.add_argument("--defenders", choices=DEFENDERS, default="hj",
-                      help=f"defender policy (default: %(default)s). {_choices_help(DEFENDERS)}")
+    play.add_argument("--attackers", default="shortest-path", metavar=SPEC,
+                      help=f"attacker policy (default: %(default)s). {names_help('attackers')}")
+    play.add_argument("--defenders", default="hj", metavar=SPEC,
+                      help=f"defender policy (default: %(default)s). {names_help('defenders')}")
     _grid_options(play)
     _margin_option(play)
     _seed_option(play, "seed of the env (random starts) and random policies")
     play.add_argument("--video", metavar="OUT.mp4|OUT.gif",
                       help="write the episode to an MP4 (H.264) or GIF video")
     play.add_argument("--fps", type=float, default=None,
-                      help="video frames per second (default: the env's render_fps)")
-    play.add_argument("--every", type=int, default=1, metavar="N",
-                      help="put every N-th step in the video (default: %(default)s)")
+                      help="video frames per second (default: the env's render_fps, 50: with "
+                           "5 ms steps and --every 1 the video is 4x slow motion; it shows "
+                           "fps x every x dt seconds of game time per second)")
+    play.add_argument("--every", type=int, default=None, metavar="N",
+                      help="put every N-th step in the video (default: 1, or with --realtime "
+                           "the smallest N that keeps the rate at most 50 fps)")
+    play.add_argument("--realtime", action="store_true",
+                      help="play the video in game time: fps = 1 / (every x dt)")
+    play.add_argument("--preview", metavar="OUT.png",
+                      help="write the episode's first frame (with the first decision's overlay) "
+                           "as a PNG and stop, without playing")
     play.add_argument("--width", type=int, default=640,
                       help="video width in pixels, rounded up to a multiple of 16 "
                            "(default: %(default)s)")
     play.add_argument("--json", action="store_true",
                       help="print one JSON object instead of a summary")
+    _force_option(play)
     play.set_defaults(run=_play)
 
     solve = commands.add_parser("solve",
@@ -121,32 +166,46 @@ def build_parser() -> argparse.ArgumentParser:
                        help="which game (default: %(default)s)")
     solve.add_argument("--grid", type=int, default=None, metavar="N",
                        help=f"the game's grid nodes per axis (default: the paper's, "
-                            f"{PAPER_GRIDS.grid1} for 1v1, {PAPER_GRIDS.grid2} for 2v1 and 1v2)")
-    solve.add_argument("--grid1", type=int, default=PAPER_GRIDS.grid1, metavar="N",
+                            f"{DEFAULT_GRID['1v1']} for 1v1, {DEFAULT_GRID['2v1']} for 2v1 and "
+                            f"1v2)")
+    solve.add_argument("--grid1", type=int, default=DEFAULT_GRID["1v1"], metavar="N",
                        help="nodes per axis of the 1 vs 1 tube: the tube under a 2v1 or 1v2 "
                             "game, the game itself for 1v1 without --grid (default: "
                             "%(default)s; as --grid1 of play, bench and paper)")
     solve.add_argument("--out", metavar="DIR", help="also save the value function here")
     solve.add_argument("--plot", metavar="OUT.png",
                        help="draw the value's slices at the scenario's starts (paper Fig. 2)")
+    _force_option(solve)
     solve.set_defaults(run=_solve)
 
     bench = commands.add_parser(
-        "bench", help="play many seeded random starts and compare capture rates",
-        description="Play seeded random starts on a scenario's map with each defender method "
-                    "and print capture rates with 95% confidence intervals.")
-    _scenario_option(bench, "paper_2v1", "the map, speeds and settings to use")
-    bench.add_argument("--config", default="6v2", metavar="MvN",
-                       help="attackers v defenders, drawn at random each episode "
-                            "(default: %(default)s)")
+        "bench", help="compare defender methods on the same seeded starts",
+        description="Play seeded starts with each defender method (built-in names, installed "
+                    "names, or pkg.module:factory of your own), on one scenario's map "
+                    "(--config) or on every cell of a suite (--suite), and print capture "
+                    "rates with 95% intervals and each method's paired difference from the "
+                    "baseline.")
+    bench.add_argument("--suite", default=None, metavar="NAME|FILE.toml",
+                       help=f"play a suite of cells instead of one --config (built-ins: "
+                            f"{', '.join(suite_names())})")
+    _scenario_option(bench, ONE_CELL["scenario"], "without --suite: the map, speeds and settings")
+    bench.add_argument("--config", default=ONE_CELL["config"], metavar="MvN",
+                       help="without --suite: attackers v defenders, drawn at random each "
+                            "episode (default: %(default)s)")
     bench.add_argument("--defenders", default="hj,matching", metavar="A,B",
-                       help=f"comma-separated defender methods (default: %(default)s); "
-                            f"from {', '.join(DEFENDERS)}")
-    bench.add_argument("--attackers", choices=ATTACKERS, default="shortest-path",
-                       help="attacker policy (default: %(default)s)")
+                       help=f"comma-separated defender methods, each {SPEC} (default: "
+                            f"%(default)s). {names_help('defenders')}")
+    bench.add_argument("--attackers", default=ONE_CELL["attackers"], metavar=SPEC,
+                       help="without --suite: the attacker policy (default: %(default)s). "
+                            f"{names_help('attackers')}")
+    bench.add_argument("--baseline", default=None, metavar="METHOD",
+                       help="the method every other is compared with, seed by seed "
+                            "(default: hj when chosen, else the first method)")
     bench.add_argument("--episodes", type=int, default=200,
-                       help="episodes per method (default: %(default)s)")
-    _seed_option(bench, "episode k uses seed SEED + k")
+                       help="episodes per method and cell (default: %(default)s; a suite's "
+                            "cell may fix its own)")
+    bench.add_argument("--seed", type=int, default=None,
+                       help="episode k uses seed SEED + k (default: the suite's, or 0)")
     bench.add_argument("--backend", choices=BACKENDS, default="serial",
                        help="where episodes run: here, on a process pool, or as Ray tasks "
                             "(same results for the same seeds; default: %(default)s)")
@@ -155,11 +214,18 @@ def build_parser() -> argparse.ArgumentParser:
                             "(default: all cores)")
     bench.add_argument("--address", default=None, metavar="ADDR",
                        help="an existing Ray cluster (default: start a local one)")
-    bench.add_argument("--csv", metavar="FILE.csv", help="write one row per episode")
-    bench.add_argument("--json", action="store_true",
-                       help="print one JSON object instead of a table")
+    bench.add_argument("--csv", metavar="FILE.csv",
+                       help="write one row per episode ('-': standard output, the tables then "
+                            "go to standard error)")
+    bench.add_argument("--json", nargs="?", const="-", default=None, metavar="FILE.json",
+                       help="one JSON object: per cell the summaries and paired differences, "
+                            "and one row per episode; printed instead of the tables, or "
+                            "written to FILE.json")
+    bench.add_argument("--plot", metavar="OUT.png",
+                       help="draw the capture rate per cell and method with its interval")
     _grid_options(bench)
     _margin_option(bench)
+    _force_option(bench)
     bench.set_defaults(run=_bench)
 
     paper = commands.add_parser(
@@ -171,8 +237,18 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--out", default="paper_results", metavar="DIR",
                        help="where the videos, figure and table go (default: %(default)s)")
     paper.add_argument("--no-video", action="store_true", help="skip the videos")
-    _grid_options(paper)
+    _grid_options(paper, for_policies=False)
+    _force_option(paper)
     paper.set_defaults(run=_paper)
+
+    validate = commands.add_parser(
+        "validate", help="check scenario files without playing them",
+        description="Load each scenario (a TOML file or a built-in name) and reset an env on "
+                    "it; print one line per file. Exit status 0 when all are valid, 2 when "
+                    "any is not (its error on stderr).")
+    validate.add_argument("files", nargs="+", metavar="FILE",
+                          help="TOML scenario files (or built-in names)")
+    validate.set_defaults(run=_validate)
     return parser
 
 
@@ -187,91 +263,148 @@ def _check(check: Any, value: Any, field: str, *bounds: Any) -> Any:
 
 def _check_common(args: argparse.Namespace) -> None:
     for name in ("grid1", "grid2"):
-        if hasattr(args, name):
+        if getattr(args, name, None) is not None:
             _check(checks.integer, getattr(args, name), f"--{name}", *GRID_RANGE[name])
-    if hasattr(args, "seed"):
+    if getattr(args, "seed", None) is not None:
         _check(checks.integer, args.seed, "--seed", 0, MAX_SEED)
     if getattr(args, "margin_cells", None) is not None:
-        _check(checks.real, args.margin_cells, "--margin-cells", 0.0, MAX_MARGIN_CELLS)
-    from solvers.hj.cache import cache_dir
-
-    location = cache_dir()
-    if location.exists() and not location.is_dir():
-        raise UsageError(f"cache: {str(location)!r} ($REACHAVOID_CACHE_DIR) is not a folder")
+        _check(check_margin_cells, args.margin_cells, "--margin-cells")
+    if not check_cache():
+        print(f"reachavoid {args.command}: warning: the cache ($REACHAVOID_CACHE_DIR) is "
+              "not writable; what is solved now is not kept", file=sys.stderr)
     args.progress = sys.stderr.isatty()
 
 
-def writable_file(path: str, field: str) -> Path:
-    """``path`` if a file can be created or replaced there, else ``UsageError`` naming
-    ``field``."""
-    target = Path(path)
-    if target.is_dir():
-        raise UsageError(f"{field}: {path!r} is a folder")
+def _check_name(target: Path, field: str, path: str) -> None:
+    """Refuse a file name too long for its folder once temporary names are added to it."""
+    try:
+        limit = os.pathconf(target.parent, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    if len(os.fsencode(target.name)) + TEMPORARY_NAME_ROOM > limit:
+        raise UsageError(f"{field}: the name {target.name[:40]!r}... of {path!r} is too long "
+                         f"(at most {limit - TEMPORARY_NAME_ROOM} bytes here)")
+
+
+def writable_file(path: str, field: str, force: bool = False, text: bool = False) -> str:
+    """``path`` if a file can be written there under the overwrite rule (module docstring),
+    else ``UsageError`` naming ``field``. A link is followed to its target; a device or FIFO
+    is written directly; ``-`` (standard output) only where ``text`` is written."""
+    if path == STDOUT:
+        if not text:
+            raise UsageError(f"{field}: '-' (standard output) is for text outputs only")
+        return path
+    if is_stream(path):
+        return path
+    target = destination(path)
+    _check_replace(target, field, force, path)
     folder = target.parent
     if not folder.is_dir():
         raise UsageError(f"{field}: folder {str(folder)!r} does not exist")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise UsageError(f"{field}: folder {str(folder)!r} is not writable")
-    return target
+    _check_name(target, field, path)
+    return path
+
+
+def _check_replace(target: Path, field: str, force: bool, path: str) -> None:
+    """The overwrite rule: an existing ``target`` is replaced only with ``force``, and only
+    when it is a regular file."""
+    if target.is_dir():
+        raise UsageError(f"{field}: {path!r} is a folder")
+    if target.exists() and not target.is_file():
+        raise UsageError(f"{field}: {path!r} is not a regular file, a device or a FIFO")
+    if target.exists() and not force:
+        raise UsageError(f"{field}: {path!r} exists; pass --force to replace it")
 
 
 def writable_folder(path: str, field: str) -> Path:
     """``path`` if it is a writable folder or can be created as one, else ``UsageError``."""
-    target = Path(path)
+    target = Path(os.path.abspath(path))
     if target.exists() and not target.is_dir():
         raise UsageError(f"{field}: {path!r} exists and is not a folder")
-    existing = target if target.exists() else next(p for p in target.absolute().parents
-                                                   if p.exists())
+    existing = target if target.exists() else next(p for p in target.parents if p.exists())
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
         raise UsageError(f"{field}: {str(existing)!r} is not a writable folder")
+    _check_name(target, field, path)
     return target
 
 
 def _load(source: str) -> Scenario:
     try:
-        return reachavoid_env.load_scenario(source)
+        return load_scenario(source)
     except OSError as err:
         raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}") from None
 
 
-def _margin(args: argparse.Namespace) -> dict[str, float]:
-    """``--margin-cells`` as a policy option, absent when not given (the policy's default)."""
-    return {} if args.margin_cells is None else {"margin_cells": args.margin_cells}
-
-
-def _policy(side: str, name: str, scenario: Scenario, args: argparse.Namespace) -> Any:
-    """The named policy, given whichever of --seed, --grid1, --grid2 it takes."""
-    options = accepted_options(side, name, seed=args.seed, grid1=args.grid1, grid2=args.grid2,
-                               progress=args.progress, **_margin(args))
-    return make_policy(side, name, scenario, **options)
+def _specs(choices: list[tuple[str, str]], args: argparse.Namespace) -> list[PolicySpec]:
+    """The chosen policies, each with the options given on the command line that it takes
+    (``OPTION_FLAGS``); a policy that cannot be found, or an option none takes, is a
+    ``UsageError`` naming the flag."""
+    options = {name: getattr(args, name) for name in OPTION_FLAGS
+               if getattr(args, name, None) is not None}
+    try:
+        return policy_specs(choices, options, OPTION_FLAGS)
+    except ValueError as err:
+        message = str(err)
+        raise UsageError(f"--{message}" if message.startswith(("defenders", "attackers"))
+                         else message) from None
 
 
 # -- commands -------------------------------------------------------------------------------
 
-def _play(args: argparse.Namespace) -> int:
-    from reachavoid.rollout import run_episode
-
+def _check_video_options(args: argparse.Namespace, scenario: Scenario) -> None:
+    """Check --video, --fps, --every, --realtime and --width; settle ``args.every`` and
+    ``args.fps`` (--realtime: the rate at which video time is game time)."""
     if args.video is not None:
-        from reachavoid_env.video import check_video_path
-
         try:
             check_video_path(args.video)
         except ValueError as err:
             raise UsageError(str(err)) from None
-        writable_file(args.video, "--video")
-        if args.fps is not None:
-            _check(checks.positive, args.fps, "--fps", 240.0)
+        writable_file(args.video, "--video", args.force)
+    if args.realtime and args.fps is not None:
+        raise UsageError("--realtime: sets the fps itself; drop --fps")
+    if args.fps is not None:
+        _check(checks.real, args.fps, "--fps", *FPS_RANGE)
+    if args.every is not None:
         _check(checks.integer, args.every, "--every", 1, 1_000_000)
-        _check(checks.integer, args.width, "--width", 16, 4096)
+    _check(checks.integer, args.width, "--width", 16, 4096)
+    rate = reachavoid_env.ReachAvoidEnv.metadata["render_fps"]
+    if args.realtime:
+        args.every = args.every or realtime_every(scenario.dt, rate)
+        args.fps = realtime_fps(scenario.dt, args.every)
+        most = GIF_MAX_FPS if str(args.video).lower().endswith(".gif") else FPS_RANGE[1]
+        if args.fps > most:
+            raise UsageError(f"--realtime: --every {args.every} with {scenario.dt * 1e3:g} ms "
+                             f"steps needs {args.fps:g} fps, above this format's {most:g}; use "
+                             f"--every {realtime_every(scenario.dt, most)} or more")
+    args.every = args.every or 1
+    args.fps = args.fps or rate
+
+
+def _play(args: argparse.Namespace) -> int:
+    if args.preview is not None:
+        if args.video is not None:
+            raise UsageError("--preview: draws the first frame without playing; drop --video")
+        if Path(args.preview).suffix.lower() != ".png":
+            raise UsageError(f"--preview: {args.preview!r} must end in .png")
+        writable_file(args.preview, "--preview")
     scenario = _load(args.scenario)
-    attackers = _policy("attackers", args.attackers, scenario, args)
-    defenders = _policy("defenders", args.defenders, scenario, args)
+    _check_video_options(args, scenario)
+    attacker_spec, defender_spec = _specs([("attackers", args.attackers),
+                                           ("defenders", args.defenders)], args)
+    attackers = attacker_spec(scenario, seed=args.seed, progress=args.progress)
+    defenders = defender_spec(scenario, seed=args.seed, progress=args.progress)
+    drawn = args.video is not None or args.preview is not None
     env = reachavoid_env.parallel_env(
-        scenario=scenario, render_mode="rgb_array" if args.video else None,
+        scenario=scenario, render_mode="rgb_array" if drawn else None,
         render_width=args.width)
+    title = episode_title(scenario.name, args.defenders, args.attackers, args.seed)
     try:
+        if args.preview is not None:
+            return _preview(env, attackers, defenders, title, args)
         result = run_episode(env, attackers, defenders, seed=args.seed, video=args.video,
-                             fps=args.fps, every=args.every,
+                             fps=args.fps, every=args.every, title=title,
                              progress=args.video is not None and not args.json
                              and args.progress)
     finally:
@@ -281,6 +414,42 @@ def _play(args: argparse.Namespace) -> int:
     else:
         print(_summary(result, args))
     return 0
+
+
+def _preview(env: Any, attackers: Any, defenders: Any, title: str,
+             args: argparse.Namespace) -> int:
+    """``play --preview``: the first frame as a PNG, written atomically."""
+    import imageio.v3 as iio
+
+    frame = first_frame(env, attackers, defenders, seed=args.seed, title=title)
+    with atomic_write(args.preview, "wb") as handle:
+        iio.imwrite(handle, frame, extension=".png")
+    if args.json:
+        print(json.dumps({"preview": args.preview, "width": frame.shape[1],
+                          "height": frame.shape[0]}))
+    else:
+        print(f"{title}\n  first frame: {args.preview} ({frame.shape[1]}x{frame.shape[0]})")
+    return 0
+
+
+def _validate(args: argparse.Namespace) -> int:
+    """``validate``: each file loaded and an env reset on it; one line per file."""
+    bad = 0
+    for source in args.files:
+        try:
+            scenario = load_scenario(source)
+            reachavoid_env.parallel_env(scenario=scenario).reset(seed=0)
+        except (ScenarioError, ValueError, OSError) as err:
+            bad += 1
+            words = getattr(err, "strerror", None) or str(err)
+            if not words.startswith(source):
+                words = f"{source}: {words}"
+            print(f"reachavoid validate: error: {words}", file=sys.stderr)
+            continue
+        starts = "given starts" if scenario.attackers is not None else "random starts"
+        print(f"{source}: ok ({scenario.name}: {scenario.num_attackers} attackers, "
+              f"{scenario.num_defenders} defenders, {starts})")
+    return EXIT_USAGE if bad else 0
 
 
 def _json_report(result: EpisodeResult, args: argparse.Namespace) -> dict[str, object]:
@@ -295,18 +464,31 @@ def _json_report(result: EpisodeResult, args: argparse.Namespace) -> dict[str, o
 
 
 def _summary(result: EpisodeResult, args: argparse.Namespace) -> str:
-    lines = [f"{result.scenario} (seed {result.seed}): {args.defenders} defenders vs "
-             f"{args.attackers} attackers"]
+    """What the episode came to, in the words its frames showed."""
+    lines = [episode_title(result.scenario, args.defenders, args.attackers, result.seed)]
     for word, names in (("captured", result.captured), ("arrived ", result.arrived)):
         lines.append(f"  {word} {len(names)}" + (f": {', '.join(names)}" if names else ""))
     lines.append(f"  {result.steps} steps, {result.game_time:.3f} s of game time, "
                  f"{result.seconds:.2f} s wall clock")
+    lines.append(f"  outcome: {result.outcome}")
+    for when, shown in (("start", result.first_lines), ("end", result.last_lines)):
+        if shown:
+            lines.append(f"  overlay at the {when}: {'; '.join(shown)}")
     if result.guarantees:
-        lines.append(f"  guaranteed captures: {result.guarantees[0]} at the start, "
-                     f"{result.guarantees[-1]} at the end")
+        lines.append(f"  captured so far + guaranteed: {result.guarantees[0]} at the first "
+                     f"decision, {result.guarantees[-1]} at the last")
     if args.video is not None:
-        lines.append(f"  video: {args.video} ({result.frames} frames)")
+        speed = args.fps * args.every * result.game_time / max(result.steps, 1)
+        lines.append(f"  video: {args.video} ({result.frames} frames at {args.fps:g} fps, "
+                     f"{_speed_words(speed)})")
     return "\n".join(lines)
+
+
+def _speed_words(speed: float) -> str:
+    """A playback ``speed`` (game seconds per video second) in words."""
+    if abs(speed - 1.0) < 1e-6:
+        return "real time"
+    return f"{1 / speed:.3g}x slow motion" if speed < 1 else f"{speed:.3g}x fast"
 
 
 def _solve(args: argparse.Namespace) -> int:
@@ -316,75 +498,149 @@ def _solve(args: argparse.Namespace) -> int:
     if args.out is not None:
         writable_folder(args.out, "--out")
     if args.plot is not None:
-        writable_file(args.plot, "--plot")
-    from reachavoid.solve import solve_scenario
-
+        writable_file(args.plot, "--plot", args.force)
     scenario = _load(args.scenario)
     try:
         grid = args.grid1 if args.game == "1v1" and args.grid is None else args.grid
         report = solve_scenario(scenario, args.game, grid, out=args.out,
-                                grid_points_1v1=args.grid1,
-                                plot=args.plot, progress=args.progress)
+                                grid_points_1v1=args.grid1, plot=args.plot,
+                                progress=args.progress)
     except (ValueError, MemoryError) as err:
         raise UsageError(str(err)) from None
     print(report.summary())
     return 0
 
 
-def _bench(args: argparse.Namespace) -> int:
-    from reachavoid.evaluation import compare_defenders, write_csv
+def _bench_suite(args: argparse.Namespace) -> Suite:
+    """The suite to play: ``--suite``, or one cell of ``--scenario`` and ``--config``."""
+    if args.suite is not None:
+        given = [f"--{key}" for key, default in ONE_CELL.items()
+                 if getattr(args, key) != default]
+        if given:
+            raise UsageError(f"{given[0]}: not with --suite (the suite names its cells)")
+        try:
+            suite = load_suite(args.suite)
+        except OSError as err:
+            raise UsageError(f"--suite: cannot read {args.suite!r}: {err.strerror}") from None
+        except ValueError as err:
+            raise UsageError(str(err)) from None
+        return suite if args.seed is None else Suite(suite.name, suite.version, args.seed,
+                                                      suite.cells)
+    m, n = _check(parse_players, args.config, "--config")
+    scenario = _load(args.scenario).with_players(m, n)
+    cell = Cell(scenario.name, scenario, args.attackers)
+    return Suite(scenario.name, 0, args.seed or 0, (cell,))
 
-    match = re.fullmatch(r"(\d+)v(\d+)", args.config)
-    if match is None:
-        raise UsageError(f"--config: expected MvN such as 6v2, got {args.config!r}")
-    _check(checks.integer, int(match[1]), "--config attackers", 1, 64)
-    _check(checks.integer, int(match[2]), "--config defenders", 1, 64)
+
+def _bench(args: argparse.Namespace) -> int:
     _check(checks.integer, args.episodes, "--episodes", 1, 10_000_000)
-    methods = [m.strip() for m in args.defenders.split(",") if m.strip()]
-    unknown = [m for m in methods if m not in DEFENDERS]
-    if unknown or not methods:
-        raise UsageError(f"--defenders: unknown method(s) {unknown or args.defenders!r} "
-                         f"(choose from {', '.join(DEFENDERS)})")
+    methods = list(dict.fromkeys(m.strip() for m in args.defenders.split(",") if m.strip()))
+    if not methods:
+        raise UsageError(f"--defenders: expected comma-separated methods, got "
+                         f"{args.defenders!r}")
+    baseline = args.baseline or ("hj" if "hj" in methods else methods[0])
+    if baseline not in methods:
+        raise UsageError(f"--baseline: {baseline!r} is not among --defenders "
+                         f"({', '.join(methods)})")
     if args.workers is not None:
         _check(checks.integer, args.workers, "--workers", 1, 4096)
     if args.address is not None and args.backend != "ray":
         raise UsageError("--address: only with --backend ray")
-    if args.csv:
-        writable_file(args.csv, "--csv")
-    scenario = _load(args.scenario).with_players(int(match[1]), int(match[2]))
-    comparison = compare_defenders(scenario, methods, args.attackers, args.episodes,
-                                   seed=args.seed, backend=args.backend, workers=args.workers,
-                                   address=args.address, progress=args.progress,
-                                   grid1=args.grid1, grid2=args.grid2, **_margin(args))
+    for flag, path in (("--csv", args.csv), ("--plot", args.plot), ("--json", args.json)):
+        if path not in (None, "-"):
+            writable_file(path, flag, args.force, text=flag != "--plot")
+    suite = _bench_suite(args)
+    attackers = dict.fromkeys(cell.attackers for cell in suite.cells)
+    _specs([*(("defenders", m) for m in methods), *(("attackers", a) for a in attackers)],
+           args)
+    repeated = [cell.label for cell in suite.cells
+                if (cell.episodes or args.episodes) > 1 and one_start(cell.scenario)]
+    if repeated:
+        print(f"reachavoid bench: warning: {len(repeated)} cell(s) play every episode from "
+              f"the same start (fixed starts), so their intervals cover the policies' "
+              f"randomness only: {', '.join(repeated)}", file=sys.stderr)
+    options = {name: getattr(args, name) for name in OPTION_FLAGS
+               if getattr(args, name) is not None}
+    started = time.perf_counter()
+    result = run_suite(suite, methods, args.episodes, baseline, options, OPTION_FLAGS,
+                       backend=args.backend, workers=args.workers, address=args.address,
+                       progress=args.progress)
+    seconds = time.perf_counter() - started
+    report = result.to_dict() | {"episodes": args.episodes, "wall_seconds": seconds}
     if args.csv:
         write_csv(args.csv, [{k: (";".join(v) if isinstance(v, list) else v)
-                              for k, v in row.items()} for row in comparison.rows])
-    if args.json:
-        print(json.dumps({"scenario": scenario.name, "config": args.config,
-                          "attackers": args.attackers, "seed": args.seed,
-                          "episodes": args.episodes,
-                          "methods": [s.to_dict() for s in comparison.summaries]}))
+                              for k, v in row.items()} for row in report["rows"]])
+    if args.plot:
+        plot_suite(result, args.plot)
+    if args.csv == STDOUT:   # the rows went to standard output: the tables go beside them
+        with contextlib.redirect_stdout(sys.stderr):
+            return _print_bench(args, result, report, seconds)
+    return _print_bench(args, result, report, seconds)
+
+
+def _print_bench(args: argparse.Namespace, result: SuiteResult, report: dict[str, Any],
+                 seconds: float) -> int:
+    if args.json == "-":
+        print(json.dumps(report))
         return 0
-    print(f"{scenario.name}: {args.episodes} seeded random starts (seeds {args.seed}.."
-          f"{args.seed + args.episodes - 1}), {args.attackers} attackers")
-    print(f"  {'defenders':<10} {'capture rate [95% CI]':<26} {'all captured [95% CI]':<26}"
-          f" {'guaranteed':>10} {'nominal':>8} {'violations':>10}")
-    for s in comparison.summaries:
-        guaranteed, nominal = ("-" if x is None else f"{x:.2f}"
-                               for x in (s.guaranteed_initial, s.nominal_initial))
-        print(f"  {s.label:<10} {s.capture_rate:6.1%} [{s.capture_rate_ci[0]:.1%}, "
-              f"{s.capture_rate_ci[1]:.1%}]{'':<4} {s.all_captured_rate:6.1%} "
-              f"[{s.all_captured_ci[0]:.1%}, {s.all_captured_ci[1]:.1%}]{'':<4}"
-              f" {guaranteed:>10} {nominal:>8} {s.guarantee_violations:>10}")
-    if args.csv:
-        print(f"  per-episode rows: {args.csv}")
+    if args.json:
+        with atomic_write(args.json) as handle:
+            json.dump(report, handle, indent=1)
+    print(_bench_tables(result, seconds))
+    for flag, path in (("per-episode rows", args.csv), ("JSON", args.json), ("plot", args.plot)):
+        if path:
+            print(f"{flag}: {path}")
     return 0
 
 
-def _paper(args: argparse.Namespace) -> int:
-    from reachavoid import paper as paper_table
+INTERVALS = ("95% intervals: a proportion (every value 0 or 1) gets the Wilson interval; "
+             f"a mean the percentile bootstrap over episodes when there are >= {MIN_BOOTSTRAP} "
+             "and they vary, else the Wilson bound (never too narrow); differences are "
+             "per seed, against the baseline")
 
+
+def _percent(value: float, interval: tuple[float, float], method: str = "") -> str:
+    tag = {"wilson": " W", "wilson-bound": " Wb", "bootstrap": " B", "": ""}[method]
+    return f"{value:6.1%} [{interval[0]:.1%}, {interval[1]:.1%}]{tag}"
+
+
+def _bench_tables(result: SuiteResult, seconds: float) -> str:
+    """A table per cell: each method's capture rates, then its paired difference."""
+    suite = result.suite
+    width = max(10, *(len(m) for m in result.methods))
+    title = (f"suite {suite.name} v{suite.version}, {len(suite.cells)} cells"
+             if suite.version else suite.name)
+    lines = [f"{title}; defenders {', '.join(result.methods)}; baseline {result.baseline}; "
+             f"{seconds:.0f} s wall time", INTERVALS + " (W Wilson, Wb Wilson bound, "
+             "B bootstrap)"]
+    for cell in result.cells:
+        comparison = cell.comparison
+        episodes = comparison.summaries[0].episodes
+        lines += ["", f"{cell.cell.label}: {episodes} episode(s), seeds {suite.seed}.."
+                      f"{suite.seed + episodes - 1}" + (" (all from one start)"
+                                                        if cell.one_start else ""),
+                  f"  {'defenders':<{width}} {'capture rate [95% CI]':<29} "
+                  f"{'all captured [95% CI]':<26} {'guaranteed':>10} {'nominal':>8} "
+                  f"{'violations':>10} {'s/episode':>9}"]
+        for s in comparison.summaries:
+            guaranteed, nominal = ("-" if x is None else f"{x:.2f}"
+                                   for x in (s.guaranteed_initial, s.nominal_initial))
+            rate = _percent(s.capture_rate, s.capture_rate_ci, s.capture_rate_method)
+            lines.append(f"  {s.label:<{width}} {rate:<29} "
+                         f"{_percent(s.all_captured_rate, s.all_captured_ci):<26} "
+                         f"{guaranteed:>10} {nominal:>8} {s.guarantee_violations:>10} "
+                         f"{cell.seconds_per_episode[s.label]:>9.2f}")
+        for d in comparison.differences:
+            lines.append(f"  {d.label} - {d.baseline}: capture rate {d.difference:+.1%} "
+                         f"[{d.ci[0]:+.1%}, {d.ci[1]:+.1%}] ({d.method}, {d.episodes} "
+                         f"paired seed(s))")
+    return "\n".join(lines)
+
+
+def _paper(args: argparse.Namespace) -> int:
     out = writable_folder(args.out, "--out")
+    for path in paper_table.outputs(out, videos=not args.no_video):
+        _check_replace(destination(path), "--out", args.force, str(path))
     out.mkdir(parents=True, exist_ok=True)
     rows = paper_table.reproduce(out, args.grid1, args.grid2, videos=not args.no_video,
                                  progress=args.progress)
@@ -401,7 +657,7 @@ def _paper(args: argparse.Namespace) -> int:
 
 
 def _terminate(signum: int, frame: object) -> None:
-    raise Terminated
+    raise Terminated(signum)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -411,26 +667,32 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exit_:
         return int(exit_.code or 0)
-    previous = signal.signal(signal.SIGTERM, _terminate)
+    previous = {signum: signal.signal(signum, _terminate) for signum in STOP_SIGNALS}
     try:
         _check_common(args)
         return args.run(args)
-    except (UsageError, reachavoid_env.ScenarioError) as err:
+    except (UsageError, ScenarioError, CacheLocationError, InsufficientMemoryError) as err:
         print(f"reachavoid {args.command}: error: {err}", file=sys.stderr)
         return EXIT_USAGE
+    except BrokenPipeError:
+        # standard output closed early (``| head``): end quietly, as a killed writer would
+        with contextlib.suppress(OSError, ValueError):   # no file descriptor (captured)
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_PIPE
     except OSError as err:
         where = f"{err.filename}: " if err.filename else ""
         print(f"reachavoid {args.command}: error: {where}{err.strerror or err}",
               file=sys.stderr)
         return EXIT_WRITE
-    except Terminated:
-        print(f"reachavoid {args.command}: terminated", file=sys.stderr)
-        return EXIT_TERMINATED
+    except Terminated as stop:
+        print(f"reachavoid {args.command}: {STOP_SIGNALS[stop.signum]}", file=sys.stderr)
+        return 128 + stop.signum
     except KeyboardInterrupt:
         print(f"reachavoid {args.command}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 if __name__ == "__main__":

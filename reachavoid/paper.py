@@ -17,9 +17,9 @@ from pathlib import Path
 from typing import Any
 
 import reachavoid_env
-from policies.registry import accepted_options, make_policy
+from policies.registry import make_policy, policy_specs
 from policies.tubes import tube_2v1
-from reachavoid.rollout import run_episode
+from reachavoid.rollout import episode_title, run_episode
 from reachavoid_env import Scenario
 from reachavoid_env.files import atomic_write
 from solvers.hj.plot import scenario_panels, tube_figure
@@ -45,25 +45,38 @@ class PaperRow:
     measured: dict[str, dict[str, Any]]
 
 
+def outputs(out: Path, videos: bool = True) -> list[Path]:
+    """The files ``reproduce`` writes into ``out``."""
+    names = [_video_name(sc.name, method) for sc in paper_scenarios()
+             for method in dict(sc.paper_captures)] if videos else []
+    return [out / name for name in (*names, "tubes.png", "table.json")]
+
+
+def _video_name(scenario: str, method: str) -> str:
+    return f"{scenario}_{method}.mp4"
+
+
 def reproduce(out: Path, grid1: int, grid2: int, videos: bool = True,
               progress: bool = False) -> list[PaperRow]:
     """Play every paper game with every method it reports, write the videos (``out/NAME_
     METHOD.mp4``), ``out/tubes.png`` and ``out/table.json``; return the rows."""
     scenarios = paper_scenarios()
     options = {"grid1": grid1, "grid2": grid2, "idle": "stand", "unmatched": "stand",
-               "margin_cells": 0.0, "progress": progress}
+               "margin_cells": 0.0}
     rows = []
     for scenario in scenarios:
         measured = {}
-        for method in dict(scenario.paper_captures):
-            defenders = make_policy("defenders", method, scenario,
-                                    **accepted_options("defenders", method, **options))
+        methods = list(dict(scenario.paper_captures))
+        for method, spec in zip(methods, policy_specs([("defenders", m) for m in methods],
+                                                      options), strict=True):
+            defenders = spec(scenario, progress=progress)
             attackers = make_policy("attackers", ATTACKERS, scenario)
             env = reachavoid_env.parallel_env(scenario=scenario,
                                               render_mode="rgb_array" if videos else None)
-            video = out / f"{scenario.name}_{method}.mp4" if videos else None
+            video = out / _video_name(scenario.name, method) if videos else None
             try:
                 result = run_episode(env, attackers, defenders, seed=0, video=video,
+                                     title=episode_title(scenario.name, method, ATTACKERS, 0),
                                      progress=progress)
             finally:
                 env.close()

@@ -18,7 +18,8 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 import numpy as np
 from tqdm import tqdm
 
-from reachavoid_env import Policy, Scenario, checks, merged_overlay
+from reachavoid_env import GameState, Overlay, Policy, Scenario, checks, merged_overlay
+from reachavoid_env.game_state import outcome_line
 
 if TYPE_CHECKING:
     from pettingzoo.utils.env import ParallelEnv
@@ -52,6 +53,9 @@ class EpisodeResult:
     is the certified count (values clear the tubes' error margin); ``nominal_guarantees``
     holds the same sums with the paper's rule (value > 0) when the defenders report
     ``nominal_captures``.
+
+    ``first_lines`` / ``last_lines`` are the policies' overlay text at the first and the
+    last decision: the lines on the video's first and last frames.
     """
 
     scenario: str
@@ -65,6 +69,13 @@ class EpisodeResult:
     frames: int = 0
     guarantees: tuple[int, ...] = ()
     nominal_guarantees: tuple[int, ...] = ()
+    first_lines: tuple[str, ...] = ()
+    last_lines: tuple[str, ...] = ()
+
+    @property
+    def outcome(self) -> str:
+        """How the episode ended, in the words of the video's last-frame banner."""
+        return outcome_line(self.num_attackers, self.captured_count, self.arrived_count)
 
     @property
     def captured_count(self) -> int:
@@ -122,19 +133,62 @@ class EpisodeResult:
                   if self.nominal_guarantees else {})
 
 
+def episode_title(scenario: str, defenders: str, attackers: str, seed: int | None) -> str:
+    """The title line of an episode's frames: the scenario, the policies and the seed."""
+    return f"{scenario}: {defenders} defenders vs {attackers} attackers, seed {seed}"
+
+
+def _start(env: ParallelEnv, attackers: Policy, defenders: Policy, seed: int | None,
+           title: str | None) -> Scenario:
+    """Reset ``env`` with ``seed`` and both policies with the scenario in play; give the
+    frames their title (default: the policies' class names)."""
+    game = env.unwrapped
+    env.reset(seed=seed)
+    scenario: Scenario = game.scenario
+    attackers.reset(scenario)
+    defenders.reset(scenario)
+    game.set_caption(title or episode_title(scenario.name, type(defenders).__name__,
+                                            type(attackers).__name__, seed))
+    return scenario
+
+
+def _decide(env: ParallelEnv, state: GameState, attackers: Policy, defenders: Policy
+            ) -> tuple[dict[str, np.ndarray], Overlay | None]:
+    """Both sides' actions at ``state``; their overlay goes to the env's next frames."""
+    actions = {**attackers.act(state), **defenders.act(state)}
+    overlay = merged_overlay(attackers, defenders)
+    env.unwrapped.set_overlay(overlay)
+    return actions, overlay
+
+
+def first_frame(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
+                seed: int | None = None, title: str | None = None) -> np.ndarray:
+    """The first frame of the episode ``run_episode`` would play with the same arguments
+    (the start, the first decision's overlay), without playing it: ``(height, width, 3)``
+    uint8. The env's ``render_mode`` must be ``"rgb_array"``."""
+    if getattr(env, "render_mode", None) != "rgb_array":
+        raise ValueError(f"first_frame needs render_mode='rgb_array', got "
+                         f"{getattr(env, 'render_mode', None)!r}")
+    _start(env, attackers, defenders, seed, title)
+    _decide(env, env.unwrapped.game_state(), attackers, defenders)
+    return env.render()
+
+
 def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
                 seed: int | None = None, video: str | os.PathLike[str] | None = None,
-                fps: float | None = None, every: int = 1,
+                fps: float | None = None, every: int = 1, title: str | None = None,
                 progress: bool = False) -> EpisodeResult:
     """Play one episode of ``env`` with ``attackers`` against ``defenders``.
 
     The env is reset with ``seed``, both policies with the scenario in play; each step
     every live agent gets its side's action and the policies' overlay is handed to the
-    renderer. With ``video`` (``.mp4`` or ``.gif``; the env's ``render_mode`` must be
-    ``"rgb_array"``) the episode is recorded through ``RecordEpisode``: the frame after
-    reset, every ``every``-th step and the last one, at ``fps`` (default
-    ``env.metadata["render_fps"]``); an exception (Ctrl-C included) leaves no file. A
-    ``"human"`` env draws its window itself. ``progress`` shows a tqdm bar over steps.
+    renderer, so that every frame from the first to the last carries it. With ``video``
+    (``.mp4`` or ``.gif``; the env's ``render_mode`` must be ``"rgb_array"``) the episode
+    is recorded through ``RecordEpisode``: the start, every ``every``-th step and the last
+    one, at ``fps`` (default ``env.metadata["render_fps"]``; ``realtime_fps`` plays in game
+    time); an exception (Ctrl-C included) leaves no file. ``title`` heads every frame
+    (default: ``episode_title`` with the policies' class names). A ``"human"`` env draws
+    its window itself. ``progress`` shows a tqdm bar over steps.
     """
     checks.integer(every, "every", 1)
     game = env.unwrapped
@@ -146,21 +200,22 @@ def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
     certifies = isinstance(defenders, CertifiesCaptures)
     guarantees: list[int] = []
     nominals: list[int] = []
+    first_lines: tuple[str, ...] | None = None
+    last_lines: tuple[str, ...] = ()
     bar = tqdm(total=game.max_cycles, unit="step", disable=not progress, leave=False)
     try:
-        played.reset(seed=seed)
-        scenario: Scenario = game.scenario
-        attackers.reset(scenario)
-        defenders.reset(scenario)
+        scenario = _start(played, attackers, defenders, seed, title)
         state = game.game_state()
         while played.agents:
             live = set(played.agents)
-            actions = {**attackers.act(state), **defenders.act(state)}
+            actions, overlay = _decide(played, state, attackers, defenders)
             if certifies and defenders.guaranteed_captures is not None:
                 guarantees.append(len(state.captured) + defenders.guaranteed_captures)
                 if getattr(defenders, "nominal_captures", None) is not None:
                     nominals.append(len(state.captured) + defenders.nominal_captures)
-            game.set_overlay(merged_overlay(attackers, defenders))
+            last_lines = overlay.lines if overlay is not None else ()
+            if first_lines is None:
+                first_lines = last_lines
             played.step({agent: a for agent, a in actions.items() if agent in live})
             bar.update(1)
             state = game.game_state()
@@ -183,4 +238,5 @@ def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
         seconds=time.perf_counter() - started,
         frames=recorder.frames if recorder is not None else 0,
         guarantees=tuple(guarantees), nominal_guarantees=tuple(nominals),
+        first_lines=first_lines or (), last_lines=last_lines,
     )

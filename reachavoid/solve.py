@@ -56,7 +56,7 @@ def solve_scenario(scenario: str | Scenario, game: str, grid_points: int | None 
     as many attackers and defenders as the game has (checked before the solve).
     """
     from reachavoid_env import Scenario, load_scenario
-    from solvers.hj import solve_1v1, solve_1v2, solve_2v1
+    from solvers.hj import check_tubes_memory, solve_1v1, solve_1v2, solve_2v1
     from solvers.hj.value import refuse_foreign
 
     if game not in GAMES:
@@ -74,6 +74,9 @@ def solve_scenario(scenario: str | Scenario, game: str, grid_points: int | None 
                              f"{defenders} defender start(s); scenario {sc.name!r} has "
                              f"{len(sc.attackers)} and {len(sc.defenders)}")
     grid_points = grid_points or DEFAULT_GRID[game]
+    check_tubes_memory(sc.map, (sc.attacker_speed, sc.defender_speed), sc.capture_radius,
+                       grid_points if game == "1v1" else grid_points_1v1,
+                       None if game == "1v1" else grid_points)
     started = time.perf_counter()
     vf = solve_1v1(sc.map, (sc.attacker_speed, sc.defender_speed), sc.capture_radius,
                    grid_points if game == "1v1" else grid_points_1v1, progress=progress)

@@ -1,11 +1,15 @@
-"""Sweeps: many seeded episodes of named policies, serially, on a process pool or on Ray.
+"""Sweeps: many seeded episodes of chosen policies, serially, on a process pool or on Ray.
 
 Every episode is a pure function of ``(scenario, policies, seed)``: ``play_seed`` builds
 (or reuses, within one process) the env and the policies, and a policy that takes a seed
 gets the episode's. So the three backends give the same results for the same seeds, bit
-for bit, whatever the number of workers or the order in which episodes finish.
+for bit, whatever the number of workers or the order in which episodes finish. Policies
+travel as ``policies.registry.PolicySpec`` values: each worker resolves the spec itself
+(imports a ``pkg.module:factory``, loads an entry point), so a policy of your own needs
+its module importable where the workers run (``PYTHONPATH``; a process pool also gets the
+driver's ``sys.path``, a local Ray instance its ``PYTHONPATH``).
 
-Tubes: the driver builds the defenders once before dispatching, which solves any missing
+Tubes: the driver builds the policies once before dispatching, which solves any missing
 tube into the cache (``$REACHAVOID_CACHE_DIR``); every worker then memory-maps it from
 there. On one machine the workers share the page cache. A multi-machine Ray cluster needs
 the cache folder on a shared filesystem (the same path on every node; it is passed to the
@@ -14,45 +18,34 @@ workers in ``runtime_env``), or a cache filled on each node beforehand.
 
 from __future__ import annotations
 
-import functools
+import multiprocessing
 import os
-from collections.abc import Iterator, Sequence
+import signal
+import threading
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
+
+from tqdm import tqdm
 
 import reachavoid_env
-from policies.registry import accepted_options, make_policy, named_policy
-
-if TYPE_CHECKING:
-    from reachavoid.rollout import EpisodeResult
-    from reachavoid_env import Policy, Scenario
+from policies.registry import Factory, PolicySpec, policy_specs
+from reachavoid.rollout import EpisodeResult, run_episode
+from reachavoid_env import Policy, Scenario
+from solvers.hj.cache import cache_dir
+from solvers.hj.reach_avoid import available_memory
 
 BACKENDS = ("serial", "process", "ray")
+WORKER_BYTES = 200 << 20
+"""Memory one pool worker holds (interpreter, numpy, numba, env, policies: about 190 MB)."""
 
 
-@dataclass(frozen=True)
-class PolicySpec:
-    """A named policy (``policies.registry``) and its options, as a picklable value."""
-
-    side: str
-    name: str
-    options: tuple[tuple[str, Any], ...] = ()
-
-    @classmethod
-    def of(cls, side: str, name: str, **available: Any) -> PolicySpec:
-        """The policy ``name`` with whichever of ``available`` it accepts (a ``seed`` among
-        them is replaced by each episode's seed)."""
-        options = accepted_options(side, name, **available)
-        options.pop("seed", None)
-        return cls(side, name, tuple(sorted(options.items())))
-
-    @property
-    def seeded(self) -> bool:
-        return "seed" in named_policy(self.side, self.name).options
-
-    def build(self, scenario: Scenario, seed: int) -> Policy:
-        extra = {"seed": seed} if self.seeded else {}
-        return make_policy(self.side, self.name, scenario, **dict(self.options), **extra)
+def pool_size(workers: int | None, episodes: int) -> int:
+    """Processes of a pool (or CPUs of a local Ray instance) for ``episodes`` episodes:
+    ``workers`` (default: the CPU count), at most one per episode and no more than the
+    available memory holds."""
+    by_memory = available_memory() // WORKER_BYTES
+    return max(1, min(workers or os.cpu_count() or 1, episodes, by_memory))
 
 
 @dataclass(frozen=True)
@@ -70,13 +63,13 @@ _BUILT: dict[tuple[Scenario, PolicySpec], Policy] = {}
 _ENVS: dict[Scenario, Any] = {}
 
 
-def _policy(spec: PolicySpec, scenario: Scenario, seed: int) -> Policy:
+def _policy(spec: PolicySpec, scenario: Scenario, seed: int, progress: bool = False) -> Policy:
     """``spec`` for this episode: rebuilt when seeded, else built once per process."""
     if spec.seeded:
-        return spec.build(scenario, seed)
+        return spec(scenario, seed=seed, progress=progress)
     key = (scenario, spec)
     if key not in _BUILT:
-        _BUILT[key] = spec.build(scenario, seed)
+        _BUILT[key] = spec(scenario, seed=seed, progress=progress)
     return _BUILT[key]
 
 
@@ -85,74 +78,103 @@ def play_seed(sweep: Sweep, seed: int) -> EpisodeResult:
     scenario = sweep.scenario
     if scenario not in _ENVS:
         _ENVS[scenario] = reachavoid_env.parallel_env(scenario=scenario)
-    from reachavoid.rollout import run_episode
-
     return run_episode(_ENVS[scenario], _policy(sweep.attackers, scenario, seed),
                        _policy(sweep.defenders, scenario, seed), seed=seed)
+
+
+def _play_task(task: tuple[int, Sweep, int]) -> tuple[int, EpisodeResult]:
+    index, sweep, seed = task
+    return index, play_seed(sweep, seed)
+
+
+def run_sweeps(sweeps: Sequence[Sweep], backend: str = "serial", workers: int | None = None,
+               address: str | None = None, progress: bool = False,
+               description: str = "") -> list[list[EpisodeResult]]:
+    """Play every seed of every sweep on ``backend`` (one pool or Ray instance for all of
+    them) and return each sweep's results in seed order.
+
+    ``workers``: processes of the pool (``pool_size``); ``address``: an existing Ray
+    cluster (default: a local instance, started here and shut down after). Ctrl-C
+    cancels the episodes not yet played and stops the workers.
+    """
+    if backend not in BACKENDS:
+        raise ValueError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
+    for sweep in sweeps:   # solves missing tubes once, here, with progress when asked
+        _policy(sweep.attackers, sweep.scenario, sweep.seeds[0], progress)
+        _policy(sweep.defenders, sweep.scenario, sweep.seeds[0], progress)
+    tasks = [(index, sweep, seed) for index, sweep in enumerate(sweeps) for seed in sweep.seeds]
+    results: list[dict[int, EpisodeResult]] = [{} for _ in sweeps]
+    with tqdm(total=len(tasks), desc=description, unit="episode", disable=not progress,
+              leave=False) as bar:
+        play = {"serial": _serial, "process": _process_pool, "ray": _ray}[backend]
+        for index, result in play(tasks, workers=workers, address=address):
+            results[index][result.seed] = result
+            bar.update(1)
+    return [[done[seed] for seed in sweep.seeds] for done, sweep in zip(results, sweeps,
+                                                                        strict=True)]
 
 
 def run_sweep(sweep: Sweep, backend: str = "serial", workers: int | None = None,
               address: str | None = None, progress: bool = False,
               description: str = "") -> list[EpisodeResult]:
-    """Play every seed of ``sweep`` on ``backend`` and return the results in seed order.
-
-    ``workers``: processes of the pool (default: the CPU count); ``address``: an existing
-    Ray cluster (default: a local instance, started here and shut down after). Ctrl-C
-    cancels the episodes not yet played and stops the workers.
-    """
-    if backend not in BACKENDS:
-        raise ValueError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
-    _policy(sweep.defenders, sweep.scenario, sweep.seeds[0])   # solves missing tubes once
-    results = {}
-    from tqdm import tqdm
-
-    with tqdm(total=len(sweep.seeds), desc=description, unit="episode", disable=not progress,
-              leave=False) as bar:
-        play = {"serial": _serial, "process": _process_pool, "ray": _ray}[backend]
-        for result in play(sweep, workers=workers, address=address):
-            results[result.seed] = result
-            bar.update(1)
-    return [results[seed] for seed in sweep.seeds]
+    """``run_sweeps`` of one sweep: its results in seed order."""
+    return run_sweeps([sweep], backend, workers, address, progress, description)[0]
 
 
-def _serial(sweep: Sweep, **_: Any) -> Iterator[EpisodeResult]:
-    for seed in sweep.seeds:
-        yield play_seed(sweep, seed)
+Task = tuple[int, Sweep, int]
 
 
-def _process_pool(sweep: Sweep, workers: int | None, **_: Any) -> Iterator[EpisodeResult]:
-    import multiprocessing
+def _serial(tasks: list[Task], **_: Any) -> Iterator[tuple[int, EpisodeResult]]:
+    for task in tasks:
+        yield _play_task(task)
 
-    pool = multiprocessing.get_context("spawn").Pool(workers or os.cpu_count())
+
+def _process_pool(tasks: list[Task], workers: int | None,
+                  **_: Any) -> Iterator[tuple[int, EpisodeResult]]:
+    pool = multiprocessing.get_context("spawn").Pool(pool_size(workers, len(tasks)),
+                                                     initializer=_start_worker)
     try:
-        yield from pool.imap_unordered(functools.partial(play_seed, sweep), sweep.seeds)
+        yield from pool.imap_unordered(_play_task, tasks)
     except BaseException:
         pool.terminate()   # Ctrl-C or SIGTERM: no worker outlives the sweep
         raise
-    pool.close()
-    pool.join()
+    else:
+        pool.close()
+    finally:
+        pool.join()
 
 
-def _ray(sweep: Sweep, workers: int | None, address: str | None,
-         **_: Any) -> Iterator[EpisodeResult]:
-    from solvers.hj.cache import cache_dir
+def _start_worker() -> None:
+    """Workers leave Ctrl-C (sent to the terminal's whole process group) to the driver,
+    which stops them; their (hidden) tqdm bars take a thread lock instead of tqdm's
+    multiprocessing one, which a stopped worker would leave registered (resource_tracker's
+    "leaked semaphore" warnings)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    tqdm.set_lock(threading.RLock())
 
+
+def _ray(tasks: list[Task], workers: int | None, address: str | None,
+         **_: Any) -> Iterator[tuple[int, EpisodeResult]]:
     try:
         import ray
     except ImportError:
         raise ValueError("backend: 'ray' needs Ray (pip install 'reachavoid[ray]')") from None
     started = not ray.is_initialized()
     if started:
-        ray.init(address=address, num_cpus=None if address else workers,
+        env_vars = {"REACHAVOID_CACHE_DIR": str(cache_dir())}
+        if "PYTHONPATH" in os.environ:
+            env_vars["PYTHONPATH"] = os.environ["PYTHONPATH"]
+        ray.init(address=address,
+                 num_cpus=None if address else pool_size(workers, len(tasks)),
                  include_dashboard=False, log_to_driver=False,
-                 runtime_env={"env_vars": {"REACHAVOID_CACHE_DIR": str(cache_dir())}})
-    task = ray.remote(play_seed)
-    shared = ray.put(sweep)
-    pending = [task.remote(shared, seed) for seed in sweep.seeds]
+                 runtime_env={"env_vars": env_vars})
+    play = ray.remote(play_seed)
+    shared = {id(sweep): ray.put(sweep) for _, sweep, _ in tasks}
+    pending = {play.remote(shared[id(sweep)], seed): index for index, sweep, seed in tasks}
     try:
         while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            yield ray.get(done[0])
+            [done], _ = ray.wait(list(pending), num_returns=1)
+            yield pending.pop(done), ray.get(done)
     except BaseException:
         for ref in pending:
             ray.cancel(ref, force=True)
@@ -162,8 +184,19 @@ def _ray(sweep: Sweep, workers: int | None, address: str | None,
             ray.shutdown()
 
 
-def sweep_of(scenario: Scenario, defenders: str, attackers: str, seeds: Sequence[int],
-             **options: Any) -> Sweep:
-    """The sweep of named policies with whichever of ``options`` each accepts."""
-    return Sweep(scenario, PolicySpec.of("attackers", attackers, **options),
-                 PolicySpec.of("defenders", defenders, **options), tuple(seeds))
+def sweeps_of(scenario: Scenario, methods: Sequence[str | Factory], attackers: str | Factory,
+              seeds: Sequence[int], options: Mapping[str, Any],
+              names: Mapping[str, str] | None = None) -> list[Sweep]:
+    """One sweep per defender method against the same attackers on the same seeds; each
+    policy gets the ``options`` it takes, and one that no policy takes is an error
+    (named as ``names[option]`` when given)."""
+    attacker_spec, *defender_specs = policy_specs(
+        [("attackers", attackers), *(("defenders", method) for method in methods)],
+        options, names)
+    return [Sweep(scenario, attacker_spec, spec, tuple(seeds)) for spec in defender_specs]
+
+
+def sweep_of(scenario: Scenario, defenders: str | Factory, attackers: str | Factory,
+             seeds: Sequence[int], **options: Any) -> Sweep:
+    """The sweep of two policies (specs or factories) with the ``options`` each takes."""
+    return sweeps_of(scenario, [defenders], attackers, seeds, options)[0]

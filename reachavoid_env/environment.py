@@ -7,7 +7,7 @@ The rules themselves live in ``rules``; ``step`` applies them in named phases.
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -84,7 +84,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     ``ValueError`` naming the player.
 
     Rendering (``render_mode`` "rgb_array" or "human") draws ``game_state()`` with the
-    overlay last given to ``set_overlay``; "human" also draws after every reset and step.
+    overlay last given to ``set_overlay``, under the title given to ``set_caption``, and
+    the outcome once the episode is over; "human" also draws after every reset and step.
     """
 
     metadata = {
@@ -147,6 +148,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         self._world: World | None = None
         self._renderer: Any = None
         self._overlay: Overlay | None = None
+        self._caption: str | None = None
 
     # ----------------------------------------------------------------- spaces
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
@@ -186,6 +188,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         self._captured_count = 0
         self._arrived_count = 0
         self.agents = self.possible_agents[:]
+        self._overlay = None  # the last episode's decisions do not describe this one
         if self._renderer is not None:
             if self._renderer_key != (sc.map, sc.capture_radius):
                 self._renderer.close()
@@ -222,6 +225,9 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         """One step of ``dt`` seconds: controls, move, events, rewards, outputs."""
         if self._world is None:
             raise RuntimeError("step: call reset() first (a new or unpickled env is not reset)")
+        if not isinstance(actions, Mapping):
+            raise TypeError(f"step: actions must be a dict {{agent name: action}}, got "
+                            f"{type(actions).__name__}")
         check_agent_names(actions, self.possible_agents)
         live = self.agents
         if not live:
@@ -321,6 +327,10 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         for name in live:
             if name not in actions:
                 raise KeyError(f"step: no action for live agent {name!r}")
+            if isinstance(actions[name], complex) or getattr(
+                    getattr(actions[name], "dtype", None), "kind", "") == "c":
+                raise ValueError(f"action for {name}: expected real numbers, got complex "
+                                 f"{actions[name]!r}")
         try:
             stacked = np.array([actions[name] for name in live], dtype=np.float64)
         except (TypeError, ValueError):
@@ -394,10 +404,15 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
 
     # -------------------------------------------------------------- rendering
     def set_overlay(self, overlay: Overlay | None) -> None:
-        """Draw ``overlay`` (a policy's assignment edges, text) on the following frames:
-        edges to attackers no longer in play are left out, and the whole overlay once no
-        attacker is in play."""
+        """Draw ``overlay`` (a policy's assignment edges, text) on the following frames of
+        this episode (``reset`` clears it): edges to attackers no longer in play are left
+        out; the text stays to the last frame."""
         self._overlay = overlay
+
+    def set_caption(self, caption: str | None) -> None:
+        """The title line of the following frames (``None``: the scenario and the seed);
+        ``run_episode`` names the scenario, the policies and the seed."""
+        self._caption = caption
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -405,6 +420,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                 "You are calling render method without specifying any render mode. "
                 "Pass render_mode='rgb_array' or 'human' to the constructor.")
             return None
+        if self._world is None:
+            raise RuntimeError("render: call reset() first (there is no game to draw yet)")
         if self._renderer is None:
             from reachavoid_env.render import Renderer
 
@@ -412,7 +429,9 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             self._renderer = Renderer(sc.map, sc.capture_radius, width=self.render_width)
             self._renderer_key = (sc.map, sc.capture_radius)
         state = self.game_state()
-        self._renderer.draw(state, _live_part(self._overlay, state))
+        caption = self._caption or f"{self.scenario.name}, seed {self.np_random_seed}"
+        self._renderer.draw(state, _live_part(self._overlay, state), title=caption,
+                            game_over=not self.agents)
         if self.render_mode == "rgb_array":
             return self._renderer.rgb_array()
         self._renderer.show(self.metadata["render_fps"])
@@ -448,12 +467,14 @@ def check_agent_names(actions: dict[str, Any], agents: Sequence[str]) -> None:
 
 
 def _live_part(overlay: Overlay | None, state: GameState) -> Overlay | None:
-    """What of a policy's overlay still describes the game: its edges to attackers in play;
-    nothing once no attacker is in play (the last decision's text would be stale)."""
-    if overlay is None or not state.active_attackers.any():
+    """What of a policy's overlay still describes the game: its edges to attackers in play,
+    and its text lines (the last decision's, kept to the last frame)."""
+    if overlay is None:
         return None
-    live = set(state.attacker_names[i] for i in np.flatnonzero(state.active_attackers))
-    return Overlay(edges=tuple(e for e in overlay.edges if e[1] in live), lines=overlay.lines)
+    live = {state.attacker_names[i] for i in np.flatnonzero(state.active_attackers)}
+    kept = [edge for edge in overlay.kinded_edges if edge.attacker in live]
+    return Overlay(edges=tuple((e.defender, e.attacker) for e in kept), lines=overlay.lines,
+                   kinds=tuple(e.kind for e in kept))
 
 
 def _checked_options(options: Any) -> dict[str, Any]:

@@ -1,33 +1,159 @@
-"""Writing files so that nothing half-written is ever left at the destination."""
+"""Writing files so that nothing half-written is ever left at the destination, and folders
+that only their owner can write (README "Files and failures").
+
+A write lands on what its path names: through symbolic links on their target, a character
+device or FIFO written directly (``/dev/null``, ``/dev/stdout``, a named pipe), ``-`` for
+standard output where text is written. A regular file is written to a temporary name
+beside it and renamed onto it when complete, keeping an existing file's permissions.
+"""
 
 from __future__ import annotations
 
 import os
+import shutil
+import stat
+import sys
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import IO, Any
 
+STDOUT = "-"
+"""The path that means standard output (text outputs only)."""
+
+
+class UnsafeFolderError(ValueError):
+    """A folder that others could write to, a link, or one not ours: nothing is read from it."""
+
+
+def destination(path: str | os.PathLike[str]) -> Path:
+    """What a write to ``path`` lands on: the final target of any symbolic links (which
+    need not exist yet), as an absolute path."""
+    return Path(os.path.realpath(path))
+
+
+def is_stream(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is standard output (``-``), a character device or a FIFO (written
+    directly, never replaced)."""
+    if str(path) == STDOUT:
+        return True
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return False
+    return stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)
+
+
+def install(temporary: Path, path: str | os.PathLike[str]) -> None:
+    """Put the finished file ``temporary`` at ``path``: copied into a device or FIFO, else
+    renamed onto the link target with the permissions of the file it replaces (the usual
+    ``0666 & ~umask`` for a new one). ``temporary`` is gone afterwards either way."""
+    try:
+        if is_stream(path):   # opened by its own name: /dev/stdout may lead to "pipe:[N]"
+            with open(temporary, "rb") as source, open(path, "wb") as sink:
+                shutil.copyfileobj(source, sink)
+            return
+        target = destination(path)
+        try:
+            mode = stat.S_IMODE(os.stat(target).st_mode)
+        except FileNotFoundError:
+            umask = os.umask(0)
+            os.umask(umask)
+            mode = 0o666 & ~umask
+        os.chmod(temporary, mode)
+        os.replace(temporary, target)
+    finally:
+        temporary.unlink(missing_ok=True)
+
 
 @contextmanager
 def atomic_write(path: str | os.PathLike[str], mode: str = "w", **open_kwargs: Any) -> Iterator[IO]:
-    """Open a temporary file beside ``path`` for writing; rename it onto ``path`` on success.
+    """Open ``path`` for writing so that it holds its old contents or the whole new file.
 
-    On any exception (Ctrl-C included) the temporary file is removed and ``path`` keeps
-    its old contents, if it had any.
+    A regular file (new or existing, through links) is written to a temporary file beside
+    it and renamed onto it on success (``install``); on any exception (Ctrl-C included) the
+    temporary file is removed. A device or FIFO is written directly; ``-`` is standard
+    output (text modes only).
     """
     if not any(flag in mode for flag in "wx"):
         raise ValueError(f"mode: expected a writing mode ('w', 'wb'), got {mode!r}")
-    path = Path(path)
-    fd, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    umask = os.umask(0)
-    os.umask(umask)
-    try:
-        os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; keep the usual file mode
-        with os.fdopen(fd, mode.replace("x", "w"), **open_kwargs) as handle:
+    mode = mode.replace("x", "w")
+    if str(path) == STDOUT:
+        if "b" in mode:
+            raise ValueError("path: '-' (standard output) takes text only")
+        yield sys.stdout
+        sys.stdout.flush()
+        return
+    if is_stream(path):
+        with open(path, mode, **open_kwargs) as handle:
             yield handle
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
+        return
+    target = destination(path)
+    if target.is_dir():
+        raise IsADirectoryError(21, "Is a directory", str(path))
+    handle, name = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.",
+                                    suffix=".tmp")
+    temporary = Path(name)
+    try:
+        with os.fdopen(handle, mode, **open_kwargs) as stream:
+            yield stream
+            stream.flush()
+            os.fsync(stream.fileno())
+        install(temporary, target)
+    except OSError as err:
+        temporary.unlink(missing_ok=True)
+        if err.filename is None:   # a full disk: name the destination, not nothing
+            raise OSError(err.errno, err.strerror or str(err), str(path)) from None
         raise
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+
+
+def _trusted(status: os.stat_result) -> bool:
+    """A folder only its owner (us or root) can change, or a sticky one such as ``/tmp``."""
+    return (status.st_uid in (os.geteuid(), 0)
+            and (not status.st_mode & 0o022 or bool(status.st_mode & stat.S_ISVTX)))
+
+
+def private_folder(path: str | os.PathLike[str]) -> Path:
+    """``path`` as a folder only this user can write, created (mode 0700) where missing.
+
+    Every folder created here, and ``path`` itself, must be a real folder (not a link),
+    owned by this user and closed to others (``mode & 0o077 == 0`` for ``path``); every
+    folder above (links resolved) must be writable by its owner (this user or root) alone,
+    or sticky. So nobody else can put a file there or swap the folder. Raises
+    ``UnsafeFolderError`` naming the folder and the reason, or ``OSError`` when it cannot
+    be created.
+    """
+    absolute = Path(os.path.abspath(path))
+    folder = Path(os.path.realpath(absolute.parent)) / absolute.name
+    for part in reversed((folder, *folder.parents)):
+        created = False
+        if not os.path.lexists(part):
+            try:
+                os.mkdir(part, 0o700)
+                created = True
+            except FileExistsError:   # another process made it meanwhile: checked below
+                pass
+        if part != folder and not created:
+            status = os.stat(part)
+            if not stat.S_ISDIR(status.st_mode):
+                raise NotADirectoryError(20, "Not a directory", str(part))
+            if not _trusted(status):
+                raise UnsafeFolderError(f"{part}: others can write to this folder (owner uid "
+                                        f"{status.st_uid}, mode {stat.S_IMODE(status.st_mode):o})")
+            continue
+        status = os.lstat(part)
+        if stat.S_ISLNK(status.st_mode):
+            raise UnsafeFolderError(f"{part}: is a symbolic link")
+        if not stat.S_ISDIR(status.st_mode):
+            raise NotADirectoryError(20, "Not a directory", str(part))
+        if status.st_uid != os.geteuid():
+            raise UnsafeFolderError(f"{part}: owned by uid {status.st_uid}, not by this user "
+                                    f"({os.geteuid()})")
+        if stat.S_IMODE(status.st_mode) & (0o077 if part == folder else 0o022):
+            raise UnsafeFolderError(f"{part}: mode {stat.S_IMODE(status.st_mode):o} lets "
+                                    "others in (expected 700)")
+    return folder

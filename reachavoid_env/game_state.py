@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -86,16 +86,61 @@ class GameState:
                 if s is AttackerStatus.ARRIVED]
 
 
+class EdgeKind(str, Enum):
+    """Which game an overlay edge belongs to; each kind is drawn in its own style."""
+
+    ASSIGN = "assign"  # one defender on one attacker (a 1 vs 1 game)
+    PAIR = "pair"      # one defender on two attackers (a 2 vs 1 game): both its edges
+    TEAM = "team"      # two defenders on one attacker (a 1 vs 2 game): both edges to it
+
+
+class Edge(NamedTuple):
+    """One defender-attacker edge of an overlay, with the kind of game it is."""
+
+    defender: str
+    attacker: str
+    kind: EdgeKind
+
+
 @dataclass(frozen=True)
 class Overlay:
     """What a policy asks the renderer to draw on top of the game.
 
-    ``edges`` are ``(defender name, attacker name)`` pairs, drawn as green lines (the
-    paper's assignment edges); ``lines`` are extra text lines shown under the clock.
+    ``edges`` are ``(defender name, attacker name)`` pairs (the paper's assignment edges);
+    ``kinds`` optionally gives each edge's ``EdgeKind``, in the same order (empty: every
+    edge is a 1 vs 1 assignment). ``lines`` are extra text lines shown under the clock.
     """
 
     edges: tuple[tuple[str, str], ...] = ()
     lines: tuple[str, ...] = ()
+    kinds: tuple[EdgeKind, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.kinds and len(self.kinds) != len(self.edges):
+            raise ValueError(f"kinds: expected one per edge ({len(self.edges)}), got "
+                             f"{len(self.kinds)}")
+        kinds = tuple(EdgeKind(k) for k in self.kinds)
+        # one form per meaning: all-ASSIGN kinds are stored as ()
+        object.__setattr__(self, "kinds", () if set(kinds) <= {EdgeKind.ASSIGN} else kinds)
+
+    @property
+    def kinded_edges(self) -> tuple[Edge, ...]:
+        """Every edge with its kind (``ASSIGN`` where ``kinds`` is empty)."""
+        kinds = self.kinds or (EdgeKind.ASSIGN,) * len(self.edges)
+        return tuple(Edge(d, a, k) for (d, a), k in zip(self.edges, kinds, strict=True))
+
+
+def outcome_line(num_attackers: int, captured: int, arrived: int) -> str:
+    """How a game ended, in words: the banner of a video's last frame and the summary of
+    ``reachavoid play``. Attackers neither captured nor arrived were held off until the
+    time ran out."""
+    if captured == num_attackers:
+        return f"All {num_attackers} attackers captured"
+    held = num_attackers - captured - arrived
+    parts = [f"{captured} captured", f"{arrived} reached the target"]
+    if held:
+        parts.append(f"{held} held off (time up)")
+    return f"{num_attackers} attackers: " + ", ".join(parts)
 
 
 @runtime_checkable
@@ -116,7 +161,8 @@ class Policy(Protocol):
 
 
 def merged_overlay(*policies: Policy) -> Overlay | None:
-    """The union of the policies' overlays (edges and text lines); ``None`` if none draws."""
+    """The union of the policies' overlays (edges with their kinds, text lines); ``None`` if
+    none draws."""
     overlays = []
     for policy in policies:
         overlay = getattr(policy, "overlay", None)
@@ -125,4 +171,5 @@ def merged_overlay(*policies: Policy) -> Overlay | None:
     if not overlays:
         return None
     return Overlay(edges=tuple(e for o in overlays for e in o.edges),
-                   lines=tuple(line for o in overlays for line in o.lines))
+                   lines=tuple(line for o in overlays for line in o.lines),
+                   kinds=tuple(e.kind for o in overlays for e in o.kinded_edges))

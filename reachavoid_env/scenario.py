@@ -300,12 +300,14 @@ def builtin_map(name: str = "paper") -> GameMap:
 
 def _parse(data: bytes, name: str, source: str) -> Scenario:
     try:
-        parsed = tomllib.loads(data.decode("utf-8"))
+        parsed = tomllib.loads(data.decode("utf-8-sig"))   # a byte-order mark is allowed
     except UnicodeDecodeError as err:
         raise ScenarioError(f"{source}: not UTF-8 text (byte {err.start}); TOML files are "
                             f"UTF-8") from None
     except tomllib.TOMLDecodeError as err:
         raise ScenarioError(f"{source}: malformed TOML: {err}") from None
+    except RecursionError:
+        raise ScenarioError(f"{source}: arrays or tables nested too deeply") from None
     return Scenario.from_dict(parsed, name=name)
 
 

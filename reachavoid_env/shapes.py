@@ -213,6 +213,47 @@ def _edges_meet(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray,
                ((d1, c, d, a), (d2, c, d, b), (d3, a, b, c), (d4, a, b, d)))
 
 
+def _first_crossing(v: np.ndarray) -> tuple[int, int] | None:
+    """The first pair of edges ``(i, j)`` of the ring ``v`` that meet where they should not
+    (``_edges_meet``), or ``None``: neighbours one by one, the others one edge against all
+    later ones at once (the same arithmetic, vectorised)."""
+    n = len(v)
+    for i in range(n):
+        j = (i + 1) % n
+        first, second = (i, j) if i < j else (j, i)
+        if _edges_meet(v[first], v[(first + 1) % n], v[second], v[(second + 1) % n], True):
+            return first, second
+    a_all, b_all = v, np.roll(v, -1, axis=0)
+
+    def cross(o: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+        return (p[..., 0] - o[..., 0]) * (q[..., 1] - o[..., 1]) - (
+            p[..., 1] - o[..., 1]) * (q[..., 0] - o[..., 0])
+
+    def on_segment(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> np.ndarray:
+        return ((np.minimum(p[..., 0], q[..., 0]) <= r[..., 0])
+                & (r[..., 0] <= np.maximum(p[..., 0], q[..., 0]))
+                & (np.minimum(p[..., 1], q[..., 1]) <= r[..., 1])
+                & (r[..., 1] <= np.maximum(p[..., 1], q[..., 1])))
+
+    for i in range(n - 2):
+        js = np.arange(i + 2, n - 1 if i == 0 else n)
+        if js.size == 0:
+            continue
+        a, b, c, d = a_all[i], b_all[i], a_all[js], b_all[js]
+        d1, d2, d3, d4 = cross(c, d, a), cross(c, d, b), cross(a, b, c), cross(a, b, d)
+        meet = (((d1 * d2 < 0) & (d3 * d4 < 0))
+                | ((d1 == 0) & on_segment(c, d, a)) | ((d2 == 0) & on_segment(c, d, b))
+                | ((d3 == 0) & on_segment(a, b, c)) | ((d4 == 0) & on_segment(a, b, d)))
+        if meet.any():
+            return i, int(js[np.argmax(meet)])
+    return None
+
+
+MAX_POLYGON_VERTICES = 1000
+"""The most vertices a polygon may have: the self-intersection check is quadratic, and
+takes under 1 s at the limit (BENCHMARKS.md, "Polygon validation")."""
+
+
 @register
 @dataclass(frozen=True)
 class Polygon:
@@ -220,8 +261,9 @@ class Polygon:
 
     TOML: ``{type = "polygon", vertices = [[x, y], ...]}``, in either orientation. Repeated
     vertices are dropped (a closed ring whose last vertex repeats the first, or two equal
-    consecutive vertices); what remains needs at least 3 vertices, a non-zero area and no
-    two edges that cross or touch other than at their shared vertex.
+    consecutive vertices); what remains needs at least 3 vertices (at most
+    ``MAX_POLYGON_VERTICES`` given), a non-zero area and no two edges that cross or touch
+    other than at their shared vertex.
     """
 
     type: ClassVar[str] = "polygon"
@@ -245,6 +287,9 @@ class Polygon:
         v = np.asarray(self.vertices, dtype=np.float64)
         if v.ndim != 2 or v.shape[1] != 2:
             raise ShapeError("polygon vertices must be a list of [x, y] pairs")
+        if len(v) > MAX_POLYGON_VERTICES:
+            raise ShapeError(f"polygon has {len(v)} vertices; at most {MAX_POLYGON_VERTICES} "
+                             "are accepted")
         distinct = v[np.any(v != np.roll(v, -1, axis=0), axis=1)] if len(v) > 1 else v
         object.__setattr__(self, "vertices", tuple((float(x), float(y)) for x, y in distinct))
         v = distinct
@@ -252,13 +297,10 @@ class Polygon:
             raise ShapeError(f"polygon needs at least 3 distinct vertices, got {len(v)}")
         if abs(self.area) < 1e-12:
             raise ShapeError("polygon has zero area")
-        n = len(v)
-        for i in range(n):
-            for j in range(i + 1, n):
-                adjacent = j == i + 1 or (i == 0 and j == n - 1)
-                if _edges_meet(v[i], v[(i + 1) % n], v[j], v[(j + 1) % n], adjacent):
-                    raise ShapeError(f"polygon edges {i} and {j} cross or overlap "
-                                     f"(self-intersecting)")
+        crossing = _first_crossing(v)
+        if crossing is not None:
+            raise ShapeError(f"polygon edges {crossing[0]} and {crossing[1]} cross or overlap "
+                             f"(self-intersecting)")
 
     @property
     def area(self) -> float:

@@ -7,9 +7,11 @@ import subprocess
 import sys
 
 import imageio.v3 as iio
+import imageio_ffmpeg
+import numpy as np
 import pytest
 
-from policies.registry import ATTACKERS, DEFENDERS
+from policies.registry import ATTACKERS, DEFENDERS, PolicySpec
 from reachavoid.cli import main
 from reachavoid_env import builtin_scenario, save_scenario
 
@@ -41,8 +43,11 @@ def test_play_json(capsys):
 @pytest.mark.parametrize("attackers", list(ATTACKERS))
 @pytest.mark.parametrize("defenders", list(DEFENDERS))
 def test_every_policy_choice_plays(capsys, attackers, defenders):
+    chosen = [PolicySpec("attackers", attackers).choice, PolicySpec("defenders", defenders).choice]
+    grids = [arg for flag, value in zip(COARSE[::2], COARSE[1::2], strict=True)
+             if any(choice.takes(flag[2:]) for choice in chosen) for arg in (flag, value)]
     report = play_json(capsys, "--scenario", "paper_2v1", "--attackers", attackers,
-                       "--defenders", defenders, *COARSE)
+                       "--defenders", defenders, *grids)
     assert (report["attackers"], report["defenders"]) == (attackers, defenders)
     if defenders in ("hj", "hj-pairs", "matching"):
         promised = {"hj": 2, "hj-pairs": 2, "matching": 1}[defenders]
@@ -66,7 +71,7 @@ def test_scenario_file_and_human_summary(tmp_path, capsys):
     assert main(["play", "--scenario", str(path), "--defenders", "idle", "--attackers",
                  "straight"]) == 0
     out, _ = capsys.readouterr()
-    assert out.startswith("paper_2v1 (seed 0): idle defenders vs straight attackers")
+    assert out.startswith("paper_2v1: idle defenders vs straight attackers, seed 0")
     assert "arrived  2: attacker_0, attacker_1" in out
 
 
@@ -91,9 +96,15 @@ def write(tmp_path, text: str) -> str:
     (["play", "--scenario", "missing.toml"], "no such file or built-in 'missing.toml'"),
     (["play", "--video", "out.avi"], "must end in one of .mp4, .gif"),
     (["play", "--video", "no/such/folder/out.mp4"], "does not exist"),
-    (["play", "--attackers", "teleport"], "invalid choice: 'teleport'"),
+    (["play", "--attackers", "teleport"], "--attackers: unknown policy 'teleport'"),
     (["play", "--seed", "x"], "invalid int value: 'x'"),
     (["play", "--video", "a.mp4", "--every", "0"], "--every: must be an integer in [1, 1000000]"),
+    (["play", "--video", "a.mp4", "--realtime", "--fps", "10"], "--realtime: sets the fps"),
+    (["play", "--video", "a.gif", "--realtime", "--every", "1"],
+     "--realtime: --every 1 with 5 ms steps needs 200 fps, above this format's 50; use --every 4"),
+    (["play", "--preview", "a.jpg"], "--preview: 'a.jpg' must end in .png"),
+    (["play", "--preview", "a.png", "--video", "a.mp4"], "--preview: draws the first frame"),
+    (["validate"], "the following arguments are required: FILE"),
     ([], "required: COMMAND"),
     (["fly"], "invalid choice: 'fly'"),
 ])
@@ -151,7 +162,7 @@ def test_solve_2v1_fills_the_cache_of_its_grid1(tmp_path, monkeypatch, capsys):
 def test_help_exits_zero(capsys):
     assert main(["play", "--help"]) == 0
     out, _ = capsys.readouterr()
-    assert "--attackers {shortest-path,hj,straight,random}" in out and "greedy: chase" in out
+    assert "--attackers NAME|pkg.module:factory" in out and "greedy: chase" in out
     assert "--grid1 N" in out
 
 
@@ -171,23 +182,46 @@ def test_bench_compares_methods_on_the_same_starts(tmp_path, capsys):
             "hj,matching,greedy", "--attackers", "shortest-path", "--csv", str(path), *COARSE]
     assert main([*args, "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
-    assert [m["label"] for m in report["methods"]] == ["hj", "matching", "greedy"]
-    for method in report["methods"]:
+    [cell] = report["cells"]
+    assert [m["label"] for m in cell["methods"]] == ["hj", "matching", "greedy"]
+    for method in cell["methods"]:
         low, high = method["capture_rate_ci"]
         assert 0.0 <= low <= method["capture_rate"] <= high <= 1.0
         assert method["episodes"] == 3 and method["attackers"] == 3
-    assert report["methods"][0]["guaranteed_initial"] is not None
-    assert report["methods"][2]["guaranteed_initial"] is None
+    assert cell["methods"][0]["guaranteed_initial"] is not None
+    assert cell["methods"][2]["guaranteed_initial"] is None
+    assert report["baseline"] == "hj"
+    assert [(d["label"], d["baseline"]) for d in cell["differences"]] == [
+        ("matching", "hj"), ("greedy", "hj")]
+    by_method = {m: {r["seed"]: r for r in report["rows"] if r["defenders"] == m}
+                 for m in ("hj", "greedy")}
+    assert sorted(by_method["hj"]) == sorted(by_method["greedy"]) == [5, 6, 7]
+    paired = [(by_method["greedy"][k]["captured_count"] - by_method["hj"][k]["captured_count"])
+              / 3 for k in (5, 6, 7)]
+    assert cell["differences"][1]["difference"] == pytest.approx(sum(paired) / 3)
     rows = path.read_text().splitlines()
-    assert len(rows) == 1 + 9 and rows[0].startswith("defenders,attackers,scenario,seed")
-    assert main(args) == 0
+    assert len(rows) == 1 + 9 and rows[0].startswith("cell,defenders,attackers,scenario,seed")
+    assert main(args) == 2   # the file exists: replaced only with --force
+    assert "pass --force" in capsys.readouterr().err
+    assert main([*args, "--force"]) == 0
     table = capsys.readouterr().out
-    assert "capture rate [95% CI]" in table and "matching" in table
+    assert "capture rate [95% CI]" in table and "greedy - hj: capture rate" in table
 
 
 @pytest.mark.parametrize(("args", "message"), [
     (["bench", "--config", "six"], "--config: expected MvN"),
-    (["bench", "--defenders", "hj,nobody"], "--defenders: unknown method(s) ['nobody']"),
+    (["bench", "--defenders", "hj,nobody"], "--defenders: unknown policy 'nobody'"),
+    (["bench", "--defenders", "greedy", "--grid1", "25"],
+     "--grid1: no chosen policy takes it (greedy, shortest-path)"),
+    (["play", "--defenders", "greedy", "--attackers", "straight", "--margin-cells", "1"],
+     "--margin-cells: no chosen policy takes it (straight, greedy)"),
+    (["play", "--margin-cells", "11"], "--margin-cells: must be in [0, 10]"),
+    (["bench", "--defenders", "nowhere_module_xyz:Mine"],
+     "--defenders: cannot import 'nowhere_module_xyz'"),
+    (["bench", "--defenders", "json:nothing_here"], "--defenders: module 'json' has no"),
+    (["bench", "--baseline", "greedy"], "--baseline: 'greedy' is not among --defenders"),
+    (["bench", "--suite", "default", "--config", "2v1"], "--config: not with --suite"),
+    (["bench", "--suite", "nosuchsuite"], "suite: no such file or built-in 'nosuchsuite'"),
     (["bench", "--episodes", "0"], "--episodes: must be an integer in [1, 10000000]"),
     (["play", "--grid2", "2"], "--grid2: must be an integer in [5, 101]"),
 ])
@@ -208,3 +242,54 @@ def test_paper_command_writes_table_and_figure(tmp_path, capsys):
         assert row["hj"]["captured_count"] >= row["hj"]["guaranteed_captures_initial"] - 1
     assert (out / "tubes.png").stat().st_size > 10_000
     assert "2v1" in printed and "baseline" in printed
+
+
+def test_validate_good_and_bad_files(tmp_path, capsys):
+    good = tmp_path / "good.toml"
+    save_scenario(builtin_scenario("paper_6v2"), good)
+    assert main(["validate", str(good), "paper_2v1"]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    assert out.splitlines() == [
+        f"{good}: ok (paper_6v2: 6 attackers, 2 defenders, given starts)",
+        "paper_2v1: ok (paper_2v1: 2 attackers, 1 defenders, given starts)"]
+    outside = write(tmp_path, '[map]\ndomain = [0, 1, 0, 1]\n'
+                              'target = { type = "box", min = [0.6, 0.1], max = [0.8, 1.3] }\n')
+    malformed = tmp_path / "malformed.toml"
+    malformed.write_text("[map\n")
+    assert main(["validate", str(good), outside, str(malformed), str(tmp_path / "no.toml")]) == 2
+    out, err = capsys.readouterr()
+    assert out.splitlines() == [f"{good}: ok (paper_6v2: 6 attackers, 2 defenders, given starts)"]
+    lines = err.splitlines()
+    assert len(lines) == 3
+    assert lines[0].startswith(f"reachavoid validate: error: {outside}: map.target: extends "
+                               "outside the domain")
+    assert lines[1].startswith(f"reachavoid validate: error: {malformed}: malformed TOML")
+    assert "no such file" in lines[2]
+
+
+def test_preview_writes_the_first_frame_without_playing(tmp_path, capsys):
+    preview, video = tmp_path / "first.png", tmp_path / "episode.gif"
+    assert main(["play", "--scenario", "paper_6v2", *SIMPLE, "--width", "320",
+                 "--preview", str(preview)]) == 0
+    out, _ = capsys.readouterr()
+    assert out.splitlines()[1] == f"  first frame: {preview} (320x400)"
+    assert sorted(tmp_path.iterdir()) == [preview]  # nothing else: no episode played
+    play_json(capsys, "--scenario", "paper_6v2", *SIMPLE, "--width", "320", "--video", str(video))
+    drawn, first = iio.imread(preview), iio.imread(video)[0]
+    assert drawn.shape == first.shape
+    assert np.abs(drawn.astype(int) - first).mean() < 1.0  # the GIF's palette rounding
+
+
+def test_realtime_video_lasts_the_game_time(tmp_path, capsys):
+    path = tmp_path / "realtime.mp4"
+    report = play_json(capsys, "--scenario", "paper_2v1", *SIMPLE, "--width", "320",
+                       "--video", str(path), "--realtime")
+    frames, seconds = imageio_ffmpeg.count_frames_and_secs(str(path))
+    fps = 50.0  # 5 ms steps, a frame every 4 steps
+    assert frames == len(range(0, report["steps"], 4)) + 1
+    # the last frame shows the end of the game at its time in the video (to one frame)
+    assert abs((seconds - 1 / fps) - report["game_time"]) <= 1 / fps
+    assert main(["play", "--scenario", "paper_2v1", *SIMPLE, "--video", str(path),
+                 "--realtime"]) == 0
+    assert "at 50 fps, real time)" in capsys.readouterr()[0]

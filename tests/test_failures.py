@@ -104,7 +104,9 @@ def test_degenerate_polygons_are_refused_by_name(vertices, message):
 
 # 5. SIGTERM is Ctrl-C: a message, status 143, no partial file
 
-def test_sigterm_leaves_no_partial_video(tmp_path):
+@pytest.mark.parametrize(("signum", "status", "word"), [
+    (signal.SIGTERM, 143, "terminated"), (signal.SIGHUP, 129, "hung up")])   # issue 21 #14
+def test_sigterm_leaves_no_partial_video(tmp_path, signum, status, word):
     env = dict(os.environ, SDL_VIDEODRIVER="dummy")
     process = subprocess.Popen([sys.executable, "-m", "reachavoid.cli", "play", "--scenario",
                                 "paper_6v2", "--attackers", "random", "--defenders", "idle",
@@ -113,9 +115,9 @@ def test_sigterm_leaves_no_partial_video(tmp_path):
     deadline = time.monotonic() + 60
     while not any(tmp_path.glob(".long.*")) and time.monotonic() < deadline:
         time.sleep(0.05)
-    process.send_signal(signal.SIGTERM)
+    process.send_signal(signum)
     _, err = process.communicate(timeout=60)
-    assert process.returncode == 143 and "terminated" in err and "Traceback" not in err
+    assert process.returncode == status and word in err and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
 
 
@@ -148,7 +150,8 @@ def test_read_only_folder_is_refused_before_the_work(small_mount, capsys):
 @pytest.mark.parametrize(("args", "message"), [
     (["play", "--seed", "-1"], "--seed: must be an integer in [0,"),
     (["bench", "--seed", "-1"], "--seed: must be an integer in [0,"),
-    (["play", "--video", "a.mp4", "--fps", "inf"], "--fps: must be in (0, 240]"),
+    (["play", "--video", "a.mp4", "--fps", "inf"], "--fps: must be in [0.1, 240]"),
+    (["play", "--video", "a.mp4", "--fps", "1e-300"], "--fps: must be in [0.1, 240]"),
     (["play", "--video", "a.mp4", "--width", "100000000"], "--width: must be an integer in"),
     (["play", "--grid1", "100000"], "--grid1: must be an integer in [5, 201]"),
     (["solve", "--game", "2v1", "--grid", "1000"], "--grid: must be an integer in [5, 101]"),

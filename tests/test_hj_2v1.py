@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import io
+
+import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from reachavoid_env import builtin_map
+from reachavoid_env import builtin_map, palette
 from solvers.hj import (
     InsufficientMemoryError,
     SolverSettings,
@@ -137,6 +140,25 @@ def test_slice_figure(vf11, vf21, tmp_path):
     assert path.stat().st_size > 10000
     with pytest.raises(ValueError, match="missing"):
         tube_figure([(vf21, "A2", {"D": d})])
+
+
+def test_slice_figure_says_what_red_means_in_the_videos_colours(vf11):
+    figure = tube_figure([(vf11, "A", {"D": PAPER_DEFENDER})])
+    (legend,) = figure.legends
+    words = [text.get_text() for text in legend.get_texts()]
+    assert words[0] == "attackers win with the free player here (value <= 0)"
+    assert {"target", "obstacle", "capture disc"} <= set(words)
+    swatches = dict(zip(words, legend.legend_handles, strict=True))
+    target_yellow = pytest.approx(palette.unit(palette.TARGET))
+    assert swatches["target"].get_facecolor()[:3] == target_yellow
+    (ax,) = figure.axes
+    target = [p for p in ax.patches if p.get_facecolor()[:3] == target_yellow]
+    assert len(target) == 1  # the map's target, in the videos' yellow
+    png = io.BytesIO()
+    figure.savefig(png, format="png", dpi=60)
+    pixels = iio.imread(png.getvalue(), extension=".png")[..., :3].reshape(-1, 3).astype(int)
+    red = np.all(np.abs(pixels - palette.ATTACKER_WINS) <= 3, axis=1)
+    assert red.sum() > 1000  # the shaded region is the legend's colour
 
 
 @pytest.mark.slow

@@ -251,24 +251,37 @@ def test_old_solver_version_is_never_read(small_vf, tmp_path):
         load_value_function(path)
 
 
-def test_stale_temporaries_of_dead_processes_are_swept(cache_in_tmp):
+def test_stale_temporaries_are_swept_by_their_lock_not_their_pid(cache_in_tmp):
+    """Temporaries go when their owner's flock can be taken, whatever their PID says (a
+    live owner in another PID namespace or on another node may carry any PID)."""
     cache_in_tmp.mkdir()
-    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                          capture_output=True, text=True, check=True)
-    stale = cache_in_tmp / f".1v1-9-abc.vf.{dead.stdout.strip()}.x1y2.tmp"
-    stale.mkdir()
-    (stale / "value.npy").write_bytes(b"0" * 1000)
-    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    owner = subprocess.Popen(
+        [sys.executable, "-c", "import fcntl, sys, time; f = open(sys.argv[1], 'w'); "
+         "fcntl.flock(f, fcntl.LOCK_EX); print(flush=True); time.sleep(60)",
+         str(cache_in_tmp / f".1v1-9-abc.vf.{os.getpid() + 1}.held.lock")],
+        stdout=subprocess.PIPE, text=True)
     try:
-        live = cache_in_tmp / f".1v1-9-abc.vf.{sleeper.pid}.z9.tmp"
+        owner.stdout.readline()
+        live = cache_in_tmp / f".1v1-9-abc.vf.{os.getpid() + 1}.held.tmp"
         live.mkdir()
+        stale = cache_in_tmp / f".1v1-9-abc.vf.{owner.pid}.gone.tmp"   # a live PID, no lock
+        stale.mkdir()
+        (stale / "value.npy").write_bytes(b"0" * 1000)
+        (cache_in_tmp / f".1v1-9-abc.vf.{owner.pid}.gone.lock").touch()
+        legacy = cache_in_tmp / ".1v1-9-abc.vf.1.old.tmp"   # no lock file: by age
+        legacy.mkdir()
+        os.utime(legacy, (0, 0))
+        recent = cache_in_tmp / ".1v1-9-abc.vf.1.new.tmp"
+        recent.mkdir()
         foreign = cache_in_tmp / "notes.tmp"
         foreign.write_text("not ours")
         solve_1v1(MAP, grid_points=9, settings=LOW, progress=False)
-        assert not stale.exists() and live.exists() and foreign.exists()
+        left = sorted(p.name for p in cache_in_tmp.iterdir() if p.name.startswith("."))
+        assert left == sorted([live.name, live.with_suffix(".lock").name, recent.name])
+        assert foreign.exists()
     finally:
-        sleeper.kill()
-        sleeper.wait()
+        owner.kill()
+        owner.wait()
 
 
 def test_value_directories_get_the_umask_mode(small_vf, tmp_path):

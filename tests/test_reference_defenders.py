@@ -19,6 +19,7 @@ from policies import (
 from policies.certificate import Game, games_of, still_winning
 from policies.defenders import pair_states
 from reachavoid.rollout import run_episode
+from reachavoid_env.game_state import EdgeKind
 
 
 def first_decision(policy, scenario_name: str):
@@ -37,12 +38,14 @@ def test_worked_example_one_defender_takes_both_attackers(coarse_tubes):
     assert reference.nominal_captures == 2 == reference.guaranteed_captures
     assert sorted(reference.assignment) == [("defender_0", "attacker_0"),
                                             ("defender_0", "attacker_1")]
+    assert reference.overlay().kinds == (EdgeKind.PAIR, EdgeKind.PAIR)  # a 2 vs 1 game
     assert actions["defender_0"].dtype == np.float32
     assert np.isclose(np.linalg.norm(actions["defender_0"]), 1.0, atol=1e-5)
     baseline = MatchingDefenderPolicy(vf11, margin_cells=0.0)
     first_decision(baseline, "paper_2v1")
     assert baseline.nominal_captures == 1 == baseline.guaranteed_captures
     assert len(baseline.assignment) == 1
+    assert [e.kind for e in baseline.overlay().kinded_edges] == [EdgeKind.ASSIGN]
 
 
 def test_worked_example_is_not_certified(coarse_tubes):

@@ -18,10 +18,12 @@ from reachavoid_env import (
     Overlay,
     Polygon,
     builtin_scenario,
+    merged_overlay,
 )
-from reachavoid_env import render as R
+from reachavoid_env import palette as R
 from reachavoid_env.environment import _live_part
-from reachavoid_env.render import Renderer
+from reachavoid_env.game_state import Edge, EdgeKind, outcome_line
+from reachavoid_env.render import EDGE_STYLES, Renderer
 
 ACTIVE, CAPTURED, ARRIVED = AttackerStatus.ACTIVE, AttackerStatus.CAPTURED, AttackerStatus.ARRIVED
 
@@ -65,8 +67,8 @@ def test_frame_is_uint8_rgb_with_sides_multiple_of_16(scenario, width, height, e
     assert frame.dtype == np.uint8
     assert frame.shape[1:] == (expected_width, 3)
     assert frame.shape[0] % 16 == 0 and frame.shape[1] % 16 == 0
-    if height is None:  # the square domain below the header
-        assert expected_width < frame.shape[0] < expected_width + 100
+    if height is None:  # the square domain between the header and the legend
+        assert expected_width < frame.shape[0] < expected_width * 1.3
     else:
         assert frame.shape[0] == 256
     assert frame.flags.writeable
@@ -77,7 +79,7 @@ def test_domain_keeps_its_aspect_ratio():
     renderer = Renderer(wide, 0.1, width=640)
     (x0, y0), (x1, y1) = renderer.to_pixels(np.array([[0.0, 1.0], [4.0, 0.0]]))
     assert (x1 - x0) / (y1 - y0) == pytest.approx(4.0)
-    assert renderer.height < 300
+    assert renderer.height < 400  # the header and the legend, and a flat map
 
 
 def test_rgb_array_is_a_fresh_copy(renderer, scenario):
@@ -245,14 +247,100 @@ def test_long_overlay_lines_are_cut_short(renderer, scenario):
     renderer.draw(state_of(scenario.attackers, scenario.defenders), Overlay(lines=(line,)))
 
 
-def test_overlay_is_not_drawn_once_the_game_is_over():
+def test_overlay_text_stays_to_the_last_frame_and_edges_leave_with_their_attacker():
     env = reachavoid_env.parallel_env(scenario="paper_2v1")
     env.reset(seed=0)
     overlay = Overlay(edges=(("defender_0", "attacker_0"), ("defender_0", "attacker_1")),
-                      lines=("MIP: 2 guaranteed",))
+                      lines=("MIP: 2 guaranteed",), kinds=(EdgeKind.PAIR, EdgeKind.PAIR))
     state = env.unwrapped.game_state()
     assert _live_part(overlay, state) == overlay
     left = replace(state, attacker_status=(AttackerStatus.CAPTURED, AttackerStatus.ACTIVE))
-    assert _live_part(overlay, left).edges == (("defender_0", "attacker_1"),)
+    assert _live_part(overlay, left).kinded_edges == (
+        Edge("defender_0", "attacker_1", EdgeKind.PAIR),)
     over = replace(state, attacker_status=(AttackerStatus.CAPTURED, AttackerStatus.ARRIVED))
-    assert _live_part(overlay, over) is None
+    assert _live_part(overlay, over) == Overlay(lines=("MIP: 2 guaranteed",))
+
+
+def test_overlay_kinds_one_per_edge_and_merged():
+    edges = (("defender_0", "attacker_0"), ("defender_0", "attacker_1"))
+    with pytest.raises(ValueError, match="kinds: expected one per edge"):
+        Overlay(edges=edges, kinds=(EdgeKind.PAIR,))
+    assert Overlay(edges=edges, kinds=("assign", "assign")) == Overlay(edges=edges)
+    assert Overlay(edges=edges, kinds=("pair", "pair")).kinds == (EdgeKind.PAIR,) * 2
+
+    class Draws:
+        def __init__(self, overlay):
+            self._overlay = overlay
+
+        def overlay(self):
+            return self._overlay
+
+    merged = merged_overlay(Draws(Overlay(edges=edges[:1])),
+                            Draws(Overlay(edges=edges[1:], kinds=(EdgeKind.TEAM,))))
+    assert [e.kind for e in merged.kinded_edges] == [EdgeKind.ASSIGN, EdgeKind.TEAM]
+
+
+@pytest.mark.parametrize("kind", list(EdgeKind))
+def test_each_edge_kind_in_its_own_colour(renderer, kind):
+    attacker, defender = np.array([-0.6, 0.6]), np.array([-0.6, -0.1])
+    state = state_of([attacker], [defender])
+    renderer.draw(state, Overlay(edges=(("defender_0", "attacker_0"),), kinds=(kind,)))
+    frame = renderer.rgb_array()
+    (xa, ya), (xd, yd) = renderer.to_pixels(np.array([attacker, defender]))
+    column = frame[round(ya) + 20:round(yd) - 20, round(xa)].astype(int)  # along the edge
+    colour = np.asarray(EDGE_STYLES[kind].color)
+    drawn = np.all(np.abs(column - colour) <= 40, axis=1)
+    others = [np.asarray(s.color) for k, s in EDGE_STYLES.items() if k is not kind]
+    assert drawn.any()
+    assert not any(np.all(np.abs(column - c) <= 40, axis=1).any() for c in others)
+    if EDGE_STYLES[kind].gap:  # dashed: field shows between the dashes
+        assert not drawn.all()
+    else:
+        assert drawn.mean() > 0.9
+
+
+def test_legend_shows_every_kind_and_the_counts(renderer, scenario):
+    legend = slice(renderer._legend_top, renderer.height)
+    status = [ACTIVE] * 4 + [CAPTURED, ARRIVED]
+    renderer.draw(state_of(scenario.attackers, scenario.defenders, status))
+    frame = renderer.rgb_array()
+    below = frame[legend].reshape(-1, 3).astype(int)
+    for colour in (R.TARGET, R.OBSTACLE, R.ATTACKER, R.DEFENDER, R.CAPTURED,
+                   *(s.color for s in EDGE_STYLES.values())):
+        assert np.all(np.abs(below - colour) <= 20, axis=1).sum() > 5, colour
+    renderer.draw(state_of(scenario.attackers, scenario.defenders))
+    assert (renderer.rgb_array()[legend] != frame[legend]).any()  # the counts changed
+    map_rows = slice(renderer._header, renderer._legend_top)
+    assert (renderer.rgb_array()[map_rows] == frame[map_rows]).sum() > 0.99 * frame[
+        map_rows].size - 2000  # only the attackers' glyphs differ
+
+
+def test_labels_have_a_halo_over_obstacles(renderer):
+    inside = np.array([0.0, -0.65])  # in the lower obstacle
+    renderer.draw(state_of([inside], [[-0.8, 0.8]]))
+    frame = renderer.rgb_array()
+    x, y = renderer.to_pixels(inside)
+    box = frame[round(y) - 25:round(y), round(x):round(x) + 30].reshape(-1, 3).astype(int)
+    assert np.all(box == R.HALO, axis=1).sum() > 20  # white around the letters
+    assert np.all(np.abs(box - R.ATTACKER) <= 30, axis=1).sum() > 5  # the red "A0"
+
+
+def test_title_and_outcome_banner(renderer, scenario):
+    state = state_of(scenario.attackers, scenario.defenders, [CAPTURED] * 5 + [ARRIVED])
+    renderer.draw(state)
+    plain = renderer.rgb_array()
+    renderer.draw(state, title="paper_6v2: hj defenders vs shortest-path attackers, seed 0")
+    titled = renderer.rgb_array()
+    renderer.draw(state, game_over=True)
+    banner = renderer.rgb_array()
+    title_rows = slice(0, renderer._title_font.get_linesize())
+    assert (titled[title_rows] != plain[title_rows]).any()
+    assert (titled[renderer._header:] == plain[renderer._header:]).all()
+    top = renderer.to_pixels(np.array([0.0, 0.95]))[1]
+    band = slice(renderer._header, round(top) + 20)
+    assert (banner[band] != plain[band]).sum() > 1000
+    assert np.all(np.abs(banner[band].reshape(-1, 3).astype(int) - R.ATTACKER) <= 20,
+                  axis=1).sum() > 50  # red frame: an attacker arrived
+    assert outcome_line(6, 5, 1) == "6 attackers: 5 captured, 1 reached the target"
+    assert outcome_line(6, 6, 0) == "All 6 attackers captured"
+    assert outcome_line(6, 3, 1).endswith("2 held off (time up)")

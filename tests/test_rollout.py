@@ -9,7 +9,8 @@ import pytest
 import reachavoid_env
 from policies import GreedyDefender, IdleDefender, RandomAttacker, StraightAttacker
 from reachavoid.rollout import EpisodeResult, run_episode
-from reachavoid_env import Overlay, merged_overlay
+from reachavoid_env import Overlay, merged_overlay, palette
+from reachavoid_env.render import Renderer
 
 
 def make_env(scenario="paper_2v1", **kwargs):
@@ -88,6 +89,50 @@ def test_two_second_mp4_of_paper_2v1(tmp_path):
     assert frames.shape[1:] == env.render().shape
     assert np.abs(frames[0].astype(int) - frames[-1]).mean() > 0.1
     assert sum(np.array_equal(frames[k], frames[k + 1]) for k in range(99)) < 5
+
+
+class Says(GreedyDefender):
+    """Greedy defenders that also write a line of text on every frame."""
+
+    def overlay(self) -> Overlay:
+        return Overlay(edges=super().overlay().edges, lines=("greedy: chasing",))
+
+
+def overlay_line_ink(frame: np.ndarray, renderer: Renderer) -> int:
+    """Dark pixels in the first overlay text row of ``frame``."""
+    top = round(renderer._margin / 2) + renderer._title_font.get_linesize() + \
+        renderer._line_height
+    row = frame[top:top + renderer._line_height, :renderer.width // 2]
+    return int((row.max(axis=2) < 140).sum())
+
+
+@pytest.mark.parametrize("every", [1, 7])
+def test_first_and_last_frames_carry_the_overlay(tmp_path, every):
+    env = make_env("paper_6v2", render_mode="rgb_array", render_width=320)
+    scenario = env.unwrapped.scenario
+    renderer = Renderer(scenario.map, scenario.capture_radius, width=320)
+    frames = {}
+    for name, defenders in (("says", Says()), ("quiet", GreedyDefender())):
+        path = tmp_path / f"{name}.gif"
+        result = run_episode(env, StraightAttacker(), defenders, seed=0, video=path,
+                             every=every)
+        frames[name] = iio.imread(path)
+        assert len(frames[name]) == result.frames
+    assert result.first_lines == result.last_lines == ()
+    for k in (0, len(frames["says"]) // 2, -1):
+        assert overlay_line_ink(frames["says"][k], renderer) > 30
+        assert overlay_line_ink(frames["quiet"][k], renderer) == 0
+    # the first frame's edges are the first decision's: green between defender and quarry
+    first = frames["says"][0].astype(int)
+    assert np.all(np.abs(first - palette.EDGE) <= 40, axis=2).sum() > 50
+    assert np.all(np.abs(frames["quiet"][0].astype(int) - palette.EDGE) <= 40, axis=2).sum() > 50
+
+
+def test_result_keeps_the_first_and_last_overlay_text():
+    result = run_episode(make_env(), StraightAttacker(), Says(), seed=0)
+    assert result.first_lines == result.last_lines == ("greedy: chasing",)
+    assert result.outcome.startswith("2 attackers: ") or result.outcome == (
+        "All 2 attackers captured")
 
 
 def test_video_every_nth_step_and_gif(tmp_path):

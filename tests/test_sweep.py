@@ -6,6 +6,7 @@ import json
 from dataclasses import asdict
 
 import pytest
+from test_bench import POLICY_MODULE, bench_json, check_rows
 
 from reachavoid.cli import main
 from reachavoid.sweep import run_sweep, sweep_of
@@ -46,10 +47,25 @@ def bench(capsys, *extra: str) -> dict:
     return json.loads(capsys.readouterr().out)
 
 
+def without_times(report: dict) -> dict:
+    return report | {"wall_seconds": None,
+                     "rows": [{k: v for k, v in r.items() if k != "seconds"}
+                              for r in report["rows"]],
+                     "cells": [c | {"seconds_per_episode": None} for c in report["cells"]]}
+
+
 def test_bench_on_ray_matches_serial(capsys):
     pytest.importorskip("ray")
     serial = bench(capsys)
-    assert bench(capsys, "--backend", "ray", "--workers", "2") == serial
+    assert without_times(bench(capsys, "--backend", "ray", "--workers", "2")) == \
+        without_times(serial)
+
+
+def test_policy_module_of_ones_own_on_ray(tmp_path):
+    """Ray workers import ``tmpmod`` themselves (from ``PYTHONPATH``)."""
+    pytest.importorskip("ray")
+    (tmp_path / "tmpmod.py").write_text(POLICY_MODULE)
+    check_rows(bench_json(tmp_path, "--backend", "ray", "--workers", "2"))
 
 
 def test_address_needs_ray_backend(capsys):

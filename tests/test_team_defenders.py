@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 import json
-import pkgutil
 
 import numpy as np
 import pytest
 
 import reachavoid_env
 from policies import HJAttacker, HJDefenderPolicy, HJPairsDefenderPolicy, ShortestPathAttacker
-from policies.registry import make_policy, named_policy
+from policies.registry import make_policy, resolve
 from reachavoid.cli import main
 from reachavoid.rollout import run_episode
+from reachavoid_env.game_state import EdgeKind
 from solvers.hj import solve_1v1, solve_1v2, solve_2v1
 
 SCENARIO = "paper_6v4_equal"
@@ -80,6 +80,7 @@ def test_a_team_stops_an_attacker_neither_defender_stops_alone(equal_tubes):
         assert np.isclose(np.linalg.norm(actions[name]), 1.0, atol=1e-5)
     overlay = teams.overlay()
     assert set(overlay.edges) == {("defender_0", "attacker_0"), ("defender_1", "attacker_0")}
+    assert overlay.kinds == (EdgeKind.TEAM, EdgeKind.TEAM)  # a 1 vs 2 game
     assert "guaranteed" in overlay.lines[0] and "1 nominal" in overlay.lines[0]
     for attacker in (ShortestPathAttacker(), HJAttacker(vf11)):
         result = run_episode(env, attacker, HJPairsDefenderPolicy(vf11, vf21, vf12,
@@ -110,8 +111,7 @@ def test_tubes_of_another_game_are_refused(equal_tubes):
 
 
 def test_registry_and_cli_offer_hj_pairs(capsys):
-    assert (pkgutil.resolve_name(named_policy("defenders", "hj-pairs").factory)
-            == HJPairsDefenderPolicy.for_scenario)
+    assert resolve("defenders", "hj-pairs").build == HJPairsDefenderPolicy.for_scenario
     sc = reachavoid_env.builtin_scenario(SCENARIO)
     with pytest.raises(ValueError, match="unknown option"):
         make_policy("defenders", "hj-pairs", sc, grid3=5)

@@ -22,11 +22,10 @@ from policies import (
     RandomAttacker,
     StraightAttacker,
 )
-from policies.registry import ATTACKERS, DEFENDERS
+from policies.registry import ATTACKERS, DEFENDERS, PolicySpec
 from policies.training import (
     GYM_ID,
     PETTINGZOO_ID,
-    PolicyFactory,
     attacker_factory,
     defender_factory,
     gym_id,
@@ -61,7 +60,7 @@ def test_unknown_names_list_the_choices():
     with pytest.raises(ValueError, match="attackers: unknown policy"):
         make_attacker_env("paper_2v1", defenders="greedy", teammates="nobody")
     with pytest.raises(ValueError, match="side"):
-        PolicyFactory("referees", "greedy")
+        PolicySpec("referees", "greedy")
     assert set(DEFENDERS) >= {"hj", "matching", "greedy", "idle"}
     assert set(ATTACKERS) >= {"shortest-path", "straight", "random", "hj"}
 
@@ -76,8 +75,8 @@ def test_options_go_with_names_only():
 
 
 def test_defaults_are_hj_defenders_and_shortest_path_teammates():
-    assert defender_factory().name == "hj"
-    assert attacker_factory().name == "shortest-path"
+    assert defender_factory().source == "hj"
+    assert attacker_factory().source == "shortest-path"
     env = make_attacker_env("paper_2v1", defenders="greedy")
     assert type(env.teammates).__name__ == "ShortestPathAttacker"
 

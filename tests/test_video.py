@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import reachavoid_env
-from reachavoid_env import AttackerStatus, GameState, builtin_scenario
+from reachavoid_env import AttackerStatus, GameState, Overlay, builtin_scenario
 from reachavoid_env.render import Renderer
-from reachavoid_env.video import RecordEpisode, VideoWriter
+from reachavoid_env.video import RecordEpisode, VideoWriter, realtime_every, realtime_fps
 
 
 def game_frames(count: int, width: int = 320):
@@ -114,7 +114,8 @@ def test_record_episode_writes_every_step(tmp_path):
 
 def test_record_episode_one_file_per_episode(tmp_path):
     env = reachavoid_env.parallel_env(scenario="paper_2v1", render_mode="rgb_array")
-    with RecordEpisode(env, tmp_path / "run_{episode}.gif", every=5) as recorded:
+    with RecordEpisode(env, tmp_path / "run_{episode}.gif", every=5,
+                       per_episode=True) as recorded:
         for seed in (0, 1):
             recorded.reset(seed=seed)
             for _ in range(10):
@@ -136,3 +137,32 @@ def test_record_episode_discards_video_on_error(tmp_path):
         recorded.step({a: np.zeros(2, dtype=np.float32) for a in recorded.agents})
         raise RuntimeError("boom")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_start_frame_carries_what_was_set_after_reset(tmp_path):
+    """The start frame is drawn at the first step, so that the first decision's overlay
+    (set after reset) is on it; an episode closed before any step still gets it."""
+    path = tmp_path / "start.gif"
+    env = reachavoid_env.parallel_env(scenario="paper_2v1", render_mode="rgb_array")
+    with RecordEpisode(env, path) as recorded:
+        recorded.reset(seed=0)
+        plain = recorded.unwrapped.render()
+        recorded.unwrapped.set_overlay(Overlay(edges=(("defender_0", "attacker_0"),)))
+        with_edge = recorded.unwrapped.render()
+        recorded.step({a: np.zeros(2, dtype=np.float32) for a in recorded.agents})
+    first = iio.imread(path)[0].astype(int)
+    assert (plain != with_edge).any()
+    assert np.abs(first - with_edge).mean() < np.abs(first - plain).mean()
+    assert np.abs(first - with_edge).mean() < 1.0
+
+    unplayed = tmp_path / "unplayed.mp4"
+    with RecordEpisode(env, unplayed) as recorded:
+        recorded.reset(seed=0)
+    assert len(iio.imread(unplayed)) == 1
+
+
+def test_realtime_rate():
+    assert realtime_fps(0.005) == pytest.approx(200.0)
+    assert realtime_fps(0.005, every=4) == pytest.approx(50.0)
+    assert realtime_every(0.005, 50.0) == 4 and realtime_every(0.005, 40.0) == 5
+    assert realtime_every(0.1, 50.0) == 1

@@ -25,7 +25,15 @@ if TYPE_CHECKING:
         minimum,
         table,
     )
-    from solvers.hj.games import game_1v1, game_1v2, game_2v1, solve_1v1, solve_1v2, solve_2v1
+    from solvers.hj.games import (
+        check_tubes_memory,
+        game_1v1,
+        game_1v2,
+        game_2v1,
+        solve_1v1,
+        solve_1v2,
+        solve_2v1,
+    )
     from solvers.hj.grid import Grid
     from solvers.hj.reach_avoid import InsufficientMemoryError, SolveResult
     from solvers.hj.solve import solve_declared
@@ -37,6 +45,7 @@ if TYPE_CHECKING:
     )
 
 __all__ = [
+    "check_tubes_memory",
     "ENO2",
     "GODUNOV",
     "LAX_FRIEDRICHS",
@@ -72,8 +81,8 @@ __all__ = [
 __getattr__, __dir__ = lazy.attributes(__name__, {
     **dict.fromkeys(["Game", "Player", "attacker", "defender", "distance", "maximum", "minimum",
                      "table"], "solvers.hj.game"),
-    **dict.fromkeys(["game_1v1", "game_1v2", "game_2v1", "solve_1v1", "solve_1v2", "solve_2v1"],
-                    "solvers.hj.games"),
+    **dict.fromkeys(["check_tubes_memory", "game_1v1", "game_1v2", "game_2v1", "solve_1v1",
+                     "solve_1v2", "solve_2v1"], "solvers.hj.games"),
     "Grid": "solvers.hj.grid",
     "InsufficientMemoryError": "solvers.hj.reach_avoid", "SolveResult": "solvers.hj.reach_avoid",
     "solve_declared": "solvers.hj.solve",

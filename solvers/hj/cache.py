@@ -4,9 +4,13 @@ An entry is a value-function directory named ``<game>-<grid>-<hash>.vf`` where t
 covers everything that decides the values: the game, map, speeds, parameters, grid, the
 value-relevant solver settings, the solver version and any lower game's value used. An
 entry is trusted only after it loads and matches what was asked (every key field, the
-solver version, finite values equal to their checksum); otherwise it is solved again and
-replaced, with one line saying why. Opening the cache removes the temporaries
-(``.NAME.PID.*.tmp`` / ``.old``) of processes that no longer run.
+solver version, finite values equal to their checksum); otherwise (whatever is there: an
+edited ``meta.json``, a link, a plain file) it is removed, solved again and replaced, with
+one line saying why. A cache that cannot be written is read, and new solves are not kept.
+Storing an entry removes the temporaries (``.NAME.PID.RANDOM.tmp`` / ``.old``) whose
+owner's lock (``value.owned_temporaries``) can be taken: their process is gone, whichever
+machine or PID namespace it ran in. The generated kernels live in ``kernels/``
+(``codegen.kernel_dir``).
 """
 
 from __future__ import annotations
@@ -16,21 +20,53 @@ import json
 import os
 import re
 import shutil
+import time
 import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 from reachavoid_env import GameMap
-from solvers.hj.value import ValueFunction, ValueFunctionError, load_value_function
+from reachavoid_env.files import UnsafeFolderError, private_folder
+from solvers.hj.value import ValueFunction, ValueFunctionError, abandoned, load_value_function
 
-_TEMPORARY = re.compile(r"^\..+\.vf\.(?P<pid>\d+)\.[^.]+\.(tmp|old)$")
+_TEMPORARY = re.compile(r"^(?P<stem>\..+\.vf\.\d+\.[^.]+)\.(tmp|old|lock)$")
+UNLOCKED_AGE = 7 * 24 * 3600.0
+"""Seconds after which a temporary without a lock file (written by an older version) is
+removed: far above any solve."""
+
+
+class CacheLocationError(ValueError):
+    """The cache folder cannot be a folder of this user's (reported in one line, exit 2)."""
+
+
+def location_error(what: str, folder: Path, err: Exception) -> CacheLocationError:
+    """``CacheLocationError``: ``what`` went wrong at ``folder`` because of ``err``."""
+    reason = f"{err.filename}: {err.strerror}" if isinstance(err, OSError) else str(err)
+    return CacheLocationError(f"cache: {what} {str(folder)!r} ({reason}); set "
+                              "$REACHAVOID_CACHE_DIR to a folder of yours")
 
 
 def cache_dir() -> Path:
     """The cache directory (not created here)."""
     configured = os.environ.get("REACHAVOID_CACHE_DIR")
     return Path(configured) if configured else Path.home() / ".cache" / "reachavoid"
+
+
+def check_cache() -> bool:
+    """Make the cache folder ready before any work: created (mode 0700) where missing.
+    Returns whether solves can be stored there; ``CacheLocationError`` naming it and
+    ``$REACHAVOID_CACHE_DIR`` when it cannot be a folder of this user's."""
+    folder = cache_dir()
+    if folder.exists() and not folder.is_dir():
+        raise CacheLocationError(f"cache: {str(folder)!r} ($REACHAVOID_CACHE_DIR) is not a "
+                                 "folder")
+    try:
+        if not folder.exists():
+            private_folder(folder)
+    except (OSError, UnsafeFolderError) as err:
+        raise location_error("cannot create", folder, err) from None
+    return os.access(folder, os.W_OK | os.X_OK)
 
 
 def cache_key(parts: dict[str, Any]) -> str:
@@ -44,29 +80,44 @@ def cache_path(game: str, shape: tuple[int, ...], parts: dict[str, Any]) -> Path
     return cache_dir() / f"{game}-{shape[0]}-{cache_key(parts)}.vf"
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 def remove_stale_temporaries(folder: Path) -> list[Path]:
-    """Remove the temporaries of dead processes in ``folder``; returns what was removed."""
+    """Remove the abandoned temporaries in ``folder`` (module docstring); returns them."""
     removed = []
     try:
         entries = list(folder.iterdir())
     except OSError:
         return removed
+    stems = {}
     for entry in entries:
         match = _TEMPORARY.match(entry.name)
-        if match and int(match["pid"]) != os.getpid() and not _alive(int(match["pid"])):
-            shutil.rmtree(entry, ignore_errors=True)
-            removed.append(entry)
+        if match:
+            stems.setdefault(match["stem"], []).append(entry)
+    for stem, found in stems.items():
+        lock = folder / f"{stem}.lock"
+        if lock in found:
+            gone = abandoned(lock)
+        else:
+            gone = all(_age(entry) > UNLOCKED_AGE for entry in found)
+        if gone:
+            for entry in sorted(found, key=lambda e: e == lock):   # the lock last
+                _discard(entry)
+                removed.append(entry)
     return removed
+
+
+def _age(path: Path) -> float:
+    try:
+        return time.time() - path.lstat().st_mtime
+    except OSError:
+        return 0.0
+
+
+def _discard(path: Path) -> None:
+    """Remove the cache's own ``path`` (a folder, file or link); ``OSError`` if it stays."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    else:
+        path.unlink(missing_ok=True)
 
 
 def _mismatch(vf: ValueFunction, expected: Mapping[str, Any]) -> str | None:
@@ -91,21 +142,26 @@ def cached(game: str, shape: tuple[int, ...], parts: dict[str, Any], expected: M
 
     ``expected``: ``meta.json`` fields the entry must have (``ValueFunction.meta`` keys, and
     ``scheme``). The returned value function reads its values from the cache file
-    (memory-mapped).
+    (memory-mapped), or from memory when the cache cannot be written.
     """
     folder = cache_dir()
-    remove_stale_temporaries(folder)
     path = cache_path(game, shape, parts)
-    if path.exists():
+    writable = check_cache()
+    if os.path.lexists(path):
         try:
             vf = load_value_function(path, game_map=game_map, verify=True)
             problem = _mismatch(vf, expected)
             if problem is None:
                 return vf
-        except ValueFunctionError as err:
+        except (ValueFunctionError, OSError) as err:
             problem = str(err)
         _warn(f"cached value function {path} is unusable ({problem}); solving again")
-        shutil.rmtree(path, ignore_errors=True)
+        if writable:
+            _discard(path)
+    if not writable:
+        _warn(f"cache {folder} ($REACHAVOID_CACHE_DIR) is not writable; this solve is not kept")
+        return solve()
+    remove_stale_temporaries(folder)
     vf = solve()
     vf.save(path)
     return load_value_function(path, game_map=game_map)

@@ -25,14 +25,14 @@ from __future__ import annotations
 import functools
 import hashlib
 import importlib.util
-import os
 import sys
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 
+from reachavoid_env.files import UnsafeFolderError, atomic_write, private_folder
 from solvers.hj import kernels
+from solvers.hj.cache import cache_dir, location_error
 from solvers.hj.game import Const, Coordinate, Expr, Game, Op, Table
 from solvers.hj.schemes import Scheme
 
@@ -179,13 +179,14 @@ def _show(expr: Expr) -> str:
 
 
 def kernel_dir() -> Path:
-    """Where generated modules and their numba cache live: ``$REACHAVOID_KERNEL_DIR``, else
-    ``$XDG_CACHE_HOME/reachavoid-kernels`` (default ``~/.cache``), else a temporary folder."""
-    configured = os.environ.get("REACHAVOID_KERNEL_DIR")
-    if configured:
-        return Path(configured)
-    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    return base / "reachavoid-kernels"
+    """Where generated modules and their numba cache live: ``kernels/`` in the cache
+    (``$REACHAVOID_CACHE_DIR``), a folder only this user can write (``private_folder``),
+    checked before anything is imported from it; ``CacheLocationError`` otherwise."""
+    folder = cache_dir() / "kernels"
+    try:
+        return private_folder(folder)
+    except (UnsafeFolderError, OSError) as err:
+        raise location_error("no safe folder for generated code at", folder, err) from None
 
 
 @functools.cache
@@ -211,15 +212,12 @@ def compile_kernel(game: Game, scheme: Scheme) -> Kernel:
 
 
 def _write_once(name: str, source: str) -> Path:
-    for folder in (kernel_dir(), Path(tempfile.gettempdir()) / f"reachavoid-kernels-{os.getuid()}"):
-        path = folder / f"{name}.py"
-        try:
-            if not path.is_file() or path.read_text() != source:
-                folder.mkdir(parents=True, exist_ok=True)
-                temporary = folder / f".{name}.{os.getpid()}.tmp"
-                temporary.write_text(source)
-                os.replace(temporary, path)
-            return path
-        except OSError:
-            continue
-    raise OSError(f"no writable folder for generated kernels (tried {kernel_dir()})")
+    folder = kernel_dir()
+    path = folder / f"{name}.py"
+    try:
+        if not path.is_file() or path.read_text() != source:
+            with atomic_write(path) as handle:
+                handle.write(source)
+    except OSError as err:
+        raise location_error("cannot write generated code to", folder, err) from None
+    return path

@@ -9,10 +9,15 @@ from them by index mapping.
 
 from __future__ import annotations
 
+import errno
+import fcntl
 import json
+import math
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -30,6 +35,7 @@ from solvers.hj.settings import SOLVER_VERSION
 _GRADIENT_FLOOR = 1e-9
 _FILES = ("meta.json", "value.npy")
 _CHUNK = 1 << 24
+_META_BYTES = 1 << 24
 
 
 class ValueFunctionError(ValueError):
@@ -233,35 +239,68 @@ class ValueFunction:
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write the directory ``path`` (``value.npy`` + ``meta.json``) and return it.
 
-        Both files are written into a temporary sibling directory (named with this
-        process's id) that is then renamed into place, so an interrupted save leaves no
-        partial directory behind. An existing ``path`` is replaced only when it is a value
-        directory (``OutputPathError`` otherwise, naming it). When another process renames
-        its entry into place first, theirs is kept when it holds the same values.
+        Both files are written into a temporary sibling directory (``owned_temporaries``)
+        that is then renamed into place, so an interrupted save leaves no partial directory
+        behind; a failed write is an ``OSError`` naming ``path``. An existing ``path`` is
+        replaced only when it is a value directory (``OutputPathError`` otherwise, naming
+        it). When another process renames its entry into place first, theirs is kept when it
+        holds the same values.
         """
-        path = Path(path)
+        path = Path(os.path.abspath(path))   # "." has a name and a parent
         refuse_foreign(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = Path(tempfile.mkdtemp(dir=path.parent, prefix=temporary_prefix(path),
-                                          suffix=".tmp"))
         try:
-            os.chmod(temporary, 0o777 & ~_umask())
-            with open(temporary / "value.npy", "wb") as handle:
-                np.save(handle, np.ascontiguousarray(self.values), allow_pickle=False)
-                handle.flush()
-                os.fsync(handle.fileno())
-            meta = self.meta() | {"checksum": checksum(self.values)}
-            (temporary / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
-            _move_into_place(temporary, path, meta)
-        except BaseException:
-            shutil.rmtree(temporary, ignore_errors=True)
+            with owned_temporaries(path) as stem:
+                temporary = stem.with_name(stem.name + ".tmp")
+                temporary.mkdir(mode=0o777 & ~_umask())
+                try:
+                    with open(temporary / "value.npy", "wb") as handle:
+                        np.save(handle, np.ascontiguousarray(self.values), allow_pickle=False)
+                        handle.flush()
+                        os.fsync(handle.fileno())
+                    meta = self.meta() | {"checksum": checksum(self.values)}
+                    (temporary / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
+                    _move_into_place(temporary, path, meta, stem.with_name(stem.name + ".old"))
+                finally:
+                    shutil.rmtree(temporary, ignore_errors=True)
+        except OSError as err:
+            if err.filename is None:   # numpy's "N requested and M written" names no file
+                raise OSError(err.errno or errno.EIO, err.strerror or str(err), str(path)) from None
             raise
         return path
 
 
-def temporary_prefix(path: Path) -> str:
-    """Name prefix of this process's temporaries next to ``path``: ``.NAME.PID.``."""
-    return f".{path.name}.{os.getpid()}."
+@contextmanager
+def owned_temporaries(path: Path) -> Iterator[Path]:
+    """A fresh name stem ``.NAME.PID.RANDOM`` beside ``path`` for this process's temporaries
+    (``STEM.tmp``, ``STEM.old``), guarded by an exclusive ``flock`` on ``STEM.lock`` held
+    until they are gone: a lock another process can take marks them abandoned
+    (``abandoned``), whichever machine or PID namespace wrote them."""
+    handle, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.{os.getpid()}.",
+                                    suffix=".lock")
+    lock = Path(name)
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        yield lock.with_suffix("")
+    finally:
+        lock.unlink(missing_ok=True)
+        os.close(handle)
+
+
+def abandoned(lock: Path) -> bool:
+    """Whether the temporaries of ``lock`` (``owned_temporaries``) lost their owner: the lock
+    can be taken. A lock that cannot be opened counts as held."""
+    try:
+        handle = os.open(lock, os.O_RDWR)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return False
+    finally:
+        os.close(handle)
+    return True
 
 
 def _umask() -> int:
@@ -278,10 +317,10 @@ def is_value_directory(path: Path) -> bool:
     if not names <= set(_FILES) or "meta.json" not in names:
         return False
     try:
-        meta = json.loads((path / "meta.json").read_text())
-    except (OSError, ValueError):
+        meta = _read_meta(path / "meta.json")
+    except ValueFunctionError:
         return False
-    return isinstance(meta, dict) and "game" in meta and "axes" in meta
+    return "game" in meta and "axes" in meta
 
 
 def refuse_foreign(path: Path) -> None:
@@ -296,7 +335,12 @@ def refuse_foreign(path: Path) -> None:
                               "value.npy only); refusing to replace it")
 
 
-def _move_into_place(temporary: Path, path: Path, meta: dict[str, Any]) -> None:
+def _move_into_place(temporary: Path, path: Path, meta: dict[str, Any], retired: Path) -> None:
+    if path.is_dir() and not path.is_symlink() and not any(path.iterdir()):
+        # an empty folder (perhaps the working directory) is filled, meta.json last
+        for name in reversed(_FILES):
+            os.replace(temporary / name, path / name)
+        return
     if not path.exists():
         try:
             os.replace(temporary, path)
@@ -306,12 +350,9 @@ def _move_into_place(temporary: Path, path: Path, meta: dict[str, Any]) -> None:
                 raise
     # someone else's entry is there (or appeared since the check): keep an identical one
     if _same_entry(path, meta):
-        shutil.rmtree(temporary, ignore_errors=True)
         return
     refuse_foreign(path)
-    retired = Path(tempfile.mkdtemp(dir=path.parent, prefix=temporary_prefix(path),
-                                    suffix=".old"))
-    os.replace(path, retired / path.name)
+    os.replace(path, retired)
     os.replace(temporary, path)
     shutil.rmtree(retired, ignore_errors=True)
 
@@ -319,12 +360,12 @@ def _move_into_place(temporary: Path, path: Path, meta: dict[str, Any]) -> None:
 def _same_entry(path: Path, meta: dict[str, Any]) -> bool:
     """Whether ``path`` holds the same values and metadata (solver timings aside)."""
     try:
-        theirs = json.loads((path / "meta.json").read_text())
+        theirs = _read_meta(path / "meta.json")
         size = (path / "value.npy").stat().st_size
-    except (OSError, ValueError):
+    except (OSError, ValueFunctionError):
         return False
     ours = json.loads(json.dumps(meta))
-    return (isinstance(theirs, dict) and size > 0
+    return (size > 0
             and {k: v for k, v in theirs.items() if k != "solver"}
             == {k: v for k, v in ours.items() if k != "solver"})
 
@@ -361,28 +402,29 @@ def load_value_function(path: str | os.PathLike[str], game_map: GameMap | None =
     for required in (meta_path, value_path):
         if not required.is_file():
             raise ValueFunctionError(f"{path}: missing {required.name}")
-    try:
-        meta = json.loads(meta_path.read_text())
-    except (OSError, json.JSONDecodeError) as err:
-        raise ValueFunctionError(f"{meta_path}: unreadable ({err})") from None
-    version = meta.get("solver", {}).get("version") if isinstance(meta, dict) else None
+    meta = _read_meta(meta_path)
+    solver = meta.get("solver")
+    version = solver.get("version") if isinstance(solver, dict) else None
     if version != SOLVER_VERSION:
         raise ValueFunctionError(f"{meta_path}: written by solver version {version}, this is "
                                  f"version {SOLVER_VERSION}")
     try:
         shape = tuple(int(n) for n in meta["shape"])
+        stored_shape = tuple(int(n) for n in meta["stored_shape"])
+        symmetries = tuple(tuple(str(n) for n in g) for g in meta["symmetries"])
+        values = _open_values(value_path, stored_shape)
+        _check_sizes(shape, stored_shape, symmetries)
         grid = Grid(tuple(meta["grid_min"]), tuple(meta["grid_max"]), shape)
         players = tuple(Player(str(n), role, float(v)) for n, role, v in meta["players"])
-        symmetries = tuple(tuple(str(n) for n in g) for g in meta["symmetries"])
         stored_map = GameMap.from_dict(meta["map"])
         parameters = {str(k): float(v) for k, v in meta["parameters"].items()}
-        stored_shape = tuple(int(n) for n in meta["stored_shape"])
-    except (KeyError, TypeError, ValueError, ScenarioError) as err:
+    except (KeyError, TypeError, AttributeError, ValueError, ScenarioError) as err:
+        if isinstance(err, ValueFunctionError):
+            raise
         raise ValueFunctionError(f"{meta_path}: malformed ({err})") from None
     if game_map is not None and meta["map"] != _map_dict(game_map):
         raise ValueFunctionError(f"{meta_path}: solved for another map ({meta['map']}), "
                                  f"not {_map_dict(game_map)}")
-    values = _open_values(value_path, stored_shape)
     if verify:
         if not all_finite(values):
             raise ValueFunctionError(f"{value_path}: holds NaN or infinite values")
@@ -395,6 +437,40 @@ def load_value_function(path: str | os.PathLike[str], game_map: GameMap | None =
                              solver=dict(meta.get("solver", {})))
     except ValueError as err:
         raise ValueFunctionError(f"{meta_path}: inconsistent ({err})") from None
+
+
+def _read_meta(meta_path: Path) -> dict[str, Any]:
+    """``meta.json`` as a dict, ``ValueFunctionError`` for anything else (too large, too
+    deeply nested, not JSON)."""
+    try:
+        if meta_path.stat().st_size > _META_BYTES:
+            raise ValueFunctionError(f"{meta_path}: over {_META_BYTES} bytes")
+        meta = json.loads(meta_path.read_text())
+    except (OSError, ValueError, RecursionError) as err:
+        if isinstance(err, ValueFunctionError):
+            raise
+        reason = "nested too deeply" if isinstance(err, RecursionError) else err
+        raise ValueFunctionError(f"{meta_path}: unreadable ({reason})") from None
+    if not isinstance(meta, dict):
+        raise ValueFunctionError(f"{meta_path}: not a JSON object")
+    return meta
+
+
+def _check_sizes(shape: tuple[int, ...], stored_shape: tuple[int, ...],
+                 symmetries: tuple[tuple[str, ...], ...]) -> None:
+    """Check ``meta.json``'s grid ``shape`` against the array on disk (``stored_shape``,
+    already checked against the file) before anything is sized from it: whole, or stored
+    rows of the last player's plane, at most one per ordering of each exchangeable group."""
+    if len(shape) < 2 or min(shape) < 1 or len(stored_shape) != (2 if symmetries else len(shape)):
+        raise ValueFunctionError(f"shape {shape} does not fit the stored {stored_shape}")
+    if not symmetries:
+        if shape != stored_shape:
+            raise ValueFunctionError(f"shape {shape} differs from the stored {stored_shape}")
+        return
+    orderings = math.prod(math.factorial(len(group)) for group in symmetries)
+    rows = math.prod(shape[:-2])
+    if stored_shape[1] != shape[-2] * shape[-1] or rows > stored_shape[0] * orderings:
+        raise ValueFunctionError(f"shape {shape} does not fit the stored rows {stored_shape}")
 
 
 def _open_values(value_path: Path, shape: tuple[int, ...]) -> np.ndarray:
