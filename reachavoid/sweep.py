@@ -32,8 +32,6 @@ import reachavoid_env
 from policies.registry import Factory, PolicySpec, policy_specs
 from reachavoid.rollout import EpisodeResult, run_episode
 from reachavoid_env import Policy, Scenario
-from solvers.hj.cache import cache_dir
-from solvers.hj.reach_avoid import available_memory
 
 BACKENDS = ("serial", "process", "ray")
 WORKER_BYTES = 200 << 20
@@ -44,6 +42,8 @@ def pool_size(workers: int | None, episodes: int) -> int:
     """Processes of a pool (or CPUs of a local Ray instance) for ``episodes`` episodes:
     ``workers`` (default: the CPU count), at most one per episode and no more than the
     available memory holds."""
+    from solvers.hj.reach_avoid import available_memory
+
     by_memory = available_memory() // WORKER_BYTES
     return max(1, min(workers or os.cpu_count() or 1, episodes, by_memory))
 
@@ -161,6 +161,8 @@ def _ray(tasks: list[Task], workers: int | None, address: str | None,
         raise ValueError("backend: 'ray' needs Ray (pip install 'reachavoid[ray]')") from None
     started = not ray.is_initialized()
     if started:
+        from solvers.hj.cache import cache_dir
+
         env_vars = {"REACHAVOID_CACHE_DIR": str(cache_dir())}
         if "PYTHONPATH" in os.environ:
             env_vars["PYTHONPATH"] = os.environ["PYTHONPATH"]
