@@ -32,6 +32,7 @@ import reachavoid_env
 from policies.registry import Factory, PolicySpec, policy_specs
 from reachavoid.rollout import EpisodeResult, run_episode
 from reachavoid_env import Policy, Scenario
+from solvers.hj.reach_avoid import available_memory
 
 BACKENDS = ("serial", "process", "ray")
 WORKER_BYTES = 200 << 20
@@ -42,8 +43,6 @@ def pool_size(workers: int | None, episodes: int) -> int:
     """Processes of a pool (or CPUs of a local Ray instance) for ``episodes`` episodes:
     ``workers`` (default: the CPU count), at most one per episode and no more than the
     available memory holds."""
-    from solvers.hj.reach_avoid import available_memory
-
     by_memory = available_memory() // WORKER_BYTES
     return max(1, min(workers or os.cpu_count() or 1, episodes, by_memory))
 

@@ -31,7 +31,6 @@ from pathlib import Path
 from types import ModuleType
 
 from reachavoid_env.files import UnsafeFolderError, atomic_write, private_folder
-from solvers.hj import kernels
 from solvers.hj.cache import cache_dir, location_error
 from solvers.hj.game import Const, Coordinate, Expr, Game, Op, Table
 from solvers.hj.schemes import Scheme
@@ -192,8 +191,8 @@ def kernel_dir() -> Path:
 @functools.cache
 def _kernels_stamp() -> str:
     """Numba does not notice changes of the functions a cached kernel calls, so the
-    generated file's name covers the ``kernels`` module's source too (as imported)."""
-    return Path(kernels.__file__).read_text()
+    generated file's name covers the ``kernels`` module's source too."""
+    return Path(__file__).with_name("kernels.py").read_text()
 
 
 def compile_kernel(game: Game, scheme: Scheme) -> Kernel:

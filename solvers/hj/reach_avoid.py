@@ -19,11 +19,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from tqdm.auto import tqdm
 
-from solvers.hj import geometry, kernels
+from solvers.hj import geometry
 from solvers.hj.codegen import TableSpec, compile_kernel
 from solvers.hj.game import PLANAR_TABLES, Coordinate, Expr, Game, Op, Table, evaluate
 from solvers.hj.grid import Grid
@@ -253,6 +252,10 @@ class Marcher:
         """One iteration over ``order``'s rows (``iteration_orders``) from ``values`` into
         ``out`` (the same array: in place); returns the largest change near the zero level
         set."""
+        import numba
+
+        from solvers.hj import kernels
+
         game, grid = self.problem.game, self.problem.grid
         layout = self.layout
         row_layout = kernels.RowLayout(layout.row_nodes, layout.row_shape, layout.row_stride,
@@ -325,6 +328,8 @@ def _interpolate_start(coarse: ValueFunction, layout: Layout, margin: float,
                        out: np.ndarray) -> None:
     """``out`` = the coarse value at the fine nodes plus ``margin``, row by row: the coarse
     rows are first interpolated onto the fine plane, then combined across the row axes."""
+    from solvers.hj import kernels
+
     fine, grid = layout.grid, coarse.grid
     if fine.lo != grid.lo or fine.hi != grid.hi:
         raise ValueError("warm_start: the coarse grid must span the same box")
