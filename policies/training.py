@@ -10,7 +10,8 @@ made from strings (on the command line, in a registry id, in a subprocess):
 Importing ``policies`` (or this module) registers, for Gymnasium:
 
 - ``reachavoid/Attacker-v0``: ``make_attacker_env`` (``scenario=`` keyword, default
-  ``paper_2v1``);
+  ``paper_2v1``; a map library folder or index trains across its maps, one drawn per
+  reset, with the defenders built per map);
 - ``reachavoid/Attacker-<builtin>-v0`` for every built-in scenario, e.g.
   ``reachavoid/Attacker-paper_2v1-v0``;
 
@@ -34,7 +35,8 @@ import gymnasium
 import pettingzoo
 
 from policies.registry import DEFENDERS, PolicySpec
-from reachavoid_env.scenario import Scenario, builtin_names
+from reachavoid_env.maps import ScenarioSource
+from reachavoid_env.scenario import builtin_names
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 from solvers.hj.settings import TRAINING_GRIDS
 
@@ -106,7 +108,7 @@ def _source(value: Any, options: Mapping[str, Any] | None, side: str, field: str
     return value
 
 
-def make_attacker_env(scenario: str | Scenario = "paper_2v1", defenders: Any = "hj",
+def make_attacker_env(scenario: ScenarioSource = "paper_2v1", defenders: Any = "hj",
                       teammates: Any = "shortest-path",
                       defender_options: Mapping[str, Any] | None = None,
                       teammate_options: Mapping[str, Any] | None = None,
@@ -125,7 +127,7 @@ def make_attacker_env(scenario: str | Scenario = "paper_2v1", defenders: Any = "
         teammates=_source(teammates, teammate_options, "attackers", "teammate"), **env_kwargs)
 
 
-def make_attackers_parallel_env(scenario: str | Scenario = "paper_2v1", defenders: Any = "hj",
+def make_attackers_parallel_env(scenario: ScenarioSource = "paper_2v1", defenders: Any = "hj",
                                 defender_options: Mapping[str, Any] | None = None,
                                 **env_kwargs: Any) -> AttackerParallelEnv:
     """An ``AttackerParallelEnv``: every attacker learns, ``defenders`` (a name, a policy or

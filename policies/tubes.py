@@ -1,8 +1,16 @@
-"""A scenario's HJ tubes, loaded from the on-disk cache or solved once (with progress)."""
+"""A scenario's HJ tubes, loaded from the on-disk cache or solved once (with progress).
+
+Each tube is read once per process (memory-mapped from the cache) and then shared by every
+policy and env of the process that asks for it: a training env over a library of maps
+loads each map's tubes the first time that map is played.
+"""
 
 from __future__ import annotations
 
-from reachavoid_env import Scenario
+from collections.abc import Callable
+from typing import NamedTuple
+
+from reachavoid_env import GameMap, Scenario
 from solvers.hj import (
     PAPER_GRIDS,
     ValueFunction,
@@ -11,6 +19,7 @@ from solvers.hj import (
     solve_1v2,
     solve_2v1,
 )
+from solvers.hj.cache import cache_dir
 
 
 def check_memory(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
@@ -20,12 +29,49 @@ def check_memory(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
                        scenario.capture_radius, grid1, grid2)
 
 
+class TubeKey(NamedTuple):
+    """What identifies a loaded tube: the cache folder, the game and its grids (``grid2``
+    is 0 for the 1 vs 1 game) and the scenario's map, speeds and capture radius."""
+
+    cache: str
+    game: str
+    grid1: int
+    grid2: int
+    map: GameMap
+    attacker_speed: float
+    defender_speed: float
+    capture_radius: float
+
+
+_LOADED: dict[TubeKey, ValueFunction] = {}
+
+
+def _once(scenario: Scenario, game: str, grid1: int, grid2: int,
+          load: Callable[[], ValueFunction]) -> ValueFunction:
+    """``load()`` the first time this process asks for this tube (in this cache folder)."""
+    key = TubeKey(str(cache_dir()), game, grid1, grid2, scenario.map, scenario.attacker_speed,
+                  scenario.defender_speed, scenario.capture_radius)
+    if key not in _LOADED:
+        _LOADED[key] = load()
+    return _LOADED[key]
+
+
+def loaded_tubes(scenario: Scenario) -> dict[TubeKey, ValueFunction]:
+    """The tubes of ``scenario``'s game (map, speeds, capture radius) this process loaded
+    from the current cache folder."""
+    game = (str(cache_dir()), scenario.map, scenario.attacker_speed, scenario.defender_speed,
+            scenario.capture_radius)
+    return {key: vf for key, vf in _LOADED.items()
+            if (key.cache, key.map, key.attacker_speed, key.defender_speed,
+                key.capture_radius) == game}
+
+
 def tube_1v1(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
              progress: bool = True) -> ValueFunction:
     """The 1 vs 1 value of the scenario's map, speeds and capture radius on ``grid1``^4."""
-    return solve_1v1(scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
-                     capture_radius=scenario.capture_radius, grid_points=grid1,
-                     progress=progress)
+    return _once(scenario, "1v1", grid1, 0, lambda: solve_1v1(
+        scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
+        capture_radius=scenario.capture_radius, grid_points=grid1, progress=progress))
 
 
 def tube_2v1(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1, grid2: int = PAPER_GRIDS.grid2,
@@ -33,7 +79,8 @@ def tube_2v1(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1, grid2: int = PA
     """The 1 vs 1 value on ``grid1``^4 and the 2 vs 1 value built on it, on ``grid2``^6."""
     check_memory(scenario, grid1, grid2)
     vf11 = tube_1v1(scenario, grid1, progress)
-    return vf11, solve_2v1(scenario.map, vf11, grid_points=grid2, progress=progress)
+    return vf11, _once(scenario, "2v1", grid1, grid2, lambda: solve_2v1(
+        scenario.map, vf11, grid_points=grid2, progress=progress))
 
 
 def tube_1v2(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1, grid2: int = PAPER_GRIDS.grid2,
@@ -41,5 +88,6 @@ def tube_1v2(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1, grid2: int = PA
     """The 1 vs 2 value (one attacker, two defenders) on ``grid2``^6, built on the 1 vs 1
     value on ``grid1``^4."""
     check_memory(scenario, grid1, grid2)
-    return solve_1v2(scenario.map, tube_1v1(scenario, grid1, progress), grid_points=grid2,
-                     progress=progress)
+    vf11 = tube_1v1(scenario, grid1, progress)
+    return _once(scenario, "1v2", grid1, grid2, lambda: solve_1v2(
+        scenario.map, vf11, grid_points=grid2, progress=progress))

@@ -1,19 +1,21 @@
 """The ``reachavoid`` command (design.md, "Command line"): argument parsing and printing.
 
 ``play`` runs one episode (``rollout``), ``solve`` one game (``solve``), ``bench`` many
-seeded starts of a suite (``suite``, ``evaluation``), ``paper`` the paper's table
-(``paper``). Every argument, output path and the cache are checked before any work starts.
-Bad arguments or input files end with a one-line message and exit status 2; a failed write
-with one line naming the path and status 1; Ctrl-C (130), SIGTERM (143) and SIGHUP (129)
-stop the work and leave no partial file; a closed standard output (``| head``) ends quietly
-(141). Outputs follow one rule (README "Files and failures"): an existing file is replaced
-only with ``--force``.
+seeded starts of a suite (``suite``, ``evaluation``), ``maps`` a map library
+(``reachavoid_env.maps``), ``paper`` the paper's table (``paper``). Every argument, output
+path and the cache are checked before any work starts. Bad arguments or input files end
+with a one-line message and exit status 2; a failed write with one line naming the path and
+status 1; Ctrl-C (130), SIGTERM (143) and SIGHUP (129) stop the work and leave no partial
+file; a closed standard output (``| head``) ends quietly (141). Outputs follow one rule
+(README "Files and failures"): an existing file is replaced only with ``--force``.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
+import functools
 import json
 import os
 import signal
@@ -28,7 +30,7 @@ import solvers.hj
 from policies.registry import PolicySpec, names_help, policy_specs
 from reachavoid.evaluation import MIN_BOOTSTRAP, one_start, write_csv
 from reachavoid.rollout import EpisodeResult, episode_title, first_frame, run_episode
-from reachavoid.solve import DEFAULT_GRID, GAMES, solve_scenario
+from reachavoid.solve import DEFAULT_GRID, GAMES, solve_library, solve_scenario
 from reachavoid.suite import (
     Cell,
     Suite,
@@ -42,10 +44,19 @@ from reachavoid.suite import (
 from reachavoid.sweep import BACKENDS
 from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
 from reachavoid_env.files import STDOUT, atomic_write, destination, is_stream
-from solvers.hj.cache import CacheLocationError, check_cache
+from reachavoid_env.maps import (
+    MAX_MAPS,
+    MapError,
+    MapOptions,
+    load_library,
+    options_from_text,
+    write_library,
+)
+from solvers.hj.cache import CacheLocationError, cache_dir, check_cache
 
-# The policies (OR-Tools, numba) and the paper's figures (matplotlib) are imported by the
-# commands that use them, when they run, so that ``--help`` and bad arguments answer at once.
+# The policies (OR-Tools, numba), the env and the paper's figures (matplotlib) are imported by
+# the commands that use them, when they run, so that ``--help`` and bad arguments answer at
+# once.
 
 EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_PIPE = 2, 1, 130, 141
 TEMPORARY_NAME_ROOM = 48
@@ -128,7 +139,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     play = commands.add_parser("play", help="play one episode and print the outcome",
                                description="Play one episode of a scenario.")
-    _scenario_option(play, "paper_6v2", "a built-in scenario name or a TOML scenario file")
+    _scenario_option(play, "paper_6v2", "a built-in scenario name, a TOML scenario file, or a "
+                                        "map library folder or index (the seed draws the map)")
     play.add_argument("--attackers", default="shortest-path", metavar=SPEC,
                       help=f"attacker policy (default: %(default)s). {names_help('attackers')}")
     play.add_argument("--defenders", default="hj", metavar=SPEC,
@@ -162,17 +174,28 @@ def build_parser() -> argparse.ArgumentParser:
                                 help="solve a 1 vs 1, 2 vs 1 or 1 vs 2 HJ reach-avoid game",
                                 description="Solve a scenario's 1 vs 1, 2 vs 1 or 1 vs 2 game to "
                                             "convergence (cached in $REACHAVOID_CACHE_DIR).")
-    _scenario_option(solve, "paper_2v1", "a built-in scenario name or a TOML scenario file")
+    solve.add_argument("--scenario", nargs="+", default=["paper_2v1"],
+                       metavar="NAME|FILE.toml|DIR",
+                       help="a built-in scenario name or a TOML scenario file; with "
+                            "--defenders also several, or map library folders or index files "
+                            "(default: %(default)s)")
     solve.add_argument("--game", choices=GAMES, default="1v1",
                        help="which game (default: %(default)s)")
     solve.add_argument("--grid", type=int, default=None, metavar="N",
-                       help=f"the game's grid nodes per axis (default: the paper's, "
-                            f"{DEFAULT_GRID['1v1']} for 1v1, {DEFAULT_GRID['2v1']} for 2v1 and "
-                            f"1v2)")
-    solve.add_argument("--grid1", type=int, default=DEFAULT_GRID["1v1"], metavar="N",
-                       help="nodes per axis of the 1 vs 1 tube: the tube under a 2v1 or 1v2 "
-                            "game, the game itself for 1v1 without --grid (default: "
-                            "%(default)s; as --grid1 of play, bench and paper)")
+                       help="grid nodes per axis (default: 45 for 1v1, 30 for 2v1 and 1v2)")
+    solve.add_argument("--defenders", metavar="A,B",
+                       help="instead of --game: every tube these defender methods need, on "
+                            "every map of --scenario, at --grid1/--grid2; what the cache holds "
+                            "is skipped")
+    _grid_options(solve)
+    solve.add_argument("--backend", choices=BACKENDS, default="serial",
+                       help="with --defenders, where the maps are solved: here, on a process "
+                            "pool, or as Ray tasks (default: %(default)s)")
+    solve.add_argument("--workers", type=int, default=None, metavar="N",
+                       help="with --defenders, concurrent solves (default: all cores; refused "
+                            "when they would not fit in memory)")
+    solve.add_argument("--address", default=None, metavar="ADDR",
+                       help="with --backend ray, an existing Ray cluster")
     solve.add_argument("--out", metavar="DIR", help="also save the value function here")
     solve.add_argument("--plot", metavar="OUT.png",
                        help="draw the value's slices at the scenario's starts (paper Fig. 2)")
@@ -228,6 +251,22 @@ def build_parser() -> argparse.ArgumentParser:
     _margin_option(bench)
     _force_option(bench)
     bench.set_defaults(run=_bench)
+
+    maps = commands.add_parser(
+        "maps", help="generate a library of random, validated maps",
+        description="Write COUNT generated scenarios (obstacles of the registered shapes, a "
+                    "target, every free region connected to the target, random starts) and "
+                    "an index.toml to a folder; the same arguments always write the same "
+                    "files. Load the folder wherever a scenario is accepted.")
+    maps.add_argument("--count", type=int, default=32, help="maps (default: %(default)s)")
+    _seed_option(maps, "seed of the library; map k depends only on it and k")
+    maps.add_argument("--out", required=True, metavar="DIR", help="the library folder")
+    for option in dataclasses.fields(MapOptions):
+        default = option.default
+        shown = ",".join(map(str, default)) if isinstance(default, tuple) else default
+        maps.add_argument(f"--{option.name.replace('_', '-')}", dest=f"map_{option.name}",
+                          metavar="V", help=f"{option.metadata['help']} (default: {shown})")
+    maps.set_defaults(run=_maps)
 
     paper = commands.add_parser(
         "paper", help="reproduce the paper's table, videos and tube figure",
@@ -393,16 +432,24 @@ def _play(args: argparse.Namespace) -> int:
             raise UsageError("--preview: draws the first frame without playing; drop --video")
         if Path(args.preview).suffix.lower() != ".png":
             raise UsageError(f"--preview: {args.preview!r} must end in .png")
-        writable_file(args.preview, "--preview")
-    scenario = _load(args.scenario)
+        writable_file(args.preview, "--preview", args.force)
+    scenarios = _library(args.scenario)
+    scenario = _drawn_map(scenarios, args.seed)
     _check_video_options(args, scenario)
     attacker_spec, defender_spec = _specs([("attackers", args.attackers),
                                            ("defenders", args.defenders)], args)
-    attackers = attacker_spec(scenario, seed=args.seed, progress=args.progress)
-    defenders = defender_spec(scenario, seed=args.seed, progress=args.progress)
+    if len(scenarios) == 1:
+        attackers = attacker_spec(scenario, seed=args.seed, progress=args.progress)
+        defenders = defender_spec(scenario, seed=args.seed, progress=args.progress)
+    else:   # a library: the seed draws the map; the policies are built for it
+        from reachavoid_env.wrappers import PerMapPolicy
+
+        attackers, defenders = (
+            PerMapPolicy(functools.partial(spec, seed=args.seed, progress=args.progress), side)
+            for spec, side in ((attacker_spec, "attackers"), (defender_spec, "defenders")))
     drawn = args.video is not None or args.preview is not None
     env = reachavoid_env.parallel_env(
-        scenario=scenario, render_mode="rgb_array" if drawn else None,
+        scenario=scenarios, render_mode="rgb_array" if drawn else None,
         render_width=args.width)
     title = episode_title(scenario.name, args.defenders, args.attackers, args.seed)
     try:
@@ -419,6 +466,15 @@ def _play(args: argparse.Namespace) -> int:
     else:
         print(_summary(result, args))
     return 0
+
+
+def _drawn_map(scenarios: tuple[Scenario, ...], seed: int) -> Scenario:
+    """The map an env over ``scenarios`` plays after ``reset(seed=seed)``."""
+    if len(scenarios) == 1:
+        return scenarios[0]
+    env = reachavoid_env.parallel_env(scenario=scenarios)
+    env.reset(seed=seed)
+    return next(s for s in scenarios if s.name == env.scenario.name)
 
 
 def _preview(env: Any, attackers: Any, defenders: Any, title: str,
@@ -497,6 +553,11 @@ def _speed_words(speed: float) -> str:
 
 
 def _solve(args: argparse.Namespace) -> int:
+    if args.defenders is not None:
+        return _solve_library(args)
+    if len(args.scenario) != 1:
+        raise UsageError("--scenario: several scenarios need --defenders (which tubes to solve)")
+    args.scenario = args.scenario[0]
     if args.grid is not None:
         _check(checks.integer, args.grid, "--grid",
                *GRID_RANGE["grid1" if args.game == "1v1" else "grid2"])
@@ -505,11 +566,11 @@ def _solve(args: argparse.Namespace) -> int:
     if args.plot is not None:
         writable_file(args.plot, "--plot", args.force)
     scenario = _load(args.scenario)
+    grid1 = args.grid1 if args.grid1 is not None else DEFAULT_GRID["1v1"]
     try:
-        grid = args.grid1 if args.game == "1v1" and args.grid is None else args.grid
-        report = solve_scenario(scenario, args.game, grid, out=args.out,
-                                grid_points_1v1=args.grid1, plot=args.plot,
-                                progress=args.progress)
+        grid = grid1 if args.game == "1v1" and args.grid is None else args.grid
+        report = solve_scenario(scenario, args.game, grid, out=args.out, grid_points_1v1=grid1,
+                                plot=args.plot, progress=args.progress)
     except (ValueError, MemoryError) as err:
         raise UsageError(str(err)) from None
     print(report.summary())
@@ -537,12 +598,51 @@ def _bench_suite(args: argparse.Namespace) -> Suite:
     return Suite(scenario.name, 0, args.seed or 0, (cell,))
 
 
+def _solve_library(args: argparse.Namespace) -> int:
+    for flag, value in (("--out", args.out), ("--plot", args.plot), ("--grid", args.grid)):
+        if value is not None:
+            raise UsageError(f"{flag}: not with --defenders (a library goes to the cache)")
+    methods = _methods(args.defenders)
+    if args.workers is not None:
+        _check(checks.integer, args.workers, "--workers", 1, 4096)
+    if args.address is not None and args.backend != "ray":
+        raise UsageError("--address: only with --backend ray")
+    scenarios = [sc for source in args.scenario for sc in _library(source)]
+    try:
+        rows = solve_library(scenarios, methods, args.grid1, args.grid2, backend=args.backend,
+                             workers=args.workers, address=args.address,
+                             progress=args.progress)
+    except (ValueError, MemoryError) as err:
+        raise UsageError(f"--{err}" if str(err).startswith("workers:") else str(err)) from None
+    print(f"{'map':<24} {'game':<5} {'grid':>5} {'seconds':>9} {'peak MiB':>9}")
+    for row in rows:
+        seconds = "cached" if row.seconds is None else f"{row.seconds:.1f}"
+        print(f"{row.map:<24} {row.game:<5} {row.grid:>5} {seconds:>9} "
+              f"{row.peak_bytes / 2**20:>9.0f}")
+    solved = sum(row.seconds is not None for row in rows)
+    print(f"{len(rows)} tubes on {len({row.map for row in rows})} maps: {solved} solved, "
+          f"{len(rows) - solved} from the cache ({cache_dir()})")
+    return 0
+
+
+def _methods(text: str) -> list[str]:
+    """Comma-separated defender methods (specs), each once, in order."""
+    methods = list(dict.fromkeys(m.strip() for m in text.split(",") if m.strip()))
+    if not methods:
+        raise UsageError(f"--defenders: expected comma-separated methods, got {text!r}")
+    return methods
+
+
+def _library(source: str) -> tuple[Scenario, ...]:
+    try:
+        return load_library(source)
+    except OSError as err:
+        raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}") from None
+
+
 def _bench(args: argparse.Namespace) -> int:
     _check(checks.integer, args.episodes, "--episodes", 1, 10_000_000)
-    methods = list(dict.fromkeys(m.strip() for m in args.defenders.split(",") if m.strip()))
-    if not methods:
-        raise UsageError(f"--defenders: expected comma-separated methods, got "
-                         f"{args.defenders!r}")
+    methods = _methods(args.defenders)
     baseline = args.baseline or ("hj" if "hj" in methods else methods[0])
     if baseline not in methods:
         raise UsageError(f"--baseline: {baseline!r} is not among --defenders "
@@ -640,6 +740,20 @@ def _bench_tables(result: SuiteResult, seconds: float) -> str:
                          f"[{d.ci[0]:+.1%}, {d.ci[1]:+.1%}] ({d.method}, {d.episodes} "
                          f"paired seed(s))")
     return "\n".join(lines)
+
+
+def _maps(args: argparse.Namespace) -> int:
+    _check(checks.integer, args.count, "--count", 1, MAX_MAPS)
+    out = writable_folder(args.out, "--out")
+    try:
+        options = options_from_text({option.name: getattr(args, f"map_{option.name}")
+                                     for option in dataclasses.fields(MapOptions)})
+        written = write_library(out, options, args.seed, args.count)
+    except MapError as err:
+        option, _, reason = str(err).partition(":")
+        raise UsageError(f"--{option.replace('_', '-')}:{reason}") from None
+    print(f"{args.count} maps and {written[-1].name} -> {out}/")
+    return 0
 
 
 def _paper(args: argparse.Namespace) -> int:

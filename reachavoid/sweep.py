@@ -22,9 +22,9 @@ import multiprocessing
 import os
 import signal
 import threading
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from tqdm import tqdm
 
@@ -81,7 +81,12 @@ def play_seed(sweep: Sweep, seed: int) -> EpisodeResult:
                        _policy(sweep.defenders, scenario, seed), seed=seed)
 
 
-def _play_task(task: tuple[int, Sweep, int]) -> tuple[int, EpisodeResult]:
+Task = tuple[int, Sweep, int]
+Item = TypeVar("Item")
+Result = TypeVar("Result")
+
+
+def _play_task(task: Task) -> tuple[int, EpisodeResult]:
     index, sweep, seed = task
     return index, play_seed(sweep, seed)
 
@@ -96,8 +101,7 @@ def run_sweeps(sweeps: Sequence[Sweep], backend: str = "serial", workers: int | 
     cluster (default: a local instance, started here and shut down after). Ctrl-C
     cancels the episodes not yet played and stops the workers.
     """
-    if backend not in BACKENDS:
-        raise ValueError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
+    check_backend(backend)
     for sweep in sweeps:   # solves missing tubes once, here, with progress when asked
         _policy(sweep.attackers, sweep.scenario, sweep.seeds[0], progress)
         _policy(sweep.defenders, sweep.scenario, sweep.seeds[0], progress)
@@ -105,8 +109,7 @@ def run_sweeps(sweeps: Sequence[Sweep], backend: str = "serial", workers: int | 
     results: list[dict[int, EpisodeResult]] = [{} for _ in sweeps]
     with tqdm(total=len(tasks), desc=description, unit="episode", disable=not progress,
               leave=False) as bar:
-        play = {"serial": _serial, "process": _process_pool, "ray": _ray}[backend]
-        for index, result in play(tasks, workers=workers, address=address):
+        for index, result in run_tasks(_play_task, tasks, backend, workers, address):
             results[index][result.seed] = result
             bar.update(1)
     return [[done[seed] for seed in sweep.seeds] for done, sweep in zip(results, sweeps,
@@ -120,22 +123,37 @@ def run_sweep(sweep: Sweep, backend: str = "serial", workers: int | None = None,
     return run_sweeps([sweep], backend, workers, address, progress, description)[0]
 
 
-Task = tuple[int, Sweep, int]
+def check_backend(backend: str) -> None:
+    """``ValueError`` naming ``backend`` unless it is one of ``BACKENDS``."""
+    if backend not in BACKENDS:
+        raise ValueError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
 
 
-def _serial(tasks: list[Task], **_: Any) -> Iterator[tuple[int, EpisodeResult]]:
-    for task in tasks:
-        yield _play_task(task)
+def run_tasks(task: Callable[[Item], Result], items: Sequence[Item], backend: str = "serial",
+              workers: int | None = None, address: str | None = None) -> Iterator[Result]:
+    """``task(item)`` for every item on ``backend``, yielded as each finishes (in the items'
+    order only serially): the one pool of the sweeps and the tube libraries. ``task`` must be
+    picklable (a module-level function or a ``functools.partial`` of one) for the process
+    pool and Ray; ``workers`` is capped by ``pool_size``."""
+    check_backend(backend)
+    play = {"serial": _serial, "process": _process_pool, "ray": _ray}[backend]
+    yield from play(task, items, workers=workers, address=address)
 
 
-def _process_pool(tasks: list[Task], workers: int | None,
-                  **_: Any) -> Iterator[tuple[int, EpisodeResult]]:
-    pool = multiprocessing.get_context("spawn").Pool(pool_size(workers, len(tasks)),
+def _serial(task: Callable[[Item], Result], items: Sequence[Item],
+            **_: Any) -> Iterator[Result]:
+    for item in items:
+        yield task(item)
+
+
+def _process_pool(task: Callable[[Item], Result], items: Sequence[Item], workers: int | None,
+                  **_: Any) -> Iterator[Result]:
+    pool = multiprocessing.get_context("spawn").Pool(pool_size(workers, len(items)),
                                                      initializer=_start_worker)
     try:
-        yield from pool.imap_unordered(_play_task, tasks)
+        yield from pool.imap_unordered(task, items)
     except BaseException:
-        pool.terminate()   # Ctrl-C or SIGTERM: no worker outlives the sweep
+        pool.terminate()   # Ctrl-C or SIGTERM: no worker outlives the work
         raise
     else:
         pool.close()
@@ -152,8 +170,12 @@ def _start_worker() -> None:
     tqdm.set_lock(threading.RLock())
 
 
-def _ray(tasks: list[Task], workers: int | None, address: str | None,
-         **_: Any) -> Iterator[tuple[int, EpisodeResult]]:
+def _call(task: Callable[[Item], Result], item: Item) -> Result:
+    return task(item)
+
+
+def _ray(task: Callable[[Item], Result], items: Sequence[Item], workers: int | None,
+         address: str | None, **_: Any) -> Iterator[Result]:
     try:
         import ray
     except ImportError:
@@ -166,16 +188,16 @@ def _ray(tasks: list[Task], workers: int | None, address: str | None,
         if "PYTHONPATH" in os.environ:
             env_vars["PYTHONPATH"] = os.environ["PYTHONPATH"]
         ray.init(address=address,
-                 num_cpus=None if address else pool_size(workers, len(tasks)),
+                 num_cpus=None if address else pool_size(workers, len(items)),
                  include_dashboard=False, log_to_driver=False,
                  runtime_env={"env_vars": env_vars})
-    play = ray.remote(play_seed)
-    shared = {id(sweep): ray.put(sweep) for _, sweep, _ in tasks}
-    pending = {play.remote(shared[id(sweep)], seed): index for index, sweep, seed in tasks}
+    remote = ray.remote(_call)
+    shared = ray.put(task)
+    pending = [remote.remote(shared, item) for item in items]
     try:
         while pending:
-            [done], _ = ray.wait(list(pending), num_returns=1)
-            yield pending.pop(done), ray.get(done)
+            done, pending = ray.wait(pending, num_returns=1)
+            yield ray.get(done[0])
     except BaseException:
         for ref in pending:
             ray.cancel(ref, force=True)

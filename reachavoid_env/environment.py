@@ -19,7 +19,8 @@ from pettingzoo.utils import ClipOutOfBoundsWrapper, OrderEnforcingWrapper, para
 
 from reachavoid_env import checks, rules
 from reachavoid_env.game_state import AttackerStatus, GameState, Overlay
-from reachavoid_env.scenario import MAX_STEPS, Scenario, ScenarioError, load_scenario
+from reachavoid_env.maps import ScenarioSource, load_library
+from reachavoid_env.scenario import MAX_STEPS, Scenario, ScenarioError
 from reachavoid_env.world import World
 
 _STATUSES = tuple(AttackerStatus)   # index = AttackerStatus.code
@@ -77,6 +78,11 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     ``info_format="readable"`` ``status`` is an ``AttackerStatus`` and ``captured_by``
     (the defender's name) appears only on the step of the capture.
 
+    ``scenario``: a built-in name, a TOML file, a ``Scenario``, or a library of maps (a
+    folder or ``index.toml`` written by ``reachavoid maps``, or a list of any of these;
+    ``maps.load_library``) whose maps share the player counts: each reset then plays one
+    map drawn with the env's generator, so the seed of ``reset`` decides map and starts.
+
     ``reset(seed=, options=)`` options (all optional, for this episode only):
     ``{"scenario": Scenario}`` with the same numbers of players, and/or
     ``{"attackers": (M, 2), "defenders": (N, 2)}`` start positions in map units (a missing
@@ -97,7 +103,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
 
     def __init__(
         self,
-        scenario: str | Scenario = "paper_2v1",
+        scenario: ScenarioSource = "paper_2v1",
         max_cycles: int | None = None,
         render_mode: str | None = None,
         shaping: float = 0.0,
@@ -107,13 +113,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         EzPickle.__init__(self, scenario=scenario, max_cycles=max_cycles,
                           render_mode=render_mode, shaping=shaping, render_width=render_width,
                           info_format=info_format)
-        if isinstance(scenario, Scenario):
-            self.base_scenario = scenario
-        elif isinstance(scenario, str):
-            self.base_scenario = load_scenario(scenario)
-        else:
-            raise TypeError(f"scenario: expected a built-in name, a TOML path or a Scenario, "
-                            f"got {type(scenario).__name__}")
+        self.scenarios = _library(scenario)
+        self.base_scenario = self.scenarios[0]
         if max_cycles is not None:
             checks.integer(max_cycles, "max_cycles", 1, MAX_STEPS)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -203,6 +204,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
 
     def _episode_scenario(self, options: dict[str, Any]) -> Scenario:
         scenario = self.base_scenario
+        if len(self.scenarios) > 1 and "scenario" not in options:
+            scenario = self.scenarios[int(self.np_random.integers(len(self.scenarios)))]
         if "scenario" in options:
             scenario = options["scenario"]
             if not isinstance(scenario, Scenario):
@@ -475,6 +478,21 @@ def _live_part(overlay: Overlay | None, state: GameState) -> Overlay | None:
     kept = [edge for edge in overlay.kinded_edges if edge.attacker in live]
     return Overlay(edges=tuple((e.defender, e.attacker) for e in kept), lines=overlay.lines,
                    kinds=tuple(e.kind for e in kept))
+
+
+def _library(source: Any) -> tuple[Scenario, ...]:
+    """The scenarios an env plays (``maps.load_library``), checked to share the player
+    counts (the spaces depend on them)."""
+    scenarios = load_library(source)
+    first = scenarios[0]
+    for scenario in scenarios[1:]:
+        if (scenario.num_attackers, scenario.num_defenders) != (first.num_attackers,
+                                                                first.num_defenders):
+            raise ScenarioError(f"scenario: {scenario.name!r} has {scenario.num_attackers} "
+                                f"attackers and {scenario.num_defenders} defenders, "
+                                f"{first.name!r} {first.num_attackers} and "
+                                f"{first.num_defenders}; a library's maps share the counts")
+    return scenarios
 
 
 def _checked_options(options: Any) -> dict[str, Any]:

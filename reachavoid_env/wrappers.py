@@ -21,6 +21,7 @@ training throughput with expensive policies; ``benchmarks/training_throughput.py
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import gymnasium
@@ -30,7 +31,8 @@ from pettingzoo import ParallelEnv
 
 from reachavoid_env import checks
 from reachavoid_env.environment import ReachAvoidEnv, check_agent_names
-from reachavoid_env.game_state import AttackerStatus, GameState, Policy, merged_overlay
+from reachavoid_env.game_state import AttackerStatus, GameState, Overlay, Policy, merged_overlay
+from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.scenario import Scenario
 
 PolicySource = Policy | Callable[[Scenario], Policy]
@@ -52,6 +54,46 @@ def build_policy(source: Any, scenario: Scenario, field: str) -> Policy:
         return policy
     raise TypeError(f"{field}: expected a policy (reset(scenario), act(state)) or a factory "
                     f"scenario -> policy, got {type(source).__name__}")
+
+
+class PerMapPolicy:
+    """A policy per map of a library, built by ``factory`` the first time its map is played
+    (``first``, if given, at once, so that a bad factory fails early) and kept for later
+    episodes on that map. ``reset(scenario)`` picks the map's policy; ``act`` and
+    ``overlay`` are its."""
+
+    def __init__(self, factory: Callable[[Scenario], Policy], field: str,
+                 first: Scenario | None = None) -> None:
+        self.factory, self.field = factory, field
+        self.built: dict[Scenario, Policy] = {}
+        self.current = self._for(first) if first is not None else None
+
+    def _for(self, scenario: Scenario) -> Policy:
+        key = replace(scenario, attackers=None, defenders=None)
+        if key not in self.built:
+            self.built[key] = build_policy(self.factory, key, self.field)
+        return self.built[key]
+
+    def reset(self, scenario: Scenario) -> None:
+        self.current = self._for(scenario)
+        self.current.reset(scenario)
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]:
+        if self.current is None:
+            raise RuntimeError("act: call reset(scenario) first")
+        return self.current.act(state)
+
+    def overlay(self) -> Overlay | None:
+        overlay = getattr(self.current, "overlay", None)
+        return overlay() if overlay is not None else None
+
+
+def scripted_policy(source: Any, game: ReachAvoidEnv, field: str) -> Policy:
+    """``build_policy`` for ``game``'s one map; for a library of maps a ``PerMapPolicy``
+    when ``source`` is a factory (a policy object must play every map itself)."""
+    if len(game.scenarios) > 1 and callable(source) and not isinstance(source, (Policy, type)):
+        return PerMapPolicy(source, field, first=game.base_scenario)
+    return build_policy(source, game.base_scenario, field)
 
 
 class _Scripted:
@@ -150,7 +192,7 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
         "is_parallelizable": True,
     }
 
-    def __init__(self, defenders: PolicySource, scenario: str | Scenario = "paper_2v1",
+    def __init__(self, defenders: PolicySource, scenario: ScenarioSource = "paper_2v1",
                  max_cycles: int | None = None, render_mode: str | None = None,
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
                  scripted_every: int = 1, render_width: int = 640,
@@ -167,7 +209,7 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
                              shaping=shaping, render_width=render_width, info_format=info_format)
         self.game = game
         self.render_mode = render_mode
-        self.defenders = build_policy(defenders, game.base_scenario, "defenders")
+        self.defenders = scripted_policy(defenders, game, "defenders")
         self.possible_agents = game.base_scenario.attacker_names
         self._learners = frozenset(self.possible_agents)
         self._core = _Scripted(game, [(self.defenders,
@@ -275,7 +317,7 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
         "render_fps": ReachAvoidEnv.metadata["render_fps"],
     }
 
-    def __init__(self, defenders: PolicySource, scenario: str | Scenario = "paper_2v1",
+    def __init__(self, defenders: PolicySource, scenario: ScenarioSource = "paper_2v1",
                  attacker: int = 0, teammates: PolicySource | None = None,
                  max_cycles: int | None = None, render_mode: str | None = None,
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
@@ -301,14 +343,14 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
         self.render_mode = render_mode
         self.learner = f"attacker_{attacker}"
         self._learner_index = attacker
-        self.defenders = build_policy(defenders, base, "defenders")
+        self.defenders = scripted_policy(defenders, game, "defenders")
         scripted = [(self.defenders, frozenset(base.defender_names))]
         self.teammates: Policy | None = None
         if m > 1:
             if teammates is None:
                 raise ValueError(f"teammates: scenario {base.name!r} has {m} attackers; give "
                                  f"a policy (or factory) for the ones besides {self.learner}")
-            self.teammates = build_policy(teammates, base, "teammates")
+            self.teammates = scripted_policy(teammates, game, "teammates")
             others = frozenset(base.attacker_names) - {self.learner}
             scripted.append((self.teammates, others))
         self._core = _Scripted(game, scripted, self.scripted_every)

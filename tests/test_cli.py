@@ -291,5 +291,5 @@ def test_realtime_video_lasts_the_game_time(tmp_path, capsys):
     # the last frame shows the end of the game at its time in the video (to one frame)
     assert abs((seconds - 1 / fps) - report["game_time"]) <= 1 / fps
     assert main(["play", "--scenario", "paper_2v1", *SIMPLE, "--video", str(path),
-                 "--realtime"]) == 0
+                 "--realtime", "--force"]) == 0
     assert "at 50 fps, real time)" in capsys.readouterr()[0]

@@ -129,7 +129,7 @@ def test_csv_through_a_link_writes_its_target(tmp_path, capsys):
     target, link = tmp_path / "real.csv", tmp_path / "link.csv"
     link.symlink_to(target)
     assert main([*BENCH, "--csv", str(link)]) == 0
-    assert link.is_symlink() and target.read_text().startswith("defenders,")
+    assert link.is_symlink() and target.read_text().startswith("cell,defenders,")
 
 
 def test_video_through_a_dangling_link_writes_its_target(tmp_path, capsys):
@@ -156,7 +156,7 @@ def test_a_fifo_is_written_not_replaced(tmp_path, capsys):
     reader.start()
     assert main([*BENCH, "--csv", str(fifo)]) == 0
     reader.join(timeout=60)
-    assert stat.S_ISFIFO(fifo.lstat().st_mode) and received[0].startswith("defenders,")
+    assert stat.S_ISFIFO(fifo.lstat().st_mode) and received[0].startswith("cell,defenders,")
 
 
 def test_a_character_device_is_written_not_replaced(tmp_path, capsys):
@@ -177,7 +177,7 @@ def test_a_character_device_is_written_not_replaced(tmp_path, capsys):
 def test_dash_is_standard_output_for_csv(capsys):
     assert main([*BENCH, "--csv", "-"]) == 0
     out, err = capsys.readouterr()
-    assert out.startswith("defenders,") and out.count("\n") == 3   # header + 2 episodes
+    assert out.startswith("cell,defenders,") and out.count("\n") == 3   # header + 2 episodes
     assert "capture rate" in err
     fails_cleanly(capsys, ["play", *SIMPLE, "--video", "-"], "must end in")
 
@@ -185,7 +185,7 @@ def test_dash_is_standard_output_for_csv(capsys):
 def test_dev_stdout_is_written_when_it_is_a_pipe():
     process = _command(*BENCH, "--csv", "/dev/stdout", stdout=subprocess.PIPE)
     out, err = process.communicate(timeout=120)
-    assert process.returncode == 0 and out.startswith("defenders,"), err
+    assert process.returncode == 0 and out.startswith("cell,defenders,"), err
 
 
 # 3. braces in a path are characters
