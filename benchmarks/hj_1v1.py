@@ -59,7 +59,8 @@ def worker_numba(grid: int, out: str) -> dict:
     np.save(out, np.asarray(vf.values))
     return {"solver": "reachavoid (numba)", "threads": numba.get_num_threads(),
             "compile_or_load_s": compile_seconds, "seconds": seconds,
-            "iterations": vf.solver["iterations"], "residual": vf.solver["residual"],
+            "iterations": vf.solver["iterations"], "start": vf.solver.get("start", "cold"),
+            "residual": vf.solver["residual"],
             "converged": vf.solver["converged"], "game_time": vf.solver["iterations"]
             * vf.solver["dt"], "peak_rss_mb": _peak_rss_mb(), "rss_before_solve_mb": rss_before,
             "traced_peak_mb": traced_peak / 2**20}
@@ -166,8 +167,12 @@ def main() -> None:
                 if checkout == ROOT:
                     ours = result
         if args.base:
-            same = np.array_equal(np.load(ours_file), np.load(base_file))
-            print(f"# values identical to the base checkout's: {same}")
+            a, b = np.load(ours_file), np.load(base_file)
+            differ = (a <= 0) != (b <= 0)
+            worst = np.maximum(np.abs(a), np.abs(b))[differ].max() if differ.any() else 0.0
+            print(f"# against the base checkout: values identical {np.array_equal(a, b)}, "
+                  f"signs differ at {int(differ.sum())} of {a.size} nodes (largest |value| "
+                  f"there {worst:.2e}), largest difference {np.abs(a - b).max():.2e}")
         try:
             import hj_reachability  # noqa: F401
         except ImportError:

@@ -14,8 +14,8 @@ available memory, and whether the solver refuses (checked by calling it).
 and leaves the tubes there for the policies; without it a temporary cache is used. The 1 vs
 1 value is the 45^4 solve (the paper's), from the same cache. ``--base DIR``: also run every
 grid with the solver of another checkout (e.g. ``git worktree add /tmp/hj-base f5f4333``),
-alternating with ours, in the same run. ``--sweeps N``: stop after N sweeps (for grids too
-slow to converge here: time per sweep and peak RSS).
+alternating with ours, in the same run, and compare the signs. ``--sweeps N``: stop after
+N sweeps (for grids too slow to converge here: time per sweep and peak RSS).
 """
 
 from __future__ import annotations
@@ -32,8 +32,9 @@ import time
 EXAMPLE = [-0.5, 0.0, 0.0, 0.8, 0.3, -0.3]
 
 
-def worker(grid: int, sweeps: int | None) -> dict:
-    """Runs with either checkout's ``solvers`` (the same public API)."""
+def worker(grid: int, sweeps: int | None, out: str) -> dict:
+    """Runs with either checkout's ``solvers`` (the same public API); saves the stored
+    value rows to ``out``."""
     import numba
     import numpy as np
 
@@ -52,11 +53,13 @@ def worker(grid: int, sweeps: int | None) -> dict:
                    settings=settings, cache=sweeps is None)
     wall = time.perf_counter() - start
     solver = vf.solver
+    np.save(out, np.asarray(vf.values))
     stored_points = (grid**2 * (grid**2 + 1) // 2) * grid**2
     return {
         "solver": os.path.dirname(os.path.dirname(solvers.__file__)),
         "grid": f"{grid}^6", "threads": numba.get_num_threads(),
-        "iterations": solver["iterations"], "converged": solver["converged"],
+        "iterations": solver["iterations"], "start": solver.get("start", "cold"),
+        "converged": solver["converged"],
         "residual": solver["residual"], "game_time": solver["iterations"] * solver["dt"],
         "solve_s": solver["seconds"], "wall_s": wall, "compile_or_load_s": compile_seconds,
         "sweep_s": solver["seconds"] / solver["iterations"],
@@ -67,6 +70,20 @@ def worker(grid: int, sweeps: int | None) -> dict:
                                                                EXAMPLE[2:]]))],
         "cached_at": str(getattr(vf.values, "filename", "")),
     }
+
+
+def _compare_signs(ours: str, base: str) -> None:
+    """Print how the two checkouts' stored values compare: nodes of another sign (and the
+    largest value among them), the largest difference."""
+    import numpy as np
+
+    a, b = np.load(ours, mmap_mode="r"), np.load(base, mmap_mode="r")
+    differ = (a <= 0) != (b <= 0)
+    worst = float(np.maximum(np.abs(a[differ]), np.abs(b[differ])).max()) if differ.any() \
+        else 0.0
+    print(f"# signs differ at {int(differ.sum())} of {a.size} stored nodes (largest |value| "
+          f"there {worst:.2e}); largest difference {float(np.abs(a - b).max()):.2e}",
+          flush=True)
 
 
 def _estimate(grid: int) -> int:
@@ -110,9 +127,10 @@ def main() -> None:
     parser.add_argument("--base", help="another checkout to run side by side")
     parser.add_argument("--sweeps", type=int)
     parser.add_argument("--worker", type=int, help=argparse.SUPPRESS)
+    parser.add_argument("--out", default="", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker is not None:
-        print(json.dumps(worker(args.worker, args.sweeps)))
+        print(json.dumps(worker(args.worker, args.sweeps, args.out)))
         return
     print(f"# hj_2v1: paper map, vA=1, vD=1.5, R=0.1, 1v1 at 45^4, {args.threads} threads, "
           f"{os.cpu_count()} CPUs visible, {time.strftime('%Y-%m-%d %H:%M')}, load "
@@ -127,7 +145,8 @@ def main() -> None:
                 env = dict(os.environ, NUMBA_NUM_THREADS=str(args.threads), PYTHONPATH=checkout)
                 if not args.store or checkout != root:
                     env["REACHAVOID_CACHE_DIR"] = os.path.join(scratch, str(len(results)))
-                command = [sys.executable, __file__, "--worker", str(grid)]
+                out = os.path.join(scratch, f"{grid}-{checkouts.index(checkout)}.npy")
+                command = [sys.executable, __file__, "--worker", str(grid), "--out", out]
                 command += ["--sweeps", str(args.sweeps)] if args.sweeps else []
                 run = subprocess.run(command, env=env, cwd=checkout, check=True,
                                      stdout=subprocess.PIPE, text=True)
@@ -136,6 +155,8 @@ def main() -> None:
                 result["load_after"] = round(os.getloadavg()[0], 1)
                 results.append(result)
                 print(json.dumps(result), flush=True)
+            if args.base:
+                _compare_signs(*(os.path.join(scratch, f"{grid}-{k}.npy") for k in (0, 1)))
         ours = [r for r in results if r["solver"] == root]
         if len(ours) >= 2:
             first, last = ours[0], ours[-1]

@@ -187,7 +187,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="instead of --game: every tube these defender methods need, on "
                             "every map of --scenario, at --grid1/--grid2; what the cache holds "
                             "is skipped")
-    _grid_options(solve)
+    _grid_options(solve, for_policies=False)
     solve.add_argument("--backend", choices=BACKENDS, default="serial",
                        help="with --defenders, where the maps are solved: here, on a process "
                             "pool, or as Ray tasks (default: %(default)s)")

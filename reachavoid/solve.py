@@ -13,7 +13,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from policies.registry import PolicySpec, policy_specs
+from policies.registry import PolicySpec
 from policies.tubes import loaded_tubes
 from reachavoid.sweep import check_backend, run_tasks
 from reachavoid_env import Scenario, load_scenario
@@ -180,9 +180,11 @@ def solve_library(scenarios: Sequence[Scenario], defenders: Sequence[str], grid1
     CPU count by default; one serially; not checked on a remote Ray cluster) would not fit
     in the memory available.
     """
-    specs = tuple(policy_specs([("defenders", name) for name in defenders],
-                               {"grid1": grid1, "grid2": grid2},
-                               {"grid1": "--grid1", "grid2": "--grid2"}))
+    grids = {"grid1": grid1, "grid2": grid2}
+    chosen = [PolicySpec("defenders", name) for name in defenders]
+    specs = tuple(PolicySpec.of("defenders", spec.source,
+                                **{key: grid for key, grid in grids.items()
+                                   if spec.choice.takes(key)}) for spec in chosen)
     unique = list({replace(sc, attackers=None, defenders=None): sc for sc in scenarios}.values())
     check_backend(backend)
     if address is None:

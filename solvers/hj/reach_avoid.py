@@ -2,7 +2,8 @@
 
 The infinite-horizon reach-avoid value is the fixed point of
 ``V <- max(min(V + dt * H(V), l), g)`` started from ``V = max(l, g)`` (cold) or from a
-coarse grid's value plus a margin (warm, ``warm_start``). Every fixed point lies below
+coarse grid's value plus a margin (warm, ``warm_start``), either clipped where a bound of
+every fixed point is proved (``start``, ``settings.clip_start``). Every fixed point lies below
 ``max(l, g)`` and the update is monotone under the CFL bound, so from any start between
 the largest fixed point and ``max(l, g)`` the iterates are squeezed onto the largest fixed
 point, the one the cold start reaches. The loop stops when the largest change of ``V``
@@ -107,13 +108,16 @@ def map_problem(game: Game, game_map, grid: Grid,
 @dataclass(frozen=True)
 class SolveResult:
     """How a solve went. ``residual``: the last largest change of the value per unit game
-    time near the zero level set (map units per second); ``game_time = iterations * dt``."""
+    time near the zero level set (map units per second); ``game_time = iterations * dt``;
+    ``start``: how the values started (``"cold"`` or ``"warm"``, ``", clipped"`` when
+    ``start.StartBound`` clipped them); ``iterations`` counts every iteration."""
 
     iterations: int
     residual: float
     converged: bool
     seconds: float
     dt: float
+    start: str = "cold"
 
     @property
     def game_time(self) -> float:
@@ -283,23 +287,36 @@ def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
     """March ``problem`` to convergence (``Solved``).
 
     ``warm_start``: a converged solve of the same game on a coarser grid; the start is its
-    interpolation plus ``settings.warm_margin`` (module docstring). The caller checks the
-    memory first (``check_memory``, as ``solve.solve_declared`` does). Nothing is written
-    anywhere; an interrupt (Ctrl-C) between iterations propagates and frees the arrays.
+    interpolation plus ``settings.warm_margin`` (module docstring). With
+    ``settings.clip_start`` the start is clipped by ``start.StartBound`` and checked after
+    the first iteration (if that iteration raised a clipped node, the solve starts again
+    unclipped). The caller checks the memory first (``check_memory``, as
+    ``solve.solve_declared`` does). Nothing is written anywhere; an interrupt (Ctrl-C)
+    between iterations propagates and frees the arrays.
     """
     marcher = Marcher.prepare(problem, settings)
     layout = marcher.layout
     dt = time_step(problem.game, problem.grid, settings)
     current = np.empty(layout.stored_shape, dtype=np.float32)
-    if warm_start is None:
-        current.fill(np.float32(1e30))
-    else:
-        _interpolate_start(warm_start, layout, settings.warm_margin, current)
-    marcher.project(current)
+    from solvers.hj.start import StartBound  # numba: only when solving
+
+    bound = StartBound.of(marcher, current) if settings.clip_start else None
+
+    def begin(clipped: bool) -> str:
+        if warm_start is None:
+            current.fill(np.float32(1e30))
+        else:
+            _interpolate_start(warm_start, layout, settings.warm_margin, current)
+        marcher.project(current)
+        if clipped:
+            bound.clip(current)
+        return ("warm" if warm_start is not None else "cold") + (", clipped" if clipped else "")
+
+    how = begin(bound is not None)
     spare = np.empty_like(current) if settings.iteration == "jacobi" else current
     orders = iteration_orders(layout, settings)
     first = residual = math.inf
-    iterations = 0
+    iterations = wasted = 0
     converged = False
     start = time.perf_counter()
     bar_format = "{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}{postfix}"
@@ -308,6 +325,10 @@ def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
             change = marcher.iterate(current, spare, orders[iterations % len(orders)], dt)
             current, spare = spare, current
             iterations += 1
+            if iterations == 1 and bound is not None and not bound.holds(current):
+                how = begin(False) + " (the clipped start was no supersolution)"
+                bound, iterations, wasted = None, 0, 1
+                continue
             residual = change / dt
             if iterations == 1:
                 first = max(residual, settings.tolerance * 10)
@@ -319,8 +340,8 @@ def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
                 converged = True
                 break
     del spare
-    result = SolveResult(iterations=iterations, residual=residual, converged=converged,
-                         seconds=time.perf_counter() - start, dt=dt)
+    result = SolveResult(iterations=iterations + wasted, residual=residual, converged=converged,
+                         seconds=time.perf_counter() - start, dt=dt, start=how)
     return Solved(current, layout, result)
 
 

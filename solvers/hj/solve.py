@@ -35,6 +35,7 @@ def _solver_meta(settings: SolverSettings, result: SolveResult,
         "seconds": round(result.seconds, 3),
         "dt": result.dt,
         "warm_start": None if warm is None else list(warm.grid.shape),
+        "start": result.start,
         "version": SOLVER_VERSION,
     }
 
@@ -61,7 +62,8 @@ def _key_parts(game: Game, game_map: GameMap, grid: Grid, settings: SolverSettin
         "grid": [list(grid.lo), list(grid.hi), list(grid.shape)],
         "settings": [settings.scheme.name, settings.iteration, settings.cfl,
                      settings.tolerance, settings.max_iterations, settings.exchange_symmetry,
-                     settings.warm_start, settings.warm_from, settings.warm_margin],
+                     settings.warm_start, settings.warm_from, settings.warm_margin,
+                     settings.clip_start],
         "lower": {name: [list(vf.grid.shape), checksum(vf.values)]
                   for name, vf in sorted(lower.items())},
         "version": SOLVER_VERSION,
