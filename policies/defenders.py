@@ -38,7 +38,7 @@ from reachavoid_env import GameState, Overlay, Scenario, checks
 from reachavoid_env.game_state import EdgeKind
 from reachavoid_env.rules import unit_vectors
 from solvers.assignment import Assignment, AssignmentSolver
-from solvers.hj import ValueFunction
+from solvers.hj import PAPER_GRIDS, ValueFunction
 
 
 class IdleDefender:
@@ -549,16 +549,17 @@ class HJDefenderPolicy(_AssignmentDefender):
         return None
 
     @classmethod
-    def for_scenario(cls, scenario: Scenario, grid1: int = 45, grid2: int = 30,
-                     idle: str = "intercept", margin_cells: float = CERTIFICATE_CELLS,
+    def for_scenario(cls, scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
+                     grid2: int = PAPER_GRIDS.grid2, idle: str = "intercept",
+                     margin_cells: float = CERTIFICATE_CELLS,
                      progress: bool = True) -> HJDefenderPolicy:
         """Load (or solve, with a progress bar, and cache) the scenario's tubes."""
         return cls(*tube_2v1(scenario, grid1, grid2, progress), idle=idle,
                    margin_cells=margin_cells)
 
     @classmethod
-    def paper(cls, scenario: Scenario, grid1: int = 45, grid2: int = 30,
-              progress: bool = True) -> HJDefenderPolicy:
+    def paper(cls, scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
+              grid2: int = PAPER_GRIDS.grid2, progress: bool = True) -> HJDefenderPolicy:
         """The paper's Algorithm 1 exactly (registry name ``paper``): every value > 0 a
         defender win (``margin_cells=0``), unassigned defenders stand still."""
         return cls.for_scenario(scenario, grid1, grid2, idle="stand", margin_cells=0.0,
@@ -605,8 +606,9 @@ class HJPairsDefenderPolicy(HJDefenderPolicy):
         return self._vf12
 
     @classmethod
-    def for_scenario(cls, scenario: Scenario, grid1: int = 45, grid2: int = 30,
-                     idle: str = "intercept", margin_cells: float = CERTIFICATE_CELLS,
+    def for_scenario(cls, scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
+                     grid2: int = PAPER_GRIDS.grid2, idle: str = "intercept",
+                     margin_cells: float = CERTIFICATE_CELLS,
                      progress: bool = True) -> HJPairsDefenderPolicy:
         """Load (or solve and cache) the scenario's tubes; both 6D games on ``grid2``^6."""
         vf11, vf21 = tube_2v1(scenario, grid1, grid2, progress)
@@ -663,8 +665,8 @@ class MatchingDefenderPolicy(_AssignmentDefender):
         self.unmatched = unmatched
 
     @classmethod
-    def for_scenario(cls, scenario: Scenario, grid1: int = 45, unmatched: str = "stand",
-                     margin_cells: float = CERTIFICATE_CELLS,
+    def for_scenario(cls, scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
+                     unmatched: str = "stand", margin_cells: float = CERTIFICATE_CELLS,
                      progress: bool = True) -> MatchingDefenderPolicy:
         """Load (or solve and cache) the scenario's 1 vs 1 tube."""
         return cls(tube_1v1(scenario, grid1, progress), unmatched=unmatched,
