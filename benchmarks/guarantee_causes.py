@@ -130,6 +130,10 @@ class Recorder:
     def guaranteed_captures(self) -> int | None:
         return getattr(self.policy, "guaranteed_captures", None)
 
+    @property
+    def nominal_captures(self) -> int | None:
+        return getattr(self.policy, "nominal_captures", None)
+
     def overlay(self) -> Overlay | None:
         return merged_overlay(self.policy)
 

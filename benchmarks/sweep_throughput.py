@@ -24,7 +24,7 @@ import numpy as np
 from policies.tubes import tube_2v1
 from reachavoid.sweep import run_sweep, sweep_of
 from reachavoid_env import builtin_scenario
-from solvers.hj import load_value_function
+from solvers.hj import PAPER_GRIDS, load_value_function
 
 
 def outcome(results) -> list[dict]:
@@ -36,8 +36,8 @@ def main() -> None:
     parser.add_argument("--config", default="6v2", help="MvN random starts (default 6v2)")
     parser.add_argument("--episodes", type=int, default=40)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--grid1", type=int, default=45)
-    parser.add_argument("--grid2", type=int, default=30)
+    parser.add_argument("--grid1", type=int, default=PAPER_GRIDS.grid1)
+    parser.add_argument("--grid2", type=int, default=PAPER_GRIDS.grid2)
     parser.add_argument("--backends", nargs="+", default=["serial", "process", "ray"])
     args = parser.parse_args()
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "

@@ -48,6 +48,7 @@ from policies.registry import DEFENDERS
 from policies.training import attacker_factory, defender_factory
 from reachavoid_env import ReachAvoidEnv, Scenario, load_scenario
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
+from solvers.hj.settings import TRAINING_GRIDS
 
 EPISODE_STEPS = 1000
 CLOCK = time.process_time
@@ -172,8 +173,10 @@ def main() -> None:
                         choices=list(DEFENDERS))
     parser.add_argument("--every", nargs="+", type=int, default=[1, 5],
                         help="scripted_every values for hj rows (default: 1 5)")
-    parser.add_argument("--grid1", type=int, default=31, help="hj 1v1 tube nodes per axis")
-    parser.add_argument("--grid2", type=int, default=15, help="hj 2v1 tube nodes per axis")
+    parser.add_argument("--grid1", type=int, default=TRAINING_GRIDS.grid1,
+                        help="hj 1v1 tube nodes per axis")
+    parser.add_argument("--grid2", type=int, default=TRAINING_GRIDS.grid2,
+                        help="hj 2v1 tube nodes per axis")
     parser.add_argument("--steps", type=int, default=3000, help="env steps per timed run")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs per figure")
     parser.add_argument("--clock", choices=["cpu", "wall"], default="cpu",

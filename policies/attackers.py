@@ -13,7 +13,7 @@ from policies.geodesic import DEFAULT_CELLS, DistanceField, distance_field
 from policies.tubes import tube_1v1
 from reachavoid_env import GameMap, GameState, Scenario
 from reachavoid_env.rules import unit_vectors
-from solvers.hj import ValueFunction
+from solvers.hj import PAPER_GRIDS, ValueFunction
 
 
 def target_centres(game_map: GameMap, samples: int = 41) -> np.ndarray:
@@ -105,7 +105,7 @@ class HJAttacker:
         self._straight = StraightAttacker()
 
     @classmethod
-    def for_scenario(cls, scenario: Scenario, grid1: int = 45,
+    def for_scenario(cls, scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
                      progress: bool = True) -> HJAttacker:
         """Load (or solve and cache) the scenario's 1 vs 1 tube."""
         return cls(tube_1v1(scenario, grid1, progress))

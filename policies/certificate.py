@@ -5,11 +5,12 @@ A tube's value is a numerical solution: near the decision boundary its sign can 
 *certified* when its value clears the tube's margin (``margin`` per tube, above the
 measured error), and stays certified while its value is > 0 (hysteresis: a game taken
 with a clear margin is not given up for drifting into the band). The defenders keep
-every certified game (``restrict`` takes its players out of the next program and
-``joined`` puts the game back), so the certified count falls only when a game's value
-reaches 0. In play the check and the restriction run inside the batched lookups
-(``policies.lookups.decision_tables``, tested against ``still_winning`` and
-``restrict``); ``game_rows`` and ``kept_games`` carry the games there and back.
+every certified game (their players are taken out of the next program and ``joined``
+puts the game back), so the certified count falls only when a game's value reaches 0.
+The check and the restriction run inside the batched lookups
+(``policies.lookups.decision_tables``; their step-by-step numpy twins are in
+``tests/lookups_reference.py``); ``game_rows`` and ``kept_games`` carry the games there
+and back.
 
 A game's value is what the program reads: ``V11`` for one defender against one attacker;
 the smallest of ``V21`` and both ``V11`` for one defender against a pair (constraints c4
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -44,6 +46,14 @@ def games_of(assignment: Assignment) -> list[Game]:
     return alone + [Game((j, k), (i,)) for i, j, k in assignment.shared]
 
 
+class Margins(NamedTuple):
+    """The margin each tube's value must clear to certify a game (map units)."""
+
+    m11: float
+    m21: float
+    m12: float
+
+
 @dataclass(frozen=True)
 class Tubes:
     """The tubes a game's value is read from (``vf21`` / ``vf12`` ``None`` where the policy
@@ -52,10 +62,10 @@ class Tubes:
     vf11: ValueFunction
     vf21: ValueFunction | None
     vf12: ValueFunction | None
-    margins: tuple[float, float, float]
+    margins: Margins
 
     def slack(self, games: list[Game], state: GameState, values11: np.ndarray,
-              margins: tuple[float, float, float] | None = None,
+              margins: Margins | None = None,
               values21: np.ndarray | None = None) -> np.ndarray:
         """``(len(games),)``: the smallest ``value - margin`` over what makes each game a
         defender win (``margins`` default: the tubes'; zeros for "still winning"); the
@@ -125,37 +135,6 @@ def kept_games(certified: list[Game], kept: np.ndarray, left: np.ndarray) -> lis
             games.append(game if all(here) else Game(game.defenders, tuple(
                 i for i, stays in zip(game.attackers, here, strict=True) if stays)))
     return games
-
-
-def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
-                  tubes: Tubes, values21: np.ndarray | None = None) -> list[Game]:
-    """The certified games of the last decision that are still on: attackers that left
-    (captured) are dropped from their game, and a game stays while its value is > 0
-    (``values21`` as in ``Tubes.slack``)."""
-    if not certified:
-        return []
-    active = state.active_attackers
-    games = []
-    for game in certified:
-        left = tuple(i for i in game.attackers if active[i])
-        if left:
-            games.append(Game(game.defenders, left))
-    keep = tubes.slack(games, state, values11, (0.0, 0.0, 0.0), values21) > 0.0
-    return [game for game, on in zip(games, keep, strict=True) if on]
-
-
-def restrict(beats: np.ndarray, active: np.ndarray, fixed: list[Game]
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The program without the ``fixed`` games' players: their attackers inactive, their
-    defenders beaten by everyone (so they take nothing); returns ``beats``, ``active`` and
-    ``busy`` (the fixed defenders, which no team may use)."""
-    busy = np.zeros(beats.shape[1], dtype=bool)
-    if not fixed:
-        return beats, active, busy
-    active = active.copy()
-    active[[i for game in fixed for i in game.attackers]] = False
-    busy[[j for game in fixed for j in game.defenders]] = True
-    return beats | busy, active, busy
 
 
 def joined(rest: Assignment, fixed: list[Game], num_defenders: int) -> Assignment:

@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import functools
 from abc import ABC, abstractmethod
+from typing import NamedTuple
 
 import numpy as np
 
 from policies.certificate import (
     Game,
+    Margins,
     Tubes,
     game_rows,
     games_of,
@@ -21,13 +23,22 @@ from policies.certificate import (
     kept_games,
     no_team_values,
 )
-from policies.lookups import DecisionTables, TubeArrays, decision_controls, decision_tables
+from policies.geodesic import DistanceField, distance_field
+from policies.intercept import Races, plan_intercepts, race_all
+from policies.intercept import headings as intercept_headings
+from policies.lookups import (
+    HEADING_FLOOR,
+    DecisionTables,
+    TubeArrays,
+    decision_controls,
+    decision_tables,
+)
 from policies.tubes import tube_1v1, tube_1v2, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario, checks
 from reachavoid_env.game_state import EdgeKind
 from reachavoid_env.rules import unit_vectors
 from solvers.assignment import Assignment, AssignmentSolver
-from solvers.hj import ValueFunction
+from solvers.hj import PAPER_GRIDS, ValueFunction
 
 
 class IdleDefender:
@@ -82,13 +93,22 @@ def pair_states(attackers: np.ndarray, defenders: np.ndarray) -> np.ndarray:
     return states
 
 
+class Roles(NamedTuple):
+    """What each defender of an assignment plays: int64 rows ``singles (S, 2)``
+    ``(defender, attacker)`` alone against one, ``doubles (D, 3)`` ``(defender, first,
+    second)`` against two; the ``idle`` defenders (in no game); and its ``games``
+    (``games_of``)."""
+
+    singles: np.ndarray
+    doubles: np.ndarray
+    idle: tuple[int, ...]
+    games: tuple[Game, ...]
+
+
 @functools.lru_cache(maxsize=1024)
-def _roles(assignment: Assignment) -> tuple[np.ndarray, np.ndarray, tuple[int, ...],
-                                            tuple[Game, ...]]:
-    """What each defender of ``assignment`` plays: int64 rows ``(defender, attacker)``
-    alone against one, ``(defender, first, second)`` against two; the idle defenders (in
-    no game); and its games (``games_of``). Made once per distinct assignment: answers
-    recur step after step."""
+def _roles(assignment: Assignment) -> Roles:
+    """``Roles`` of ``assignment``, made once per distinct assignment: answers recur step
+    after step."""
     in_team = {d for _, j, k in assignment.shared for d in (j, k)}
     singles, doubles, idle = [], [], []
     for j, mine in enumerate(assignment.by_defender):
@@ -100,9 +120,9 @@ def _roles(assignment: Assignment) -> tuple[np.ndarray, np.ndarray, tuple[int, .
             singles.append((j, mine[0]))
         else:
             idle.append(j)
-    return (np.array(singles, dtype=np.int64).reshape(-1, 2),
-            np.array(doubles, dtype=np.int64).reshape(-1, 3), tuple(idle),
-            tuple(games_of(assignment)))
+    return Roles(np.array(singles, dtype=np.int64).reshape(-1, 2),
+                 np.array(doubles, dtype=np.int64).reshape(-1, 3), tuple(idle),
+                 tuple(games_of(assignment)))
 
 
 def triple_states(attackers: np.ndarray, pairs: np.ndarray, defenders: np.ndarray) -> np.ndarray:
@@ -123,13 +143,9 @@ def team_states(attackers: np.ndarray, defenders: np.ndarray, teams: np.ndarray)
 
 CERTIFICATE_CELLS = 1.0
 """Default certificate margin in grid cells of each tube: a game becomes certified where
-its value exceeds this many of the tube's largest grid spacing (map units). Above every
-tube error measured on the paper map (BENCHMARKS.md "Guarantee"; the largest coarse value
-at random states where a finer tube says the attacker side wins): 1 vs 1 with the paper's
-faster defenders 0.23-0.33 cells (25^4-45^4 against 81^4), with equal speeds 0.50-0.56
-cells (about 0.8 against the exact value, adding the 81^4 tube's own error), where half a
-cell let two certified games be lost in 1,260 episodes; 2 vs 1 0.18-0.24 cells (13^6-20^6
-against 30^6), 1 vs 2 0.28 cells (13^6 against 21^6)."""
+its value exceeds this many of the tube's largest grid spacing (map units). It lies
+above every tube error measured on the paper map (the figures: BENCHMARKS.md
+"Guarantee")."""
 
 MAX_MARGIN_CELLS = 10.0
 """The largest certificate margin accepted (grid cells)."""
@@ -140,7 +156,7 @@ def check_margin_cells(value: float, field: str = "margin_cells") -> float:
     return checks.real(value, field, 0.0, MAX_MARGIN_CELLS)
 
 
-def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
+def control_headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
     """``controls (K, 2)`` where non-zero, else the unit vectors along ``fallbacks``."""
     still = ~controls.any(axis=1)
     controls = controls.astype(np.float32)
@@ -149,13 +165,41 @@ def _headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
     return controls
 
 
+CONE_SLACK = 0.05
+"""Added to the cosine a certified defender's heading keeps with its optimal control
+(``_AssignmentDefender._steer_certified``), beyond what holds the value to first order."""
+
+FREE_PLAY = ("intercept", "assignment")
+"""What the defenders outside the held games do (``_AssignmentDefender``)."""
+
+IDLE = ("intercept", "shadow", "stand")
+"""``HJDefenderPolicy``'s choices for the defenders outside the certified games."""
+
+
+class _Decision(NamedTuple):
+    """One step's decision before its controls: the step's tables, the certified games of
+    the last decision still on (``kept``), and the assignment played (the program's
+    answer with ``kept`` joined)."""
+
+    state: GameState
+    tables: DecisionTables
+    kept: list[Game]
+    assignment: Assignment
+
+
+@functools.lru_cache(maxsize=1024)
+def _joined(rest: Assignment, kept: tuple[Game, ...], num_defenders: int) -> Assignment:
+    """``policies.certificate.joined``, made once per distinct answer and kept games."""
+    return joined(rest, list(kept), num_defenders)
+
+
 class _AssignmentDefender(ABC):
     """Shared machinery of the HJ + MIP defenders and the matching baseline.
 
     Each step it reads the 1 vs 1 tube (and the 2 vs 1 tube for the MIP, the 1 vs 2 tube
     with teams) at the current positions (multilinear interpolation), solves the
-    assignment, and drives each assigned defender by the optimal control of its game
-    (both defenders of a team by the 1 vs 2 controls). ``solver`` (an
+    assignment, and drives each defender of a certified game by the optimal control of its
+    game (both defenders of a team by the 1 vs 2 controls). ``solver`` (an
     ``AssignmentSolver``) counts the solves and the reused answers.
 
     **The certificate** (``policies.certificate``). The assignment played is the paper's
@@ -168,29 +212,47 @@ class _AssignmentDefender(ABC):
     nothing kept (solved on demand on a second solver, so the training envs, which never
     read it, never pay for it). ``margin_cells=0`` is the paper's Algorithm 1 exactly:
     nothing is kept, and both counts are the program's objective.
+
+    **The free defenders.** ``free="intercept"``: every defender outside the certified
+    games (with ``margin_cells=0`` every game of the assignment is one) plays
+    ``policies.intercept.plan_intercepts`` against the attackers no certified game covers
+    (all active attackers where every one is covered), never touching a certified game;
+    and the defender of a certified 1 vs 1 game closes on its attacker as far as the value
+    allows (``_steer_certified``).
+    ``free="assignment"``: every assigned defender plays its game's optimal control and
+    the unassigned ones do what ``_idle_targets`` says.
     """
 
-    vf12: ValueFunction | None = None
-
-    def __init__(self, vf11: ValueFunction, vf21: ValueFunction | None, method: str,
-                 margin_cells: float = CERTIFICATE_CELLS) -> None:
+    def __init__(self, vf11: ValueFunction, vf21: ValueFunction | None,
+                 vf12: ValueFunction | None, method: str,
+                 margin_cells: float = CERTIFICATE_CELLS, free: str = "intercept") -> None:
+        if free not in FREE_PLAY:
+            raise ValueError(f"free: expected one of {', '.join(FREE_PLAY)}, got {free!r}")
         self.vf11 = vf11
         self.vf21 = vf21
+        self.vf12 = vf12
         self.margin_cells = check_margin_cells(margin_cells)
+        self.free = free
         self.solver = AssignmentSolver(method)
         self._nominal_solver = AssignmentSolver(method)
-        self._assignment: Assignment | None = None
+        self._decision: _Decision | None = None
         self._certified: list[Game] = []
-        self._joined: tuple[Assignment, list[Game], Assignment] | None = None
-        self._step: tuple[GameState, bool] | None = None
         self._nominal: int | None = None
+        self._field: DistanceField | None = None
 
     def reset(self, scenario: Scenario) -> None:
         _check_tube(self.vf11, scenario, "vf11")
         self.solver.reset()
         self._nominal_solver.reset()
-        self._assignment = self._step = self._nominal = self._joined = None
+        self._decision = self._nominal = None
         self._certified = []
+        self._dt = scenario.dt
+        if self.free == "intercept":
+            self._field = distance_field(scenario.map, scenario.player_radius)
+
+    @property
+    def _assignment(self) -> Assignment | None:
+        return None if self._decision is None else self._decision.assignment
 
     @property
     def assignment(self) -> list[tuple[str, str]]:
@@ -205,21 +267,25 @@ class _AssignmentDefender(ABC):
         return list(self._certified)
 
     @property
-    def guaranteed_captures(self) -> int:
+    def guaranteed_captures(self) -> int | None:
         """Attackers certified never to reach the target from now on: those of the
-        certified games of the last decision."""
+        certified games of the last decision (``None`` before the first decision)."""
+        if self._decision is None:
+            return None
         return sum(len(game.attackers) for game in self._certified)
 
     @property
-    def nominal_captures(self) -> int:
+    def nominal_captures(self) -> int | None:
         """The paper's count at this step: the size of the assignment (the MIP objective; the
-        matching size for the baseline) with every value > 0 a defender win."""
-        if self._assignment is None:
-            return 0
-        state, fixed_any = self._step
-        if not fixed_any:
-            return self._assignment.captures
+        matching size for the baseline) with every value > 0 a defender win (``None``
+        before the first decision)."""
+        decision = self._decision
+        if decision is None:
+            return None
+        if not decision.kept:
+            return decision.assignment.captures
         if self._nominal is None:
+            state = decision.state
             tables = self._tables(state, state.active_attackers, [])
             self._nominal = self._solve(self._nominal_solver, state, tables).captures
         return self._nominal
@@ -232,8 +298,8 @@ class _AssignmentDefender(ABC):
     def tubes(self) -> Tubes:
         """The tubes and margins the certificate reads."""
         return Tubes(self.vf11, self.vf21, self.vf12,
-                     tuple(0.0 if vf is None else self.margin(vf)
-                           for vf in (self.vf11, self.vf21, self.vf12)))
+                     Margins(*(0.0 if vf is None else self.margin(vf)
+                               for vf in (self.vf11, self.vf21, self.vf12))))
 
     @property
     def last_assignment(self) -> Assignment | None:
@@ -257,55 +323,137 @@ class _AssignmentDefender(ABC):
                               f"{self.nominal_captures} nominal",))
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
-        """One decision: the step's tables and the certified games still on (one lookup),
-        the assignment keeping those games, the certificate, then every assigned or
-        shadowing defender's optimal control (one lookup for the 1 vs 1 and 2 vs 1 games,
-        one for teams)."""
-        active = state.active_attackers
+        """One decision: the assignment keeping the certified games (``_decide``), the
+        optimal controls of its games and the certificate of the new ones
+        (``_play_games``), the teams' controls (``_play_teams``), then the free
+        defenders' (``_play_free``)."""
         names = state.defender_names
         actions = np.zeros((len(names), 2), dtype=np.float32)
         self._nominal = None
-        if not active.any():
-            self._assignment = self._step = None
+        if not state.active_attackers.any():
+            self._decision = None
             self._certified = []
             return dict(zip(names, actions, strict=True))
-        attackers, defenders = state.attacker_positions, state.defender_positions
-        certify = self.margin_cells > 0.0
-        certified = self._certified if certify else []
-        tables = self._tables(state, active, certified)
+        decision = self._decision = self._decide(state)
+        fresh = self._play_games(decision, actions)
+        self._certified = decision.kept + fresh
+        self._play_teams(decision, actions)
+        if self.free == "intercept":
+            race = race_all(self._field, state)
+            self._steer_certified(state, actions)
+            self._play_free(decision, race, actions)
+        return dict(zip(names, actions, strict=True))
+
+    @property
+    def _certifies(self) -> bool:
+        return self.margin_cells > 0.0
+
+    def _decide(self, state: GameState) -> _Decision:
+        """The step's tables (one lookup), the certified games still on, and the program's
+        answer with them joined."""
+        certified = self._certified if self._certifies else []
+        tables = self._tables(state, state.active_attackers, certified)
         kept = kept_games(certified, tables.kept, tables.left)
         assignment = self._solve(self.solver, state, tables)
         if kept:
-            last = self._joined
-            if last is None or last[0] is not assignment or last[1] != kept:
-                self._joined = last = (assignment, kept, joined(assignment, kept, len(names)))
-            assignment = last[2]
-        self._assignment, self._step = assignment, (state, bool(kept))
-        singles, doubles, idle, games = _roles(assignment)
-        fresh = [game for game in games if game not in kept]
-        if idle:
-            shadows = np.array(self._idle_targets(state, list(idle), tables.values11),
+            assignment = _joined(assignment, tuple(kept), len(state.defender_positions))
+        return _Decision(state, tables, kept, assignment)
+
+    def _play_games(self, decision: _Decision, actions: np.ndarray) -> list[Game]:
+        """Write the optimal control of every defender alone in a game of the assignment
+        (and of every shadowing one) into ``actions``; return the new games (not kept)
+        that the certificate takes (with ``margin_cells=0``, every game: the paper's
+        rule)."""
+        state, tables, kept, assignment = decision
+        roles = _roles(assignment)
+        singles = roles.singles
+        if roles.idle and self.free == "assignment":
+            shadows = np.array(self._idle_targets(state, list(roles.idle), tables.values11),
                                dtype=np.int64)
             singles = np.concatenate([singles, shadows.reshape(-1, 2)])
-        rows, teams = game_rows(tuple(fresh) if certify else ())
-        slack = decision_controls(attackers, defenders, singles, doubles, rows, self._margins,
-                                  tables.values11, tables.values21, *self._tube_arrays,
-                                  actions)
-        if certify:
-            if len(teams):
-                slack[teams] = self.tubes.slack([fresh[g] for g in teams], state,
-                                                tables.values11)
-            fresh = [game for game, on in zip(fresh, (slack > 0.0).tolist(), strict=True)
-                     if on]
-        self._certified = kept + fresh
-        if assignment.shared:
-            teams = np.array(assignment.shared)
-            states = team_states(attackers, defenders, teams)
-            for column, player in ((1, "D1"), (2, "D2")):
-                j = teams[:, column]
-                actions[j] = _headings(self.vf12.control(states, player),
-                                       attackers[teams[:, 0]] - defenders[j])
-        return dict(zip(names, actions, strict=True))
+        fresh = [game for game in roles.games if game not in kept]
+        rows, teams = game_rows(tuple(fresh) if self._certifies else ())
+        slack = decision_controls(state.attacker_positions, state.defender_positions, singles,
+                                  roles.doubles, rows, self._margins, tables.values11,
+                                  tables.values21, *self._tube_arrays, actions)
+        if not self._certifies:
+            return fresh
+        if len(teams):
+            slack[teams] = self.tubes.slack([fresh[g] for g in teams], state,
+                                            tables.values11)
+        return [game for game, on in zip(fresh, (slack > 0.0).tolist(), strict=True) if on]
+
+    def _play_teams(self, decision: _Decision, actions: np.ndarray) -> None:
+        """Both defenders of every team play the 1 vs 2 optimal controls."""
+        if not decision.assignment.shared:
+            return
+        attackers = decision.state.attacker_positions
+        defenders = decision.state.defender_positions
+        teams = np.array(decision.assignment.shared)
+        states = team_states(attackers, defenders, teams)
+        for column, player in ((1, "D1"), (2, "D2")):
+            j = teams[:, column]
+            actions[j] = control_headings(self.vf12.control(states, player),
+                                   attackers[teams[:, 0]] - defenders[j])
+
+    def _steer_certified(self, state: GameState, actions: np.ndarray) -> None:
+        """Within each certified 1 vs 1 game, head as close to straight at the attacker as
+        the value allows, over the optimal control already in ``actions``.
+
+        Where the value clears the game's margin by more than one step of both players
+        can change it (``(v_A + v_D) dt`` map units, taking the value 1-Lipschitz in each
+        position), straight at the attacker: the game stays above its margin. Else, among
+        the headings ``u`` that keep the value from falling whatever the attacker does to
+        first order, ``v_D grad_D V . u >= v_A |grad_A V|`` (a cone around the optimal
+        control, narrowed by ``CONE_SLACK``), the one nearest the attacker's direction;
+        the optimal control where the cone is empty."""
+        games = [game for game in self._certified
+                 if len(game.defenders) == 1 and len(game.attackers) == 1]
+        if not games:
+            return
+        i = np.array([game.attackers[0] for game in games])
+        j = np.array([game.defenders[0] for game in games])
+        attackers, defenders = state.attacker_positions, state.defender_positions
+        value, gradient = self.vf11.value_and_gradient(pair_states(attackers, defenders)[i, j])
+        axes = [2 * self.vf11.players.index(p) + np.arange(2)
+                for p in (self.vf11.attackers[0], self.vf11.defenders[0])]
+        grad_a, grad_d = gradient[:, axes[0]], gradient[:, axes[1]]
+        size_d = np.hypot(grad_d[:, 0], grad_d[:, 1])
+        floor = size_d > HEADING_FLOOR
+        cone = np.where(floor, state.attacker_speed * np.hypot(grad_a[:, 0], grad_a[:, 1])
+                        / (state.defender_speed * np.maximum(size_d, HEADING_FLOOR)), np.inf)
+        cone = cone + CONE_SLACK
+        best = grad_d / np.maximum(size_d, HEADING_FLOOR)[:, None]
+        aim = unit_vectors(attackers[i] - defenders[j])
+        along = np.einsum("kd,kd->k", aim, best)
+        across = aim - along[:, None] * best
+        width = np.hypot(across[:, 0], across[:, 1])
+        across = across / np.maximum(width, 1e-12)[:, None]
+        edge = (cone[:, None] * best
+                + np.sqrt(np.clip(1.0 - cone**2, 0.0, None))[:, None] * across)
+        step = (state.attacker_speed + state.defender_speed) * self._dt
+        clear = value - self.tubes.margins.m11 > step
+        heading = np.where((clear | (along >= cone))[:, None], aim, edge)
+        steer = clear | (cone < 1.0) & (width > 1e-9) | (along >= cone)
+        actions[j[steer]] = heading[steer]
+
+    def _play_free(self, decision: _Decision, race: Races, actions: np.ndarray) -> None:
+        """Every defender outside a certified game (with ``margin_cells=0`` every game of
+        the assignment is) races an attacker no held game covers
+        (``policies.intercept.plan_intercepts``; all active attackers where every one is
+        covered)."""
+        state = decision.state
+        held = self._certified
+        free = np.ones(len(actions), dtype=bool)
+        free[[j for game in held for j in game.defenders]] = False
+        if not free.any():
+            return
+        active = state.active_attackers
+        open_ = active.copy()
+        open_[[i for game in held for i in game.attackers]] = False
+        plan = plan_intercepts(race, free, open_ if open_.any() else active)
+        actions[free] = intercept_headings(plan, state.defender_positions,
+                                           state.attacker_positions)[free]
 
     @functools.cached_property
     def _margins(self) -> np.ndarray:
@@ -342,8 +490,8 @@ class _AssignmentDefender(ABC):
     def _idle_targets(self, state: GameState, idle: list[int], values11: np.ndarray
                       ) -> list[tuple[int, int]]:
         """``(defender, attacker)``: the attacker whose 1 vs 1 optimal control each of the
-        unassigned defenders ``idle`` plays (those left out stand still); ``values11
-        (M, N)`` is this step's 1 vs 1 table."""
+        unassigned defenders ``idle`` plays with ``free="assignment"`` (those left out
+        stand still); ``values11 (M, N)`` is this step's 1 vs 1 table."""
 
 
 def _check_tube(vf: ValueFunction, scenario: Scenario, name: str) -> None:
@@ -363,51 +511,63 @@ def _check_tube(vf: ValueFunction, scenario: Scenario, name: str) -> None:
 
 
 class HJDefenderPolicy(_AssignmentDefender):
-    """The paper's iterative capture algorithm (Algorithm 1): HJ tubes + the assignment MIP.
+    """The reference defenders: the paper's iterative capture algorithm (Algorithm 1, HJ
+    tubes + the assignment MIP) with its certificate, and the strongest play we know
+    where the certificate does not reach.
 
     Every step: ``I_j`` from the 1 vs 1 tube, ``P_j`` from the 2 vs 1 tube at the current
     positions, the MIP (c1)-(c5) solved to optimality on CP-SAT; a defender with two
     attackers plays the 2 vs 1 optimal control, with one the 1 vs 1 optimal control.
-
-    ``idle`` says what an unassigned defender does: ``"shadow"`` (default) plays the 1 vs 1
-    optimal control against the unassigned attacker it is best placed against (largest
-    1 vs 1 value; any attacker if none is unassigned), which touches no other defender's
-    guarantee; ``"stand"`` stands still, as in the paper's simulations.
     Certified games are kept (``margin_cells``, see the base class):
     ``guaranteed_captures`` counts them, ``nominal_captures`` is the MIP objective of the
-    paper's rule; ``margin_cells=0`` is the paper's method exactly.
+    paper's rule.
+
+    ``idle`` says what the defenders outside the certified games do: ``"intercept"``
+    (default) race the attackers the certified games leave open
+    (``policies.intercept``), which touches no certified game; ``"shadow"`` plays the
+    assignment's games and shadows, with the 1 vs 1 optimal control, the unassigned
+    attacker it is best placed against (largest 1 vs 1 value; any attacker if none is
+    unassigned); ``"stand"`` plays the assignment's games and stands still unassigned, as
+    in the paper's simulations. ``paper`` builds the paper's method exactly (``"stand"``,
+    ``margin_cells=0``).
     """
 
-    def __init__(self, vf11: ValueFunction, vf21: ValueFunction | None, idle: str = "shadow",
+    def __init__(self, vf11: ValueFunction, vf21: ValueFunction, idle: str = "intercept",
                  margin_cells: float = CERTIFICATE_CELLS) -> None:
-        if idle not in ("shadow", "stand"):
-            raise ValueError(f"idle: expected 'shadow' or 'stand', got {idle!r}")
-        if vf11.game != "1v1" or (vf21 is not None and vf21.game != "2v1"):
+        if idle not in IDLE:
+            raise ValueError(f"idle: expected one of {', '.join(IDLE)}, got {idle!r}")
+        if vf11.game != "1v1" or vf21.game != "2v1":
             raise ValueError(f"vf11, vf21: expected a 1v1 and a 2v1 value function, got "
-                             f"{vf11.game!r} and {None if vf21 is None else vf21.game!r}")
-        super().__init__(vf11, vf21, "mip", margin_cells)
+                             f"{vf11.game!r} and {vf21.game!r}")
+        super().__init__(vf11, vf21, self._team_tube(), "mip", margin_cells,
+                         "intercept" if idle == "intercept" else "assignment")
+        self.vf21: ValueFunction = vf21
         self.idle = idle
 
+    def _team_tube(self) -> ValueFunction | None:
+        """The 1 vs 2 tube the policy plays teams with (none: the paper's program)."""
+        return None
+
     @classmethod
-    def for_scenario(cls, scenario: Scenario, grid1: int = 45, grid2: int = 30,
-                     idle: str = "shadow", margin_cells: float = CERTIFICATE_CELLS,
+    def for_scenario(cls, scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
+                     grid2: int = PAPER_GRIDS.grid2, idle: str = "intercept",
+                     margin_cells: float = CERTIFICATE_CELLS,
                      progress: bool = True) -> HJDefenderPolicy:
-        """Load (or solve, with a progress bar, and cache) the scenario's tubes: the 1 vs 1
-        tube, and the 2 vs 1 tube where the scenario has two attackers or more (with one,
-        no pair can form)."""
-        if scenario.num_attackers < 2:
-            return cls(tube_1v1(scenario, grid1, progress), None, idle=idle,
-                       margin_cells=margin_cells)
+        """Load (or solve, with a progress bar, and cache) the scenario's tubes."""
         return cls(*tube_2v1(scenario, grid1, grid2, progress), idle=idle,
                    margin_cells=margin_cells)
 
+    @classmethod
+    def paper(cls, scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
+              grid2: int = PAPER_GRIDS.grid2, progress: bool = True) -> HJDefenderPolicy:
+        """The paper's Algorithm 1 exactly (registry name ``paper``): every value > 0 a
+        defender win (``margin_cells=0``), unassigned defenders stand still."""
+        return cls.for_scenario(scenario, grid1, grid2, idle="stand", margin_cells=0.0,
+                                progress=progress)
+
     def reset(self, scenario: Scenario) -> None:
         super().reset(scenario)
-        if self.vf21 is not None:
-            _check_tube(self.vf21, scenario, "vf21")
-        elif scenario.num_attackers > 1:
-            raise ValueError(f"vf21: {scenario.name!r} has {scenario.num_attackers} "
-                             f"attackers; these defenders were built without the 2 vs 1 tube")
+        _check_tube(self.vf21, scenario, "vf21")
 
     def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
                ) -> Assignment:
@@ -436,15 +596,19 @@ class HJPairsDefenderPolicy(HJDefenderPolicy):
     """
 
     def __init__(self, vf11: ValueFunction, vf21: ValueFunction, vf12: ValueFunction,
-                 idle: str = "shadow", margin_cells: float = CERTIFICATE_CELLS) -> None:
+                 idle: str = "intercept", margin_cells: float = CERTIFICATE_CELLS) -> None:
         if vf12.game != "1v2":
             raise ValueError(f"vf12: expected a 1v2 value function, got {vf12.game!r}")
+        self._vf12 = vf12
         super().__init__(vf11, vf21, idle, margin_cells)
-        self.vf12: ValueFunction = vf12
+
+    def _team_tube(self) -> ValueFunction | None:
+        return self._vf12
 
     @classmethod
-    def for_scenario(cls, scenario: Scenario, grid1: int = 45, grid2: int = 30,
-                     idle: str = "shadow", margin_cells: float = CERTIFICATE_CELLS,
+    def for_scenario(cls, scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
+                     grid2: int = PAPER_GRIDS.grid2, idle: str = "intercept",
+                     margin_cells: float = CERTIFICATE_CELLS,
                      progress: bool = True) -> HJPairsDefenderPolicy:
         """Load (or solve and cache) the scenario's tubes; both 6D games on ``grid2``^6."""
         vf11, vf21 = tube_2v1(scenario, grid1, grid2, progress)
@@ -497,12 +661,12 @@ class MatchingDefenderPolicy(_AssignmentDefender):
             raise ValueError(f"unmatched: expected 'stand' or 'pursue', got {unmatched!r}")
         if vf11.game != "1v1":
             raise ValueError(f"vf11: expected a 1v1 value function, got {vf11.game!r}")
-        super().__init__(vf11, None, "matching", margin_cells)
+        super().__init__(vf11, None, None, "matching", margin_cells, "assignment")
         self.unmatched = unmatched
 
     @classmethod
-    def for_scenario(cls, scenario: Scenario, grid1: int = 45, unmatched: str = "stand",
-                     margin_cells: float = CERTIFICATE_CELLS,
+    def for_scenario(cls, scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
+                     unmatched: str = "stand", margin_cells: float = CERTIFICATE_CELLS,
                      progress: bool = True) -> MatchingDefenderPolicy:
         """Load (or solve and cache) the scenario's 1 vs 1 tube."""
         return cls(tube_1v1(scenario, grid1, progress), unmatched=unmatched,

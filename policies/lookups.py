@@ -54,18 +54,48 @@ class TubeArrays(NamedTuple):
                    np.array([2 * k, 2 * k + 1], dtype=np.int64))
 
 
+class _Scratch(NamedTuple):
+    """A tube's arrays (``TubeArrays``), its ``(row, element)`` strides (``row_strides``)
+    and corner offsets (``corner_offsets``), and scratch arrays for one point: ``lower``
+    node index, corner ``weights``, ``point`` coordinates."""
+
+    rows: np.ndarray
+    stored_of: np.ndarray
+    shape: np.ndarray
+    lo: np.ndarray
+    spacing: np.ndarray
+    axes: np.ndarray
+    strides: tuple
+    corners: tuple
+    lower: np.ndarray
+    weights: np.ndarray
+    point: np.ndarray
+
+
 @njit(cache=True)
 def _scratch(tube):
-    """A tube's arrays, its ``(row, element)`` strides (``row_strides``) and corner
-    offsets (``corner_offsets``), and scratch arrays for one point: node index, corner
-    weights, coordinates."""
-    rows, stored_of, shape, lo, spacing, axes = tube
-    strides = row_strides(shape, rows.shape[1])
+    """``_Scratch`` of ``tube`` (a ``TubeArrays``)."""
+    strides = row_strides(tube.shape, tube.rows.shape[1])
     corners = corner_offsets(strides[0], strides[1])
-    ndim = shape.size
-    return (rows, stored_of, shape, lo, spacing, axes, strides, corners,
-            np.empty(ndim, dtype=np.int64), np.empty(1 << ndim, dtype=np.float64),
-            np.empty(ndim, dtype=np.float64))
+    ndim = tube.shape.size
+    return _Scratch(tube.rows, tube.stored_of, tube.shape, tube.lo, tube.spacing,
+                    tube.defender_axes, strides, corners, np.empty(ndim, dtype=np.int64),
+                    np.empty(1 << ndim, dtype=np.float64), np.empty(ndim, dtype=np.float64))
+
+
+class DecisionTables(NamedTuple):
+    """One step's tables (``decision_tables``)."""
+
+    values11: np.ndarray
+    values21: np.ndarray
+    kept: np.ndarray
+    left: np.ndarray
+    beats: np.ndarray
+    beats_2v1: np.ndarray
+    active: np.ndarray
+    busy: np.ndarray
+
+
 
 
 @njit(cache=True)
@@ -74,8 +104,8 @@ def _fill_pairs(tube21, attackers, defenders, triples, count, values21):
     (attackers ``i < k``, defender ``j``) where ``values21`` has none yet, into both of
     its orders. One call per batch: the per-point work calls the interpolation helpers
     directly (a helper per point costs as much again)."""
-    rows, stored_of, shape, lo, spacing, _, strides, corners, lower, weights, point = \
-        _scratch(tube21)
+    sc = _scratch(tube21)
+    lower, weights, point = sc.lower, sc.weights, sc.point
     for t in range(count):
         i, k, j = triples[t, 0], triples[t, 1], triples[t, 2]
         if not np.isnan(values21[i, k, j]):
@@ -83,9 +113,9 @@ def _fill_pairs(tube21, attackers, defenders, triples, count, values21):
         point[0], point[1] = attackers[i, 0], attackers[i, 1]
         point[2], point[3] = attackers[k, 0], attackers[k, 1]
         point[4], point[5] = defenders[j, 0], defenders[j, 1]
-        row, col = locate_cell(point, shape, lo, spacing, strides[0], strides[1], lower,
-                                weights)
-        value = value_at(rows, stored_of, row, col, corners[0], corners[1], weights)
+        row, col = locate_cell(point, sc.shape, sc.lo, sc.spacing, sc.strides[0],
+                               sc.strides[1], lower, weights)
+        value = value_at(sc.rows, sc.stored_of, row, col, sc.corners[0], sc.corners[1], weights)
         values21[i, k, j] = value
         values21[k, i, j] = value
 
@@ -94,16 +124,16 @@ def _fill_pairs(tube21, attackers, defenders, triples, count, values21):
 def _decision_tables(attackers, defenders, active, certified, team_values, tube11, tube21,
                      with_pairs):
     m, n = attackers.shape[0], defenders.shape[0]
-    rows, stored_of, shape, lo, spacing, _, strides, corners, lower, weights, point = \
-        _scratch(tube11)
+    sc = _scratch(tube11)
+    lower, weights, point = sc.lower, sc.weights, sc.point
     values11 = np.empty((m, n), dtype=np.float64)
     for i in range(m):
         for j in range(n):
             point[0], point[1] = attackers[i, 0], attackers[i, 1]
             point[2], point[3] = defenders[j, 0], defenders[j, 1]
-            row, col = locate_cell(point, shape, lo, spacing, strides[0], strides[1], lower,
-                                    weights)
-            values11[i, j] = value_at(rows, stored_of, row, col, corners[0], corners[1],
+            row, col = locate_cell(point, sc.shape, sc.lo, sc.spacing, sc.strides[0],
+                                   sc.strides[1], lower, weights)
+            values11[i, j] = value_at(sc.rows, sc.stored_of, row, col, sc.corners[0], sc.corners[1],
                                        weights)
     values21 = np.full((m, m, n), np.nan)
     triples = np.empty((max(certified.shape[0], m * (m - 1) // 2 * n), 3), dtype=np.int64)
@@ -148,7 +178,8 @@ def _decision_tables(attackers, defenders, active, certified, team_values, tube1
             beats[i, j] = values11[i, j] <= 0.0 or busy[j]
     beats_2v1 = np.zeros((m, m, n), dtype=np.bool_)
     if not with_pairs:
-        return values11, values21, kept, left, beats, beats_2v1, program_active, busy
+        return DecisionTables(values11, values21, kept, left, beats, beats_2v1, program_active,
+                              busy)
     count = 0
     for i in range(m):
         for k in range(i + 1, m):
@@ -161,20 +192,8 @@ def _decision_tables(attackers, defenders, active, certified, team_values, tube1
     for t in range(count):
         i, k, j = triples[t, 0], triples[t, 1], triples[t, 2]
         beats_2v1[i, k, j] = beats_2v1[k, i, j] = values21[i, k, j] <= 0.0
-    return values11, values21, kept, left, beats, beats_2v1, program_active, busy
-
-
-class DecisionTables(NamedTuple):
-    """One step's tables (``decision_tables``)."""
-
-    values11: np.ndarray
-    values21: np.ndarray
-    kept: np.ndarray
-    left: np.ndarray
-    beats: np.ndarray
-    beats_2v1: np.ndarray
-    active: np.ndarray
-    busy: np.ndarray
+    return DecisionTables(values11, values21, kept, left, beats, beats_2v1, program_active,
+                          busy)
 
 
 def decision_tables(attackers: np.ndarray, defenders: np.ndarray, active: np.ndarray,
@@ -196,9 +215,8 @@ def decision_tables(attackers: np.ndarray, defenders: np.ndarray, active: np.nda
     2 vs 1 values read for these (state order ``i < k``, both entries filled), NaN
     elsewhere (``values21_at`` reads more). Without ``tube21`` no 2 vs 1 value is read:
     no certified game may have two attackers."""
-    return DecisionTables(*_decision_tables(
-        attackers, defenders, active, certified, team_values, tube11,
-        tube11 if tube21 is None else tube21, tube21 is not None))
+    return _decision_tables(attackers, defenders, active, certified, team_values, tube11,
+                            tube11 if tube21 is None else tube21, tube21 is not None)
 
 
 def values21_at(values21: np.ndarray, first: np.ndarray, second: np.ndarray,
@@ -235,25 +253,25 @@ def _heading(gx, gy, fx, fy, out):
 @njit(cache=True)
 def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, actions):
     gradient = np.empty(2, dtype=np.float64)
-    rows, stored_of, shape, lo, spacing, axes, strides, corners, lower, weights, point = \
-        _scratch(tube11)
+    sc = _scratch(tube11)
+    lower, weights, point = sc.lower, sc.weights, sc.point
     for s in range(singles.shape[0]):
         j, i = singles[s, 0], singles[s, 1]
         point[0], point[1] = attackers[i, 0], attackers[i, 1]
         point[2], point[3] = defenders[j, 0], defenders[j, 1]
-        gradient_point(rows, stored_of, shape, lo, spacing, strides, corners, point, axes,
-                        lower, weights, gradient, False)
+        gradient_point(sc.rows, sc.stored_of, sc.shape, sc.lo, sc.spacing, sc.strides,
+                       sc.corners, point, sc.axes, lower, weights, gradient, False)
         _heading(gradient[0], gradient[1], attackers[i, 0] - defenders[j, 0],
                  attackers[i, 1] - defenders[j, 1], actions[j])
-    rows, stored_of, shape, lo, spacing, axes, strides, corners, lower, weights, point = \
-        _scratch(tube21)
+    sc = _scratch(tube21)
+    lower, weights, point = sc.lower, sc.weights, sc.point
     for d in range(doubles.shape[0]):
         j, first, second = doubles[d, 0], doubles[d, 1], doubles[d, 2]
         point[0], point[1] = attackers[first, 0], attackers[first, 1]
         point[2], point[3] = attackers[second, 0], attackers[second, 1]
         point[4], point[5] = defenders[j, 0], defenders[j, 1]
-        gradient_point(rows, stored_of, shape, lo, spacing, strides, corners, point, axes,
-                        lower, weights, gradient, False)
+        gradient_point(sc.rows, sc.stored_of, sc.shape, sc.lo, sc.spacing, sc.strides,
+                       sc.corners, point, sc.axes, lower, weights, gradient, False)
         fx, fy = attackers[first, 0] - defenders[j, 0], attackers[first, 1] - defenders[j, 1]
         sx, sy = attackers[second, 0] - defenders[j, 0], attackers[second, 1] - defenders[j, 1]
         if math.hypot(sx, sy) < math.hypot(fx, fy):

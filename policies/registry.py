@@ -30,19 +30,12 @@ import inspect
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from importlib import metadata
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from policies.attackers import HJAttacker, RandomAttacker, ShortestPathAttacker, StraightAttacker
-from policies.defenders import (
-    GreedyDefender,
-    HJDefenderPolicy,
-    HJPairsDefenderPolicy,
-    IdleDefender,
-    MatchingDefenderPolicy,
-)
-from reachavoid_env import Policy, Scenario
+if TYPE_CHECKING:
+    from reachavoid_env import Policy, Scenario
 
-Factory = Callable[..., Policy]
+Factory = Callable[..., "Policy"]
 """``factory(scenario, **options) -> Policy``."""
 
 SUPPLIED = ("seed", "progress")
@@ -72,10 +65,22 @@ def scenario_free(policy: type) -> Factory:
 
 @dataclass(frozen=True)
 class NamedPolicy:
-    """A policy choice: one line of help and ``build(scenario, **options)``."""
+    """A policy choice: one line of help and its factory, ``build(scenario, **options)``.
+
+    ``factory`` is the factory or ``"module:attribute"``, imported on first use (so reading
+    the tables, as ``--help`` does, imports no policy); ``scenario=False`` marks a policy
+    class whose constructor takes no scenario (``scenario_free``).
+    """
 
     help: str
-    build: Factory
+    factory: str | Factory
+    scenario: bool = True
+
+    @functools.cached_property
+    def build(self) -> Factory:
+        factory = (_import(self.factory, self.help) if isinstance(self.factory, str)
+                   else self.factory)
+        return factory if self.scenario else scenario_free(factory)
 
     @functools.cached_property
     def options(self) -> frozenset[str] | None:
@@ -116,27 +121,36 @@ def _first_line(factory: Any) -> str:
 
 DEFENDERS: dict[str, NamedPolicy] = {
     "hj": NamedPolicy("the reference: HJ tubes + the paper's assignment MIP (CP-SAT), "
-                      "re-solved every step",
-                      HJDefenderPolicy.for_scenario),
+                      "re-solved every step; certified games kept, every other defender "
+                      "races to intercept",
+                      "policies.defenders:HJDefenderPolicy.for_scenario"),
     "hj-pairs": NamedPolicy("the reference with defender teams: two defenders may share an "
                             "attacker neither stops alone (1 vs 2 tube), re-solved every step",
-                            HJPairsDefenderPolicy.for_scenario),
+                            "policies.defenders:HJPairsDefenderPolicy.for_scenario"),
+    "paper": NamedPolicy("the paper's Algorithm 1 exactly: HJ tubes + the assignment MIP, "
+                         "every value > 0 a defender win, unassigned defenders stand still",
+                         "policies.defenders:HJDefenderPolicy.paper"),
     "matching": NamedPolicy("the maximum-matching baseline (unmatched defenders stand still)",
-                            MatchingDefenderPolicy.for_scenario),
-    "greedy": NamedPolicy("chase the nearest active attacker", scenario_free(GreedyDefender)),
-    "idle": NamedPolicy("stand still", scenario_free(IdleDefender)),
+                            "policies.defenders:MatchingDefenderPolicy.for_scenario"),
+    "intercept": NamedPolicy("the time-to-intercept heuristic: each defender races the most "
+                             "threatening attacker it can cut off to a point of its shortest "
+                             "path, spare defenders back up",
+                             "policies.intercept:InterceptDefender", scenario=False),
+    "greedy": NamedPolicy("chase the nearest active attacker",
+                          "policies.defenders:GreedyDefender", scenario=False),
+    "idle": NamedPolicy("stand still", "policies.defenders:IdleDefender", scenario=False),
 }
 
 ATTACKERS: dict[str, NamedPolicy] = {
     "shortest-path": NamedPolicy("the time-optimal path to the target around obstacles, "
                                  "ignoring defenders (the paper's attackers)",
-                                 scenario_free(ShortestPathAttacker)),
+                                 "policies.attackers:ShortestPathAttacker", scenario=False),
     "hj": NamedPolicy("1 vs 1 optimal control against the most dangerous defender",
-                      HJAttacker.for_scenario),
+                      "policies.attackers:HJAttacker.for_scenario"),
     "straight": NamedPolicy("run straight for the nearest target centre",
-                            scenario_free(StraightAttacker)),
+                            "policies.attackers:StraightAttacker", scenario=False),
     "random": NamedPolicy("run in random directions, redrawn every 0.25 s",
-                          scenario_free(RandomAttacker)),
+                          "policies.attackers:RandomAttacker", scenario=False),
 }
 
 TABLES = {"defenders": DEFENDERS, "attackers": ATTACKERS}

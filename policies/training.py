@@ -45,6 +45,7 @@ from policies.registry import DEFENDERS, PolicySpec
 from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.scenario import builtin_names
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
+from solvers.hj.settings import TRAINING_GRIDS
 
 
 def defender_factory(name: str = "hj", **options: Any) -> PolicySpec:
@@ -66,8 +67,10 @@ def add_defender_arguments(parser: argparse.ArgumentParser, scenario: str = "pap
     parser.add_argument("--scenario", default=scenario, help="built-in name or TOML file")
     parser.add_argument("--defenders", default=defenders, choices=DEFENDERS,
                         help="scripted defenders (default: %(default)s)")
-    parser.add_argument("--grid1", type=int, default=31, help="hj defenders' 1v1 grid")
-    parser.add_argument("--grid2", type=int, default=15, help="hj defenders' 2v1 grid")
+    parser.add_argument("--grid1", type=int, default=TRAINING_GRIDS.grid1,
+                        help="hj defenders' 1v1 grid")
+    parser.add_argument("--grid2", type=int, default=TRAINING_GRIDS.grid2,
+                        help="hj defenders' 2v1 grid")
 
 
 def defender_options(args: argparse.Namespace) -> dict[str, Any] | None:

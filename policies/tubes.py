@@ -11,11 +11,19 @@ from collections.abc import Callable
 from typing import NamedTuple
 
 from reachavoid_env import GameMap, Scenario
-from solvers.hj import ValueFunction, check_tubes_memory, solve_1v1, solve_1v2, solve_2v1
+from solvers.hj import (
+    PAPER_GRIDS,
+    ValueFunction,
+    check_tubes_memory,
+    solve_1v1,
+    solve_1v2,
+    solve_2v1,
+)
 from solvers.hj.cache import cache_dir
 
 
-def check_memory(scenario: Scenario, grid1: int = 45, grid2: int | None = 30) -> None:
+def check_memory(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
+                 grid2: int | None = PAPER_GRIDS.grid2) -> None:
     """``InsufficientMemoryError`` before any solve when a tube on these grids cannot fit."""
     check_tubes_memory(scenario.map, (scenario.attacker_speed, scenario.defender_speed),
                        scenario.capture_radius, grid1, grid2)
@@ -58,14 +66,15 @@ def loaded_tubes(scenario: Scenario) -> dict[TubeKey, ValueFunction]:
                 key.capture_radius) == game}
 
 
-def tube_1v1(scenario: Scenario, grid1: int = 45, progress: bool = True) -> ValueFunction:
+def tube_1v1(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
+             progress: bool = True) -> ValueFunction:
     """The 1 vs 1 value of the scenario's map, speeds and capture radius on ``grid1``^4."""
     return _once(scenario, "1v1", grid1, 0, lambda: solve_1v1(
         scenario.map, speeds=(scenario.attacker_speed, scenario.defender_speed),
         capture_radius=scenario.capture_radius, grid_points=grid1, progress=progress))
 
 
-def tube_2v1(scenario: Scenario, grid1: int = 45, grid2: int = 30,
+def tube_2v1(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1, grid2: int = PAPER_GRIDS.grid2,
              progress: bool = True) -> tuple[ValueFunction, ValueFunction]:
     """The 1 vs 1 value on ``grid1``^4 and the 2 vs 1 value built on it, on ``grid2``^6."""
     check_memory(scenario, grid1, grid2)
@@ -74,7 +83,7 @@ def tube_2v1(scenario: Scenario, grid1: int = 45, grid2: int = 30,
         scenario.map, vf11, grid_points=grid2, progress=progress))
 
 
-def tube_1v2(scenario: Scenario, grid1: int = 45, grid2: int = 30,
+def tube_1v2(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1, grid2: int = PAPER_GRIDS.grid2,
              progress: bool = True) -> ValueFunction:
     """The 1 vs 2 value (one attacker, two defenders) on ``grid2``^6, built on the 1 vs 1
     value on ``grid1``^4."""

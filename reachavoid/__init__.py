@@ -3,22 +3,23 @@
 The ``reachavoid`` command (``cli``, started by ``__main__``), the one episode loop
 (``rollout``), many episodes and their statistics (``evaluation``), benchmark suites
 (``suite``), the paper's table (``paper``) and the ``solve`` driver. The names below are
-imported on first use, so that starting the command loads nothing before it can handle
-Ctrl-C.
+imported on first use (PEP 562), so that starting the command loads nothing before it can
+handle Ctrl-C.
 """
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from typing import TYPE_CHECKING
 
-_HOMES = {"compare_defenders": "evaluation", "run_episodes": "evaluation",
-          "summarize": "evaluation", "EpisodeResult": "rollout", "run_episode": "rollout"}
+from reachavoid_env import lazy
+
+if TYPE_CHECKING:
+    from reachavoid.evaluation import compare_defenders, run_episodes, summarize
+    from reachavoid.rollout import EpisodeResult, run_episode
 
 __all__ = ["EpisodeResult", "compare_defenders", "run_episode", "run_episodes", "summarize"]
 
-
-def __getattr__(name: str) -> Any:
-    if name not in _HOMES:
-        raise AttributeError(f"module 'reachavoid' has no attribute {name!r}")
-    return getattr(importlib.import_module(f"reachavoid.{_HOMES[name]}"), name)
+__getattr__, __dir__ = lazy.attributes(__name__, {
+    "EpisodeResult": "reachavoid.rollout", "run_episode": "reachavoid.rollout",
+    **dict.fromkeys(["compare_defenders", "run_episodes", "summarize"], "reachavoid.evaluation"),
+})

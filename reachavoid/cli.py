@@ -26,9 +26,8 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 import reachavoid_env
-from policies.defenders import CERTIFICATE_CELLS, check_margin_cells
+import solvers.hj
 from policies.registry import PolicySpec, names_help, policy_specs
-from reachavoid import paper as paper_table
 from reachavoid.evaluation import MIN_BOOTSTRAP, one_start, write_csv
 from reachavoid.rollout import EpisodeResult, episode_title, first_frame, run_episode
 from reachavoid.solve import DEFAULT_GRID, GAMES, solve_library, solve_scenario
@@ -53,10 +52,11 @@ from reachavoid_env.maps import (
     options_from_text,
     write_library,
 )
-from reachavoid_env.video import FPS_RANGE, check_video_path, realtime_every, realtime_fps
-from reachavoid_env.wrappers import PerMapPolicy
 from solvers.hj.cache import CacheLocationError, cache_dir, check_cache
-from solvers.hj.reach_avoid import InsufficientMemoryError
+
+# The policies (OR-Tools, numba), the env and the paper's figures (matplotlib) are imported by
+# the commands that use them, when they run, so that ``--help`` and bad arguments answer at
+# once.
 
 EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_PIPE = 2, 1, 130, 141
 TEMPORARY_NAME_ROOM = 48
@@ -118,8 +118,9 @@ def _margin_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--margin-cells", type=float, default=None, metavar="C",
                         help="certificate margin of the hj, hj-pairs and matching defenders in "
                              "grid cells of each tube: a game counts as a defender win where "
-                             f"its value exceeds C cells, or stays > 0 once taken (default: "
-                             f"{CERTIFICATE_CELLS}; 0 reads the tubes as the paper does)")
+                             "its value exceeds C cells, or stays > 0 once taken (default: "
+                             "the defenders' CERTIFICATE_CELLS; 0 reads the tubes as the paper "
+                             "does)")
 
 
 def _force_option(parser: argparse.ArgumentParser) -> None:
@@ -307,6 +308,8 @@ def _check_common(args: argparse.Namespace) -> None:
     if getattr(args, "seed", None) is not None:
         _check(checks.integer, args.seed, "--seed", 0, MAX_SEED)
     if getattr(args, "margin_cells", None) is not None:
+        from policies.defenders import check_margin_cells
+
         _check(check_margin_cells, args.margin_cells, "--margin-cells")
     if not check_cache():
         print(f"reachavoid {args.command}: warning: the cache ($REACHAVOID_CACHE_DIR) is "
@@ -395,6 +398,8 @@ def _specs(choices: list[tuple[str, str]], args: argparse.Namespace) -> list[Pol
 def _check_video_options(args: argparse.Namespace, scenario: Scenario) -> None:
     """Check --video, --fps, --every, --realtime and --width; settle ``args.every`` and
     ``args.fps`` (--realtime: the rate at which video time is game time)."""
+    from reachavoid_env.video import FPS_RANGE, check_video_path, realtime_every, realtime_fps
+
     if args.video is not None:
         try:
             check_video_path(args.video)
@@ -438,6 +443,8 @@ def _play(args: argparse.Namespace) -> int:
             attackers = attacker_spec(scenario, seed=args.seed, progress=args.progress)
             defenders = defender_spec(scenario, seed=args.seed, progress=args.progress)
         else:   # a library: the seed draws the map; the policies are built for it
+            from reachavoid_env.wrappers import PerMapPolicy
+
             attackers, defenders = (
                 PerMapPolicy(functools.partial(spec, seed=args.seed, progress=args.progress),
                              side)
@@ -562,8 +569,11 @@ def _solve(args: argparse.Namespace) -> int:
         writable_folder(args.out, "--out")
     if args.plot is not None:
         writable_file(args.plot, "--plot", args.force)
+    scenario = _load(args.scenario)
+    grid1 = args.grid1 if args.grid1 is not None else DEFAULT_GRID["1v1"]
     try:
-        report = solve_scenario(args.scenario, args.game, args.grid, out=args.out,
+        grid = grid1 if args.game == "1v1" and args.grid is None else args.grid
+        report = solve_scenario(scenario, args.game, grid, out=args.out, grid_points_1v1=grid1,
                                 plot=args.plot, progress=args.progress)
     except (ValueError, MemoryError) as err:
         raise UsageError(str(err)) from None
@@ -751,6 +761,8 @@ def _maps(args: argparse.Namespace) -> int:
 
 
 def _paper(args: argparse.Namespace) -> int:
+    from reachavoid import paper as paper_table
+
     out = writable_folder(args.out, "--out")
     for path in paper_table.outputs(out, videos=not args.no_video):
         _check_replace(destination(path), "--out", args.force, str(path))
@@ -761,9 +773,9 @@ def _paper(args: argparse.Namespace) -> int:
           f"{paper_table.ATTACKERS} attackers)")
     print(f"  {'game':<10} {'ours':>6} {'paper':>6} {'baseline':>9} {'paper':>6}")
     for row in rows:
-        ours, baseline = row.measured["hj"], row.measured["matching"]
+        ours, baseline = row.measured["paper"], row.measured["matching"]
         print(f"  {row.scenario.split('_')[-1]:<10} {ours['captured_count']:>6} "
-              f"{row.reported['hj']:>6} {baseline['captured_count']:>9} "
+              f"{row.reported['paper']:>6} {baseline['captured_count']:>9} "
               f"{row.reported['matching']:>6}")
     print(f"  videos, table.json and tubes.png in {out}/")
     return 0
@@ -784,7 +796,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         _check_common(args)
         return args.run(args)
-    except (UsageError, ScenarioError, CacheLocationError, InsufficientMemoryError) as err:
+    except (UsageError, ScenarioError, CacheLocationError,
+            solvers.hj.InsufficientMemoryError) as err:
         print(f"reachavoid {args.command}: error: {err}", file=sys.stderr)
         return EXIT_USAGE
     except BrokenPipeError:

@@ -16,10 +16,9 @@ import os
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
-from pettingzoo.utils.env import ParallelEnv
 from tqdm import tqdm
 
 from policies.registry import Factory
@@ -27,6 +26,9 @@ from reachavoid.rollout import EpisodeResult, run_episode
 from reachavoid.sweep import Sweep, run_sweeps, sweeps_of
 from reachavoid_env import Policy, Scenario, checks
 from reachavoid_env.files import atomic_write
+
+if TYPE_CHECKING:
+    from pettingzoo.utils.env import ParallelEnv
 
 Z95 = 1.959963984540054
 

@@ -1,10 +1,11 @@
 """The paper's Table I, its videos and its tube figure (Fig. 2), from the built-in scenarios.
 
 The games are the built-ins that carry a ``[paper]`` table (what the paper reports for
-them: ``captured = {method = count}``, methods named as in ``policies.registry``). Every
-method plays its game once against the paper's shortest-path attackers, with unassigned or
-unmatched defenders standing still as in the paper's simulations, and the tubes read as
-the paper reads them (``margin_cells=0``: every value > 0 a defender win). The figure
+them: ``captured = {method = count}``, methods named as in ``policies.registry``: ``paper``
+is the paper's Algorithm 1, ``matching`` its baseline). Every method plays its game once
+against the paper's shortest-path attackers, with unassigned or unmatched defenders
+standing still as in the paper's simulations, and the tubes read as the paper reads them
+(``margin_cells=0``: every value > 0 a defender win). The figure
 slices the tubes at the starts of the smallest such game (``paper_2v1``: one defender, two
 attackers).
 """
@@ -61,8 +62,7 @@ def reproduce(out: Path, grid1: int, grid2: int, videos: bool = True,
     """Play every paper game with every method it reports, write the videos (``out/NAME_
     METHOD.mp4``), ``out/tubes.png`` and ``out/table.json``; return the rows."""
     scenarios = paper_scenarios()
-    options = {"grid1": grid1, "grid2": grid2, "idle": "stand", "unmatched": "stand",
-               "margin_cells": 0.0}
+    options = {"grid1": grid1, "grid2": grid2, "unmatched": "stand", "margin_cells": 0.0}
     rows = []
     for scenario in scenarios:
         measured = {}
@@ -89,6 +89,6 @@ def reproduce(out: Path, grid1: int, grid2: int, videos: bool = True,
     tube_figure(scenario_panels(vf11, attackers, defenders)[:1]
                 + scenario_panels(vf21, attackers, defenders), out / "tubes.png")
     with atomic_write(out / "table.json") as handle:
-        json.dump({row.scenario: {"paper": row.reported, **row.measured} for row in rows},
+        json.dump({row.scenario: {"reported": row.reported, **row.measured} for row in rows},
                   handle, indent=2)
     return rows

@@ -1,5 +1,7 @@
-"""The one episode loop: the command line, the examples, the benchmarks and the tests all
-play through ``run_episode``.
+"""The one episode loop of scripted policies: ``play``, ``bench`` and ``paper``, the sweeps,
+the recording example and the guarantee and sweep benchmarks play through ``run_episode``.
+The training wrappers and the learning examples step the env for their learners, and the
+throughput benchmarks step it directly to time the env alone.
 
 Policies follow ``reachavoid_env.Policy``. Defenders that certify captures (the paper's
 Algorithm 1) also report ``guaranteed_captures`` (``CertifiesCaptures``); the loop records
@@ -11,24 +13,29 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
-from pettingzoo.utils.env import ParallelEnv
 from tqdm import tqdm
 
 from reachavoid_env import GameState, Overlay, Policy, Scenario, checks, merged_overlay
 from reachavoid_env.game_state import outcome_line
-from reachavoid_env.video import RecordEpisode
+
+if TYPE_CHECKING:
+    from pettingzoo.utils.env import ParallelEnv
 
 
 @runtime_checkable
 class CertifiesCaptures(Protocol):
     """Defenders that say, after each ``act``, how many of the attackers still in play they
-    are guaranteed to stop (``None`` before the first decision)."""
+    are guaranteed to stop, and how many the paper's rule (every value > 0 a defender
+    win) counts (both ``None`` before the first decision and once no attacker is left)."""
 
     @property
     def guaranteed_captures(self) -> int | None: ...
+
+    @property
+    def nominal_captures(self) -> int | None: ...
 
 
 @dataclass(frozen=True)
@@ -189,6 +196,8 @@ def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
     """
     checks.integer(every, "every", 1)
     game = env.unwrapped
+    if video is not None:
+        from reachavoid_env.video import RecordEpisode
     recorder = RecordEpisode(env, video, fps, every=every) if video is not None else None
     played = recorder if recorder is not None else env
     started = time.perf_counter()
@@ -206,8 +215,9 @@ def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
             actions, overlay = _decide(played, state, attackers, defenders)
             if certifies and defenders.guaranteed_captures is not None:
                 guarantees.append(len(state.captured) + defenders.guaranteed_captures)
-                if getattr(defenders, "nominal_captures", None) is not None:
-                    nominals.append(len(state.captured) + defenders.nominal_captures)
+                nominal = defenders.nominal_captures
+                if nominal is not None:
+                    nominals.append(len(state.captured) + nominal)
             last_lines = overlay.lines if overlay is not None else ()
             if first_lines is None:
                 first_lines = last_lines

@@ -21,13 +21,12 @@ from solvers.hj import ValueFunction, check_tubes_memory, solve_1v1, solve_1v2, 
 from solvers.hj.cache import cache_dir
 from solvers.hj.games import game_1v1, game_1v2, game_2v1
 from solvers.hj.grid import Grid
-from solvers.hj.plot import scenario_panels, tube_figure
 from solvers.hj.reach_avoid import available_memory, memory_needed
-from solvers.hj.settings import SolverSettings
+from solvers.hj.settings import PAPER_GRIDS, SolverSettings
 from solvers.hj.value import refuse_foreign
 
 GAMES = ("1v1", "2v1", "1v2")
-DEFAULT_GRID = {"1v1": 45, "2v1": 30, "1v2": 30}
+DEFAULT_GRID = {"1v1": PAPER_GRIDS.grid1, "2v1": PAPER_GRIDS.grid2, "1v2": PAPER_GRIDS.grid2}
 """The paper's grids (nodes per axis); the 1 vs 2 game takes the 2 vs 1 game's."""
 PLAYERS = {"1v1": (1, 1), "2v1": (2, 1), "1v2": (1, 2)}
 """Attackers and defenders of each game."""
@@ -55,12 +54,13 @@ class SolveReport:
         return text + (f"\nslices -> {self.plot}" if self.plot is not None else "")
 
 
-def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
-                   out: str | None = None, grid_points_1v1: int = 45,
+def solve_scenario(scenario: str | Scenario, game: str, grid_points: int | None = None,
+                   out: str | None = None, grid_points_1v1: int = PAPER_GRIDS.grid1,
                    plot: str | None = None, progress: bool = True) -> SolveReport:
     """Solve a scenario's 1 vs 1, 2 vs 1 or 1 vs 2 game.
 
-    ``scenario`` is a built-in name or a TOML file; speeds and capture radius come from it.
+    ``scenario`` is a built-in name, a TOML file or a ``Scenario``; speeds and capture
+    radius come from it.
     ``grid_points`` defaults to the paper's grids (``DEFAULT_GRID``). The 2 vs 1 and
     1 vs 2 games use the scenario's 1 vs 1 value at ``grid_points_1v1``. The value goes to
     the cache, and is also saved to ``out`` when given (refused before any work when
@@ -72,7 +72,7 @@ def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
         raise ValueError(f"game: expected one of {', '.join(GAMES)}, got {game!r}")
     if out is not None:
         refuse_foreign(Path(out))
-    sc = load_scenario(scenario)
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     if plot is not None and (sc.attackers is None or sc.defenders is None):
         raise ValueError(f"plot: scenario {sc.name!r} has random starts; the slices need "
                          "fixed ones")
@@ -93,6 +93,8 @@ def solve_scenario(scenario: str, game: str, grid_points: int | None = None,
         vf = _SOLVE_6D[game](sc.map, vf, grid_points, progress=progress)
     path = vf.save(out) if out is not None else _cached_location(vf)
     if plot is not None:
+        from solvers.hj.plot import scenario_panels, tube_figure  # matplotlib: only to plot
+
         tube_figure(scenario_panels(vf, sc.attackers, sc.defenders), plot)
     return SolveReport(path=path, game=game, shape=vf.grid.shape,
                        iterations=int(vf.solver.get("iterations", 0)),

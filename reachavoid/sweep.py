@@ -32,7 +32,6 @@ import reachavoid_env
 from policies.registry import Factory, PolicySpec, policy_specs
 from reachavoid.rollout import EpisodeResult, run_episode
 from reachavoid_env import Policy, Scenario
-from solvers.hj.cache import cache_dir
 from solvers.hj.reach_avoid import available_memory
 
 BACKENDS = ("serial", "process", "ray")
@@ -183,6 +182,8 @@ def _ray(task: Callable[[Item], Result], items: Sequence[Item], workers: int | N
         raise ValueError("backend: 'ray' needs Ray (pip install 'reachavoid[ray]')") from None
     started = not ray.is_initialized()
     if started:
+        from solvers.hj.cache import cache_dir
+
         env_vars = {"REACHAVOID_CACHE_DIR": str(cache_dir())}
         if "PYTHONPATH" in os.environ:
             env_vars["PYTHONPATH"] = os.environ["PYTHONPATH"]

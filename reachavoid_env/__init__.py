@@ -1,27 +1,42 @@
 """reachavoid_env: the multi-agent reach-avoid game (design.md).
 
+Every name below loads its module on first use (PEP 562). The ground floor (shapes,
+``GameMap``, ``Scenario``, the rules and the game state) imports numpy alone; only the
+env (``ReachAvoidEnv``, ``env``, ``parallel_env``, ``raw_env``) loads PettingZoo,
+Gymnasium and pymunk, so the solvers stand on the map without the simulator.
+
 Importing the package registers the env with PettingZoo as ``reachavoid/ReachAvoid-v0``
-(both ``pettingzoo.make("parallel", ...)`` and ``pettingzoo.make("aec", ...)``).
-``reachavoid_env.env`` is the AEC constructor; the env class lives in
-``reachavoid_env.environment``.
+(both ``pettingzoo.make("parallel", ...)`` and ``pettingzoo.make("aec", ...)``): at once
+when PettingZoo is loaded already, else the moment it is imported.
 """
 
-import pettingzoo
+from __future__ import annotations
 
-from reachavoid_env.environment import ReachAvoidEnv
-from reachavoid_env.game_state import AttackerStatus, GameState, Overlay, Policy, merged_overlay
-from reachavoid_env.reach_avoid_v0 import env, parallel_env, raw_env
-from reachavoid_env.scenario import (
-    GameMap,
-    Scenario,
-    ScenarioError,
-    builtin_map,
-    builtin_names,
-    builtin_scenario,
-    load_scenario,
-    save_scenario,
-)
-from reachavoid_env.shapes import Box, Circle, Polygon, ShapeError
+from typing import TYPE_CHECKING, Any
+
+from reachavoid_env import lazy
+
+if TYPE_CHECKING:
+    from reachavoid_env.environment import ReachAvoidEnv
+    from reachavoid_env.game_map import GameMap
+    from reachavoid_env.game_state import (
+        AttackerStatus,
+        GameState,
+        Overlay,
+        Policy,
+        merged_overlay,
+    )
+    from reachavoid_env.reach_avoid_v0 import env, parallel_env, raw_env
+    from reachavoid_env.scenario import (
+        Scenario,
+        ScenarioError,
+        builtin_map,
+        builtin_names,
+        builtin_scenario,
+        load_scenario,
+        save_scenario,
+    )
+    from reachavoid_env.shapes import Box, Circle, Polygon, ShapeError
 
 __all__ = [
     "AttackerStatus",
@@ -48,5 +63,24 @@ __all__ = [
 ]
 
 ENV_ID = "reachavoid/ReachAvoid-v0"
-pettingzoo.register("parallel", ENV_ID, entry_point="reachavoid_env.reach_avoid_v0:parallel_env")
-pettingzoo.register("aec", ENV_ID, entry_point="reachavoid_env.reach_avoid_v0:env")
+
+__getattr__, __dir__ = lazy.attributes(__name__, {
+    "GameMap": "reachavoid_env.game_map",
+    **dict.fromkeys(["AttackerStatus", "GameState", "Overlay", "Policy", "merged_overlay"],
+                    "reachavoid_env.game_state"),
+    **dict.fromkeys(["Scenario", "ScenarioError", "builtin_map", "builtin_names",
+                     "builtin_scenario", "load_scenario", "save_scenario"],
+                    "reachavoid_env.scenario"),
+    **dict.fromkeys(["Box", "Circle", "Polygon", "ShapeError"], "reachavoid_env.shapes"),
+    "ReachAvoidEnv": "reachavoid_env.environment",
+    **dict.fromkeys(["env", "parallel_env", "raw_env"], "reachavoid_env.reach_avoid_v0"),
+})
+
+
+def _register(pettingzoo: Any) -> None:
+    pettingzoo.register("parallel", ENV_ID,
+                        entry_point="reachavoid_env.reach_avoid_v0:parallel_env")
+    pettingzoo.register("aec", ENV_ID, entry_point="reachavoid_env.reach_avoid_v0:env")
+
+
+lazy.after_import("pettingzoo", _register)

@@ -27,7 +27,7 @@ import numpy as np
 from reachavoid_env.shapes import quadratic_entry_time
 
 if TYPE_CHECKING:
-    from reachavoid_env.scenario import GameMap
+    from reachavoid_env.game_map import GameMap
 
 
 def bounded_controls(controls: np.ndarray) -> np.ndarray:

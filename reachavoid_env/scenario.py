@@ -1,4 +1,4 @@
-"""Game maps and scenarios: TOML load/save, validation, built-ins and random starts.
+"""Scenarios: TOML load/save, validation, built-ins and random starts (maps: ``game_map``).
 
 Coordinates are map units, ``x`` then ``y``; times are seconds; speeds are map units per
 second. Point arrays have shape ``(..., 2)``. The TOML format is design.md section 5.
@@ -6,6 +6,7 @@ second. Point arrays have shape ``(..., 2)``. The TOML format is design.md secti
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from dataclasses import dataclass, field, replace
@@ -18,8 +19,14 @@ import tomli_w
 
 from reachavoid_env import checks, rules
 from reachavoid_env.files import atomic_write
+from reachavoid_env.game_map import MAX_COORDINATE, MIN_EXTENT, GameMap, ScenarioError
 from reachavoid_env.shapes import Box, Shape, ShapeError, shape_from_dict
-from reachavoid_env.world import substeps_for
+
+__all__ = ["MAX_COORDINATE", "MIN_EXTENT", "Box", "GameMap", "Scenario", "ScenarioError",
+           "Shape", "ShapeError", "builtin_map", "builtin_names", "builtin_scenario",
+           "load_scenario", "save_scenario", "shape_from_dict", "substeps_for"]
+"""Also the names that lived here before ``game_map`` (``GameMap``, ``ScenarioError``, the
+shapes), so that older imports keep working."""
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -28,10 +35,6 @@ else:
 
 Point = tuple[float, float]
 
-MAX_COORDINATE = 1e4
-"""Largest absolute map coordinate (map units) a domain may have."""
-MIN_EXTENT = 1e-3
-"""Smallest width and height of a domain (map units)."""
 MAX_SPEED = 1e3
 """Largest player speed (map units per second)."""
 MAX_DT = 1.0
@@ -39,142 +42,15 @@ MAX_DT = 1.0
 MAX_STEPS = 10_000_000
 """Most steps in an episode."""
 MAX_SUBSTEPS = 10_000
-"""Most physics sub-steps per step (``world.substeps_for``): a smaller ``player_radius`` or a
+"""Most physics sub-steps per step (``substeps_for``): a smaller ``player_radius`` or a
 longer ``dt`` would make every step crawl."""
 
 
-class ScenarioError(ValueError):
-    """A scenario or map is invalid; the message starts with the offending field."""
-
-
-@dataclass(frozen=True)
-class GameMap:
-    """The playing field: a rectangular domain, a target (union of shapes) and obstacles.
-
-    ``domain`` is ``(xmin, xmax, ymin, ymax)``. Leaving the domain counts as entering an
-    obstacle wherever the game's sets are concerned.
-    """
-
-    domain: tuple[float, float, float, float]
-    target: tuple[Shape, ...]
-    obstacles: tuple[Shape, ...] = ()
-
-    def __post_init__(self) -> None:
-        for i, value in enumerate(self.domain):
-            checks.real(value, f"map.domain[{i}]", -MAX_COORDINATE, MAX_COORDINATE,
-                        error=ScenarioError)
-        xmin, xmax, ymin, ymax = self.domain
-        if not (xmax - xmin >= MIN_EXTENT and ymax - ymin >= MIN_EXTENT):
-            raise ScenarioError(f"map.domain: need xmin < xmax and ymin < ymax, each extent at "
-                                f"least {MIN_EXTENT:g}, got {self.domain}")
-        if not self.target:
-            raise ScenarioError("map.target: at least one target shape is required")
-        for i, shape in enumerate(self.target):
-            name = "map.target" if len(self.target) == 1 else f"map.target[{i}]"
-            bx0, bx1, by0, by1 = shape.bounds()
-            if bx0 < xmin or bx1 > xmax or by0 < ymin or by1 > ymax:
-                raise ScenarioError(f"{name}: extends outside the domain {self.domain}")
-            for k, obstacle in enumerate(self.obstacles):
-                if _shapes_overlap(shape, obstacle):
-                    raise ScenarioError(f"{name}: overlaps obstacle {k}")
-
-    @property
-    def size(self) -> tuple[float, float]:
-        """Width and height of the domain (map units)."""
-        xmin, xmax, ymin, ymax = self.domain
-        return (xmax - xmin, ymax - ymin)
-
-    def target_signed_distance(self, points: np.ndarray) -> np.ndarray:
-        """Signed distance to the target union (negative inside)."""
-        return np.min([s.signed_distance(points) for s in self.target], axis=0)
-
-    def obstacle_signed_distance(self, points: np.ndarray) -> np.ndarray:
-        """Signed distance to the obstacle union and the outside of the domain.
-
-        Negative inside an obstacle or outside the domain, positive in free space.
-        """
-        xmin, xmax, ymin, ymax = self.domain
-        outside = -Box((xmin, ymin), (xmax, ymax)).signed_distance(points)
-        if not self.obstacles:
-            return outside
-        inside = np.min([s.signed_distance(points) for s in self.obstacles], axis=0)
-        return np.minimum(inside, outside)
-
-    def target_entry_time(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
-        """First ``t`` in ``[0, 1]`` at which ``start + t (end - start)`` is in the target.
-
-        ``starts`` and ``ends`` are ``(..., 2)``; the result is ``(...)``, ``inf`` for
-        segments that never touch the target (boundary inclusive).
-        """
-        return np.min([s.segment_entry_time(starts, ends) for s in self.target], axis=0)
-
-    def in_target(self, points: np.ndarray) -> np.ndarray:
-        """Inside the target (inclusive of its boundary)."""
-        return np.any([s.contains(points) for s in self.target], axis=0)
-
-    def in_obstacle(self, points: np.ndarray) -> np.ndarray:
-        """Inside an obstacle (inclusive) or outside the domain."""
-        return self.obstacle_signed_distance(points) <= 0.0
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "domain": list(self.domain),
-            "target": _shapes_to_toml(self.target),
-            "obstacles": [s.to_dict() for s in self.obstacles],
-        }
-
-    @classmethod
-    def from_dict(cls, data: Any, field_name: str = "map") -> GameMap:
-        if not isinstance(data, dict):
-            raise ScenarioError(f"{field_name}: expected a table")
-        unknown = set(data) - {"domain", "target", "obstacles"}
-        if unknown:
-            raise ScenarioError(f"{field_name}: unknown keys {sorted(unknown)}")
-        if "domain" not in data:
-            raise ScenarioError(f"{field_name}.domain: missing")
-        domain = data["domain"]
-        if not isinstance(domain, list) or len(domain) != 4:
-            raise ScenarioError(
-                f"{field_name}.domain: expected [xmin, xmax, ymin, ymax], got {domain!r}"
-            )
-        domain_t = tuple(checks.real(v, f"{field_name}.domain[{i}]", -MAX_COORDINATE,
-                                     MAX_COORDINATE, error=ScenarioError)
-                         for i, v in enumerate(domain))
-        if "target" not in data:
-            raise ScenarioError(f"{field_name}.target: missing")
-        target = data["target"]
-        targets = target if isinstance(target, list) else [target]
-        obstacles = data.get("obstacles", [])
-        if not isinstance(obstacles, list):
-            raise ScenarioError(f"{field_name}.obstacles: expected a list of shape tables")
-        try:
-            target_shapes = tuple(
-                shape_from_dict(t, f"{field_name}.target" + (f"[{i}]" if isinstance(target, list)
-                                                              else ""))
-                for i, t in enumerate(targets)
-            )
-            obstacle_shapes = tuple(
-                shape_from_dict(o, f"{field_name}.obstacles[{i}]") for i, o in enumerate(obstacles)
-            )
-        except ShapeError as err:
-            raise ScenarioError(str(err)) from None
-        return cls(domain_t, target_shapes, obstacle_shapes)  # type: ignore[arg-type]
-
-
-def _shapes_to_toml(shapes: tuple[Shape, ...]) -> Any:
-    return shapes[0].to_dict() if len(shapes) == 1 else [s.to_dict() for s in shapes]
-
-
-def _shapes_overlap(a: Shape, b: Shape, samples: int = 64) -> bool:
-    """Whether two shapes share interior points (checked on boundary and grid samples)."""
-    ax0, ax1, ay0, ay1 = a.bounds()
-    bx0, bx1, by0, by1 = b.bounds()
-    x0, x1, y0, y1 = max(ax0, bx0), min(ax1, bx1), max(ay0, by0), min(ay1, by1)
-    if x0 >= x1 or y0 >= y1:
-        return False
-    xs, ys = np.linspace(x0, x1, samples), np.linspace(y0, y1, samples)
-    grid = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1)
-    return bool(np.any((a.signed_distance(grid) < 0) & (b.signed_distance(grid) < 0)))
+def substeps_for(max_speed: float, dt: float, player_radius: float) -> int:
+    """Physics sub-steps per step (``world.World``) so nobody moves more than
+    ``player_radius / 2`` in one (speed in map units per second, ``dt`` in seconds)."""
+    ratio = max_speed * dt / (0.5 * player_radius)
+    return max(1, math.ceil(ratio - 1e-9))
 
 
 def _points_field(value: Any, field_name: str) -> tuple[Point, ...] | int:

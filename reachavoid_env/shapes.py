@@ -11,11 +11,11 @@ Every shape answers, for points given as an array of shape ``(..., 2)`` in map u
   included), ``inf`` where it never is (exact for every shape kind);
 - ``to_dict()`` / ``from_dict(table, field)``: the shape's TOML table, whose ``type`` is
   the class's ``type``;
-- ``outline()``: the boundary as a closed ring of vertices ``(K, 2)`` for drawing;
-- ``pymunk_shapes(body)``: static pymunk collision shapes for the world.
+- ``outline()``: the boundary as a closed ring of vertices ``(K, 2)`` for drawing.
 
 ``SHAPES`` is the registry (TOML ``type`` -> class) that the loader uses and that
-``register`` fills, so a new shape kind is one class in one file.
+``register`` fills, so a new shape kind is one class here (and, to be an obstacle in the
+simulator, one ``world.static_shapes`` conversion). This module imports numpy alone.
 """
 
 from __future__ import annotations
@@ -25,8 +25,6 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, Protocol
 
 import numpy as np
-import pymunk
-import pymunk.autogeometry
 
 
 class ShapeError(ValueError):
@@ -44,7 +42,6 @@ class Shape(Protocol):
     def to_dict(self) -> dict[str, Any]: ...
     @classmethod
     def from_dict(cls, data: dict[str, Any], field: str) -> Shape: ...
-    def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]: ...
 
 
 SHAPES: dict[str, type[Shape]] = {}
@@ -137,9 +134,6 @@ class Box:
     def to_dict(self) -> dict[str, Any]:
         return {"type": self.type, "min": list(self.min), "max": list(self.max)}
 
-    def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]:
-        return [pymunk.Poly(body, [tuple(p) for p in self.outline().tolist()])]
-
 
 @register
 @dataclass(frozen=True)
@@ -193,9 +187,6 @@ class Circle:
 
     def to_dict(self) -> dict[str, Any]:
         return {"type": self.type, "center": list(self.center), "radius": self.radius}
-
-    def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]:
-        return [pymunk.Circle(body, self.radius, offset=self.center)]
 
 
 def _edges_meet(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray,
@@ -385,14 +376,6 @@ class Polygon:
 
     def to_dict(self) -> dict[str, Any]:
         return {"type": self.type, "vertices": [list(v) for v in self.vertices]}
-
-    def pymunk_shapes(self, body: pymunk.Body) -> list[pymunk.Shape]:
-        ring = [tuple(v) for v in self.vertices]
-        if self.area < 0:
-            ring.reverse()
-        ring.append(ring[0])
-        parts = pymunk.autogeometry.convex_decomposition(ring, 0.0)
-        return [pymunk.Poly(body, part) for part in parts]
 
 
 def quadratic_entry_time(offsets: np.ndarray, motions: np.ndarray,

@@ -17,25 +17,26 @@ slides along it instead of sinking in and being pushed back.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pymunk
+import pymunk.autogeometry
 import pymunk.batch
 
+from reachavoid_env.scenario import substeps_for
+from reachavoid_env.shapes import Box, Circle, Polygon, Shape
+
 if TYPE_CHECKING:
-    from reachavoid_env.scenario import GameMap
+    from reachavoid_env.game_map import GameMap
+
+__all__ = ["World", "static_shapes", "substeps_for"]
 
 _PLAYER_GROUP = 1
 _SET_FIELDS = pymunk.batch.BodyFields.VELOCITY | pymunk.batch.BodyFields.FORCE
 _GET_FIELDS = pymunk.batch.BodyFields.POSITION
-
-
-def substeps_for(max_speed: float, dt: float, player_radius: float) -> int:
-    """Physics sub-steps per step so nobody moves more than ``player_radius / 2`` in one."""
-    ratio = max_speed * dt / (0.5 * player_radius)
-    return max(1, math.ceil(ratio - 1e-9))
 
 
 class World:
@@ -70,7 +71,7 @@ class World:
         static = self.space.static_body
         walls = _domain_walls(game_map.domain, static)
         for obstacle in game_map.obstacles:
-            walls.extend(obstacle.pymunk_shapes(static))
+            walls.extend(static_shapes(obstacle, static))
         for shape in walls:
             shape.friction = 0.0
             shape.elasticity = 0.0
@@ -137,3 +138,31 @@ def _domain_walls(domain: tuple[float, float, float, float],
     ]
     return [pymunk.Poly(body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
             for x0, x1, y0, y1 in boxes]
+
+
+@functools.singledispatch
+def static_shapes(shape: Shape, body: pymunk.Body) -> list[pymunk.Shape]:
+    """Static pymunk collision shapes of a map ``shape`` attached to ``body``; a new shape
+    kind registers its conversion here (``@static_shapes.register``)."""
+    raise TypeError(f"no pymunk conversion for {type(shape).__name__} shapes")
+
+
+@static_shapes.register
+def _(shape: Box, body: pymunk.Body) -> list[pymunk.Shape]:
+    return [pymunk.Poly(body, [tuple(p) for p in shape.outline().tolist()])]
+
+
+@static_shapes.register
+def _(shape: Circle, body: pymunk.Body) -> list[pymunk.Shape]:
+    return [pymunk.Circle(body, shape.radius, offset=shape.center)]
+
+
+@static_shapes.register
+def _(shape: Polygon, body: pymunk.Body) -> list[pymunk.Shape]:
+    """Concave polygons become their convex pieces (pymunk collides convex shapes only)."""
+    ring = [tuple(v) for v in shape.vertices]
+    if shape.area < 0:
+        ring.reverse()
+    ring.append(ring[0])
+    parts = pymunk.autogeometry.convex_decomposition(ring, 0.0)
+    return [pymunk.Poly(body, part) for part in parts]

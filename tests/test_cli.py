@@ -49,8 +49,8 @@ def test_every_policy_choice_plays(capsys, attackers, defenders):
     report = play_json(capsys, "--scenario", "paper_2v1", "--attackers", attackers,
                        "--defenders", defenders, *grids)
     assert (report["attackers"], report["defenders"]) == (attackers, defenders)
-    if defenders in ("hj", "hj-pairs", "matching"):
-        promised = {"hj": 2, "hj-pairs": 2, "matching": 1}[defenders]
+    if defenders in ("hj", "hj-pairs", "paper", "matching"):
+        promised = {"hj": 2, "hj-pairs": 2, "paper": 2, "matching": 1}[defenders]
         assert report["nominal_captures_initial"] == promised
         assert report["guaranteed_captures_initial"] <= promised
     else:
@@ -136,6 +136,29 @@ def test_bad_scenario_files(capsys, tmp_path, text, message):
     assert out == "" and err.count("\n") == 1 and message in err
 
 
+@pytest.mark.parametrize("command", ["play", "solve"])
+def test_unreadable_scenario_file_is_status_2(capsys, tmp_path, monkeypatch, command):
+    path = write(tmp_path, "")
+
+    def refuse(self):
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(type(tmp_path), "read_bytes", refuse)
+    assert main([command, "--scenario", path]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"scenario: cannot read {path!r}: Permission denied" in err
+
+
+def test_solve_2v1_fills_the_cache_of_its_grid1(tmp_path, monkeypatch, capsys):
+    """``solve --grid1`` sets the 1 vs 1 tube under a 2 vs 1 game, as ``play --grid1``."""
+    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path))
+    assert main(["solve", "--game", "2v1", "--grid", "5", "--grid1", "7"]) == 0
+    solved = {tuple(path.name.split("-")[:2]) for path in tmp_path.iterdir()}
+    assert solved == {("1v1", "7"), ("2v1", "5")}
+    assert main(["solve", "--game", "1v1", "--grid1", "7"]) == 0
+    assert "1v1 value 7x7x7x7" in capsys.readouterr().out
+
+
 def test_help_exits_zero(capsys):
     assert main(["play", "--help"]) == 0
     out, _ = capsys.readouterr()
@@ -214,9 +237,9 @@ def test_paper_command_writes_table_and_figure(tmp_path, capsys):
     printed = capsys.readouterr().out
     table = json.loads((out / "table.json").read_text())
     assert list(table) == ["paper_2v1", "paper_6v2", "paper_8v4"]
-    assert table["paper_2v1"]["paper"] == {"hj": 2, "matching": 1}
+    assert table["paper_2v1"]["reported"] == {"paper": 2, "matching": 1}
     for row in table.values():
-        assert row["hj"]["captured_count"] >= row["hj"]["guaranteed_captures_initial"] - 1
+        assert row["paper"]["captured_count"] >= row["paper"]["guaranteed_captures_initial"] - 1
     assert (out / "tubes.png").stat().st_size > 10_000
     assert "2v1" in printed and "baseline" in printed
 

@@ -4,13 +4,13 @@ table and action by action, over played 8v4 episodes."""
 
 from __future__ import annotations
 
+import lookups_reference as reference
 import numpy as np
 import pytest
 
 import reachavoid_env
 from policies import HJDefenderPolicy, RandomAttacker, ShortestPathAttacker, lookups
 from policies import defenders as defenders_module
-from policies import lookups_reference as reference
 
 
 class StepByStepDefender(HJDefenderPolicy):

@@ -228,4 +228,4 @@ def test_huge_actions_are_scaled_not_lost():
 def test_saved_scenario_round_trips_paper_table(tmp_path):
     path = tmp_path / "p.toml"
     save_scenario(builtin_scenario("paper_6v2"), path)
-    assert dict(load_scenario(path).paper_captures) == {"hj": 6, "matching": 4}
+    assert dict(load_scenario(path).paper_captures) == {"paper": 6, "matching": 4}

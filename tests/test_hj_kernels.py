@@ -1,16 +1,16 @@
-"""The generated numba sweeps and the kernels equal their numpy references on small grids."""
+"""The generated numba iteration and the kernels equal their numpy references on small grids."""
 
 from __future__ import annotations
 
+import kernels_reference as reference
 import numpy as np
 import pytest
 
 from solvers.hj import SolverSettings, game_1v1, game_2v1
-from solvers.hj import kernels_reference as reference
 from solvers.hj.game import Game, attacker, defender, distance, maximum, minimum, table
 from solvers.hj.grid import Grid
 from solvers.hj.layout import layout_of
-from solvers.hj.reach_avoid import Problem, Sweeper, sweep_orders
+from solvers.hj.reach_avoid import Marcher, Problem, iteration_orders
 
 SCHEMES = ("godunov", "lax_friedrichs", "eno2")
 
@@ -48,18 +48,18 @@ def _players(game: Game) -> list[tuple[float, bool]]:
     return [(p.speed, p.role == "defender") for p in game.players]
 
 
-def _kernel_sweep(problem, values, scheme, dt, symmetric=False, iteration="jacobi", chunks=5,
+def _kernel_iterate(problem, values, scheme, dt, symmetric=False, iteration="jacobi", chunks=5,
                   order=None):
     """One kernel sweep of full-shape ``values``; returns full-shape results and residual."""
     settings = SolverSettings(scheme=scheme, iteration=iteration, exchange_symmetry=symmetric)
-    sweeper = Sweeper.prepare(problem, settings)
-    layout = sweeper.layout
+    marcher = Marcher.prepare(problem, settings)
+    layout = marcher.layout
     m = layout.row_length
     rows = values.reshape(-1, m)[_first_of_each_stored(layout)].astype(np.float32)
     out = rows if iteration == "red_black" else np.zeros_like(rows)
-    order = order or sweep_orders(layout, settings)[0]
-    residual = sweeper.sweep(rows, out, order, dt, n_chunks=chunks)
-    return layout.full(out), residual, sweeper
+    order = order or iteration_orders(layout, settings)[0]
+    residual = marcher.iterate(rows, out, order, dt, n_chunks=chunks)
+    return layout.full(out), residual, marcher
 
 
 def _first_of_each_stored(layout):
@@ -87,9 +87,9 @@ def test_sweep_matches_reference(name, scheme):
     values = rng.normal(0.0, 0.3, problem.grid.shape).astype(np.float32)
     assert np.mean(values > avoid) > 0.1 and np.mean(values < target) > 0.1
     dt = 0.02
-    expected, expected_residual = reference.sweep(values, problem.grid.spacing, _players(game),
-                                                  dt, scheme, target, avoid)
-    got, residual, _ = _kernel_sweep(problem, values, scheme, dt)
+    expected, expected_residual = reference.iterate(values, problem.grid.spacing,
+                                                    _players(game), dt, scheme, target, avoid)
+    got, residual, _ = _kernel_iterate(problem, values, scheme, dt)
     np.testing.assert_allclose(got, expected, rtol=0, atol=3e-6)
     assert residual == pytest.approx(expected_residual, abs=3e-6)
 
@@ -117,9 +117,9 @@ def test_symmetric_storage_equals_full_sweep(scheme):
     problem = random_problem(game, rng, [(4, 5), (4, 5), (5, 3)])
     values = rng.normal(0.0, 0.3, problem.grid.shape).astype(np.float32)
     values = (values + values.transpose(2, 3, 0, 1, 4, 5)) / 2
-    expected, _, _ = _kernel_sweep(problem, values, scheme, 0.02)
-    got, _, sweeper = _kernel_sweep(problem, values, scheme, 0.02, symmetric=True)
-    assert sweeper.layout.stored_rows == 20 * 21 // 2
+    expected, _, _ = _kernel_iterate(problem, values, scheme, 0.02)
+    got, _, marcher = _kernel_iterate(problem, values, scheme, 0.02, symmetric=True)
+    assert marcher.layout.stored_rows == 20 * 21 // 2
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-6)
     np.testing.assert_array_equal(got, got.transpose(2, 3, 0, 1, 4, 5))
 
@@ -150,20 +150,20 @@ def test_gauss_seidel_planes_match_reference_and_ignore_threading(name, scheme):
     target, avoid = problem.sets()
     values = rng.normal(0.0, 0.3, problem.grid.shape).astype(np.float32)
     settings = SolverSettings(scheme=scheme, exchange_symmetry=False)
-    layout = Sweeper.prepare(problem, settings).layout
-    order = sweep_orders(layout, settings)[0]
+    layout = Marcher.prepare(problem, settings).layout
+    order = iteration_orders(layout, settings)[0]
     rows, planes, _ = order
     expected = values.astype(np.float64).reshape(layout.stored_rows, -1)
     for p in range(planes.size - 1):
-        swept, _ = reference.sweep(expected.reshape(values.shape), problem.grid.spacing,
-                                   _players(game), 0.02, scheme, target, avoid)
+        swept, _ = reference.iterate(expected.reshape(values.shape), problem.grid.spacing,
+                                     _players(game), 0.02, scheme, target, avoid)
         mine = rows[planes[p]:planes[p + 1]]
         expected[mine] = swept.reshape(layout.stored_rows, -1)[mine]
-    results = [_kernel_sweep(problem, values.copy(), scheme, 0.02, iteration="red_black",
+    results = [_kernel_iterate(problem, values.copy(), scheme, 0.02, iteration="red_black",
                              chunks=chunks, order=order)[0] for chunks in (1, 4)]
     np.testing.assert_allclose(results[0], expected.reshape(values.shape), rtol=0, atol=3e-6)
     np.testing.assert_array_equal(results[0], results[1])
-    jacobi, _, _ = _kernel_sweep(problem, values, scheme, 0.02)
+    jacobi, _, _ = _kernel_iterate(problem, values, scheme, 0.02)
     assert np.abs(jacobi - results[0]).max() > 1e-3
 
 
@@ -172,10 +172,10 @@ def test_projection_of_huge_values_is_max_of_target_and_avoid(name):
     make, shapes = GAMES[name]
     problem = random_problem(make(), np.random.default_rng(11), shapes)
     target, avoid = problem.sets()
-    sweeper = Sweeper.prepare(problem, SolverSettings())
-    values = np.full(sweeper.layout.stored_shape, 1e30, np.float32)
-    sweeper.project(values)
-    np.testing.assert_allclose(sweeper.layout.full(values), np.maximum(target, avoid),
+    marcher = Marcher.prepare(problem, SolverSettings())
+    values = np.full(marcher.layout.stored_shape, 1e30, np.float32)
+    marcher.project(values)
+    np.testing.assert_allclose(marcher.layout.full(values), np.maximum(target, avoid),
                                atol=1e-6)
 
 

@@ -11,7 +11,7 @@ from solvers.hj import SolverSettings, game_1v1, solve_1v1, solve_1v2, solve_2v1
 from solvers.hj import start as start_module
 from solvers.hj.grid import Grid
 from solvers.hj.layout import layout_of
-from solvers.hj.reach_avoid import Sweeper, map_problem
+from solvers.hj.reach_avoid import Marcher, map_problem
 from solvers.hj.start import StartBound, clip_where, largest_where, node_sets, reachable_nodes
 
 HIGH = SolverSettings.with_accuracy("high")
@@ -76,15 +76,15 @@ def test_sets_and_level_of_the_1v1_game():
     target (the pocket's are out), E those whose attacker is in it."""
     game = game_1v1((1.0, 1.5), 0.1)
     grid = Grid.for_players(POCKET.domain, 2, 21)
-    sweeper = Sweeper.prepare(map_problem(game, POCKET, grid), SolverSettings())
-    bound = StartBound.of(sweeper, np.empty(sweeper.layout.stored_shape, dtype=np.float32))
+    marcher = Marcher.prepare(map_problem(game, POCKET, grid), SolverSettings())
+    bound = StartBound.of(marcher, np.empty(marcher.layout.stored_shape, dtype=np.float32))
     assert bound is not None and bound.level == np.float32(0.1)
-    sets = node_sets(sweeper.problem, sweeper.layout)
-    attacker = sweeper.problem.planar
+    sets = node_sets(marcher.problem, marcher.layout)
+    attacker = marcher.problem.planar
     reach = reachable_nodes(attacker["free"]["A"], attacker["target"]["A"]).reshape(-1)
-    np.testing.assert_array_equal(sets.row_inside, reach[sweeper.layout.row_nodes[:, 0]])
+    np.testing.assert_array_equal(sets.row_inside, reach[marcher.layout.row_nodes[:, 0]])
     assert sets.element_inside.all() and not sets.element_arrived.any()
-    other = Sweeper.prepare(sweeper.problem, SolverSettings(scheme="lax_friedrichs"))
+    other = Marcher.prepare(marcher.problem, SolverSettings(scheme="lax_friedrichs"))
     assert StartBound.of(other, np.empty(other.layout.stored_shape, dtype=np.float32)) is None
 
 
@@ -113,9 +113,9 @@ def _assert_same_fixed_point(game: str, game_map: GameMap):
     game_decl = {"1v1": game_1v1}.get(game)
     if game_decl is not None:
         grid = cold.grid
-        sweeper = Sweeper.prepare(map_problem(game_decl((1.0, 1.5), 0.1), game_map, grid),
+        marcher = Marcher.prepare(map_problem(game_decl((1.0, 1.5), 0.1), game_map, grid),
                                   SolverSettings(exchange_symmetry=False))
-        sets = node_sets(sweeper.problem, sweeper.layout)
+        sets = node_sets(marcher.problem, marcher.layout)
         inside = sets.row_inside[:, None] & sets.element_inside[None, :]
         assert a.reshape(inside.shape)[inside].max() <= 0.1 + 1e-6
 

@@ -4,6 +4,9 @@ reachavoid_env, and docs/design.md names every module of the tree."""
 from __future__ import annotations
 
 import ast
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -51,3 +54,91 @@ def test_design_names_every_module_and_nothing_else():
     stale = sorted(path for path in named if "/" in path and path not in tree
                    and path.split("/")[0] in LAYERS)
     assert missing == [] and stale == []
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+PROJECT = {module_name(path): path for package in LAYERS for path in modules(package)}
+"""Every module of the project by dotted name (a package by its ``__init__``)."""
+
+
+def imported_modules(path: Path) -> set[str]:
+    """Project modules ``path`` imports when it runs (any nesting and branch, but not the
+    ``if TYPE_CHECKING:`` blocks, which never run): ``from package import name`` counts as
+    importing ``package.name`` when that is a module, else the package."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    typing_only = {id(node) for block in ast.walk(tree) if isinstance(block, ast.If)
+                   and isinstance(block.test, ast.Name) and block.test.id == "TYPE_CHECKING"
+                   for statement in block.body for node in ast.walk(statement)}
+    names = set()
+    for node in ast.walk(tree):
+        if id(node) in typing_only:
+            continue
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.update(f"{node.module}.{alias.name}" if f"{node.module}.{alias.name}"
+                         in PROJECT else node.module for alias in node.names)
+    return {name for name in names if name in PROJECT}
+
+
+def import_circles() -> list[list[str]]:
+    """The strongly connected groups of two or more modules of the import graph (Tarjan)."""
+    graph = {name: imported_modules(path) - {name} for name, path in PROJECT.items()}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    circles = []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        for child in graph[node]:
+            if child not in index:
+                visit(child)
+                low[node] = min(low[node], low[child])
+            elif child in stack:
+                low[node] = min(low[node], index[child])
+        if low[node] == index[node]:
+            group = []
+            while not group or group[-1] != node:
+                group.append(stack.pop())
+            if len(group) > 1:
+                circles.append(sorted(group))
+
+    for name in sorted(graph):
+        if name not in index:
+            visit(name)
+    return circles
+
+
+def test_no_import_circle():
+    assert import_circles() == []
+
+
+def test_the_circle_check_sees_imports():
+    assert "reachavoid_env.game_map" in imported_modules(ROOT / "reachavoid_env" / "scenario.py")
+    assert "reachavoid_env.scenario" in imported_modules(ROOT / "reachavoid_env" / "world.py")
+    assert "reachavoid_env.game_map" not in imported_modules(
+        ROOT / "reachavoid_env" / "rules.py")  # for type checking only
+
+
+def test_the_solver_stands_on_geometry_alone():
+    """Importing the HJ solver loads neither the simulator nor its libraries."""
+    code = ("import solvers.hj, sys; print(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('pettingzoo', 'gymnasium', 'pymunk', 'pygame')))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert done.stdout.strip() == "[]"
+
+
+def test_the_env_registers_when_pettingzoo_is_imported_later():
+    code = ("import sys, reachavoid_env; assert 'pettingzoo' not in sys.modules; "
+            "import pettingzoo; env = pettingzoo.make('parallel', reachavoid_env.ENV_ID, "
+            "scenario='paper_2v1'); print(type(env).__name__, env.possible_agents)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert done.stdout.strip() == "ReachAvoidEnv ['attacker_0', 'attacker_1', 'defender_0']"

@@ -132,8 +132,10 @@ def test_quadratic_entry_time_catches_a_fast_pass_by():
 def test_pymunk_shapes_cover_concave_polygon():
     import pymunk
 
+    from reachavoid_env.world import static_shapes
+
     space = pymunk.Space()
-    parts = CONCAVE.pymunk_shapes(space.static_body)
+    parts = static_shapes(CONCAVE, space.static_body)
     space.add(*parts)
     assert len(parts) >= 2
     inside = space.point_query_nearest((0.0, -0.3), 0.0, pymunk.ShapeFilter())

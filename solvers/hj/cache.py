@@ -80,7 +80,7 @@ def cache_path(game: str, shape: tuple[int, ...], parts: dict[str, Any]) -> Path
     return cache_dir() / f"{game}-{shape[0]}-{cache_key(parts)}.vf"
 
 
-def sweep_stale_temporaries(folder: Path) -> list[Path]:
+def remove_stale_temporaries(folder: Path) -> list[Path]:
     """Remove the abandoned temporaries in ``folder`` (module docstring); returns them."""
     removed = []
     try:
@@ -161,7 +161,7 @@ def cached(game: str, shape: tuple[int, ...], parts: dict[str, Any], expected: M
     if not writable:
         _warn(f"cache {folder} ($REACHAVOID_CACHE_DIR) is not writable; this solve is not kept")
         return solve()
-    sweep_stale_temporaries(folder)
+    remove_stale_temporaries(folder)
     vf = solve()
     vf.save(path)
     return load_value_function(path, game_map=game_map)

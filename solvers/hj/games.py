@@ -55,7 +55,7 @@ from reachavoid_env import GameMap
 from solvers.hj.game import Game, Player, attacker, defender, distance, maximum, minimum, table
 from solvers.hj.grid import Grid
 from solvers.hj.reach_avoid import check_memory
-from solvers.hj.settings import SolverSettings
+from solvers.hj.settings import PAPER_GRIDS, SolverSettings
 from solvers.hj.solve import solve_declared
 from solvers.hj.value import ValueFunction
 
@@ -136,7 +136,8 @@ def check_tubes_memory(game_map: GameMap, speeds: tuple[float, float], capture_r
 
 
 def solve_1v1(game_map: GameMap, speeds: tuple[float, float] = (1.0, 1.5),
-              capture_radius: float = 0.1, grid_points: int | Sequence[int] = 45,
+              capture_radius: float = 0.1,
+              grid_points: int | Sequence[int] = PAPER_GRIDS.grid1,
               settings: SolverSettings | None = None, cache: bool = True,
               progress: bool = True) -> ValueFunction:
     """Solve the 1 vs 1 game on ``game_map``; ``speeds = (attacker, defender)``.
@@ -150,7 +151,8 @@ def solve_1v1(game_map: GameMap, speeds: tuple[float, float] = (1.0, 1.5),
     return solve_declared(game, game_map, grid, settings, cache=cache, progress=progress)
 
 
-def solve_2v1(game_map: GameMap, vf11: ValueFunction, grid_points: int | Sequence[int] = 30,
+def solve_2v1(game_map: GameMap, vf11: ValueFunction,
+              grid_points: int | Sequence[int] = PAPER_GRIDS.grid2,
               settings: SolverSettings | None = None, cache: bool = True,
               progress: bool = True) -> ValueFunction:
     """Solve the 2 vs 1 game on ``game_map`` with the avoid set built from ``vf11``.
@@ -165,7 +167,8 @@ def solve_2v1(game_map: GameMap, vf11: ValueFunction, grid_points: int | Sequenc
                           lower={"value_1v1": vf11})
 
 
-def solve_1v2(game_map: GameMap, vf11: ValueFunction, grid_points: int | Sequence[int] = 30,
+def solve_1v2(game_map: GameMap, vf11: ValueFunction,
+              grid_points: int | Sequence[int] = PAPER_GRIDS.grid2,
               settings: SolverSettings | None = None, cache: bool = True,
               progress: bool = True) -> ValueFunction:
     """Solve the 1 vs 2 game on ``game_map`` with target and avoid sets built from ``vf11``.

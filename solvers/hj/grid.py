@@ -12,8 +12,6 @@ from functools import cached_property
 
 import numpy as np
 
-from solvers.hj import kernels
-
 _WHOLE = np.zeros(1, dtype=np.int64)
 """``stored_of`` of an array held whole, as one row."""
 
@@ -104,6 +102,8 @@ class Grid:
         Points outside the grid are clamped onto its boundary. ``values`` has the grid's
         shape, or with ``stored_of`` is stored as rows (``layout.Layout``).
         """
+        from solvers.hj import kernels  # numba loads when a tube is first read
+
         rows, stored_of = self._values(values, stored_of)
         return kernels.interpolate(rows, stored_of, *self.kernel_arrays, self._points(points))
 
@@ -114,6 +114,8 @@ class Grid:
         (one-sided on the grid's edges), interpolated multilinearly. Units: value per map unit.
         With ``axes`` (int64 axis numbers) only those components, ``(K, len(axes))``.
         """
+        from solvers.hj import kernels
+
         rows, stored_of = self._values(values, stored_of)
         return kernels.interpolate_gradient(rows, stored_of, *self.kernel_arrays,
                                             self._points(points), self._axes(axes))
@@ -125,6 +127,8 @@ class Grid:
         """``interpolate`` and ``interpolate_gradient`` at once, in one pass over each
         point's cell: ``((K,), (K, ndim))`` (or ``(K, len(axes))``), equal to the two
         calls' results."""
+        from solvers.hj import kernels
+
         rows, stored_of = self._values(values, stored_of)
         return kernels.interpolate_with_gradient(rows, stored_of, *self.kernel_arrays,
                                                  self._points(points), self._axes(axes))

@@ -1,6 +1,6 @@
 """Numba kernels of the reach-avoid solver (the game-independent parts) and interpolation.
 
-Every kernel takes plain arrays; ``kernels_reference`` holds a slow numpy twin of each.
+Every kernel takes plain arrays; ``tests/kernels_reference.py`` holds a slow numpy twin of each.
 
 Row layout (``layout``): a game's value is held as a 2-D float32 array ``(rows, m)``. The
 last player's plane is a row: its two axes flattened into ``m = nx * ny`` contiguous
@@ -26,6 +26,8 @@ node itself, ``width`` nodes deep). First order, per axis with raw one-sided dif
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -506,3 +508,30 @@ def interpolate_with_gradient(values: np.ndarray, stored_of: np.ndarray, shape: 
     ``(values (K,), gradients (K, len(axes)))``, equal to the two calls'."""
     kernel = _gradient_parallel if len(points) >= _PARALLEL_FROM else _gradient_serial
     return kernel(values, stored_of, shape, lo, spacing, points, axes, True)
+
+
+# ---------------------------------------------------------------------------------------
+# the records the generated iteration takes (``iteration.py``)
+# ---------------------------------------------------------------------------------------
+
+class RowLayout(NamedTuple):
+    """The row layout (``layout.Layout``) as the iteration reads it: ``row_nodes``
+    ``(stored rows, P)``, ``row_shape`` ``(P, 2)``, ``row_stride`` ``(P,)`` and
+    ``stored_of`` ``(rows,)``, all int64; ``ny`` (int64): nodes along the last axis."""
+
+    row_nodes: np.ndarray
+    row_shape: np.ndarray
+    row_stride: np.ndarray
+    stored_of: np.ndarray
+    ny: np.int64
+
+
+class Motion(NamedTuple):
+    """The players' motion as the schemes read it, one entry per player in the game's
+    order: ``inv_h`` (float32, ``2 P + 2``): ``1 / spacing`` of each axis (per map unit);
+    ``speeds`` (float32, map units per second); ``maximise`` (bool): a defender, which
+    maximises the value."""
+
+    inv_h: np.ndarray
+    speeds: np.ndarray
+    maximise: np.ndarray

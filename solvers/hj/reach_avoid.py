@@ -8,7 +8,7 @@ every fixed point is proved (``start``, ``settings.clip_start``). Every fixed po
 the largest fixed point and ``max(l, g)`` the iterates are squeezed onto the largest fixed
 point, the one the cold start reaches. The loop stops when the largest change of ``V``
 over one unit of game time, on the nodes next to the zero level set, falls below
-``settings.tolerance`` (or after ``settings.max_iterations`` sweeps).
+``settings.tolerance`` (or after ``settings.max_iterations`` iterations).
 """
 
 from __future__ import annotations
@@ -18,18 +18,17 @@ import os
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
-import numba
 import numpy as np
 from tqdm.auto import tqdm
 
-from solvers.hj import geometry, kernels
+from solvers.hj import geometry
 from solvers.hj.codegen import TableSpec, compile_kernel
 from solvers.hj.game import PLANAR_TABLES, Coordinate, Expr, Game, Op, Table, evaluate
 from solvers.hj.grid import Grid
 from solvers.hj.layout import Layout, layout_of, stored_groups
 from solvers.hj.settings import SolverSettings
-from solvers.hj.start import StartBound
 from solvers.hj.value import ValueFunction
 
 
@@ -111,7 +110,7 @@ class SolveResult:
     """How a solve went. ``residual``: the last largest change of the value per unit game
     time near the zero level set (map units per second); ``game_time = iterations * dt``;
     ``start``: how the values started (``"cold"`` or ``"warm"``, ``", clipped"`` when
-    ``start.StartBound`` clipped them); ``iterations`` counts every sweep."""
+    ``start.StartBound`` clipped them); ``iterations`` counts every iteration."""
 
     iterations: int
     residual: float
@@ -206,28 +205,34 @@ def _renamed(expr: Expr, player: str) -> Expr:
     return expr
 
 
-Order = tuple[np.ndarray, np.ndarray, bool]
+class Order(NamedTuple):
+    """One iteration's order: the stored ``rows`` (int64) in plane order, plane ``p`` being
+    ``rows[planes[p]:planes[p + 1]]``, walked backwards when ``reverse``."""
+
+    rows: np.ndarray
+    planes: np.ndarray
+    reverse: bool
 
 
-def sweep_orders(layout: Layout, settings: SolverSettings) -> list[Order]:
-    """``(rows, planes, reverse)`` of successive sweeps (the generated ``sweep``).
+def iteration_orders(layout: Layout, settings: SolverSettings) -> list[Order]:
+    """The ``Order`` of successive iterations (``iteration.iterate``).
 
     Jacobi: all stored rows in one plane. Red-black: the rows of each colour
-    (``Layout.colours``) form a plane, forwards and then backwards on the next sweep.
+    (``Layout.colours``) form a plane, forwards and then backwards on the next iteration.
     """
     stored = np.arange(layout.stored_rows, dtype=np.int64)
     if settings.iteration == "jacobi":
-        return [(stored, np.array([0, stored.size], dtype=np.int64), False)]
+        return [Order(stored, np.array([0, stored.size], dtype=np.int64), False)]
     colours = layout.colours(settings.scheme.width)
     rows = np.argsort(colours, kind="stable").astype(np.int64)
     counts = np.bincount(colours, minlength=settings.scheme.width + 1)
     planes = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    return [(rows, planes, False), (rows, planes, True)]
+    return [Order(rows, planes, False), Order(rows, planes, True)]
 
 
 @dataclass(frozen=True, eq=False)
-class Sweeper:
-    """A problem ready for the generated kernels: its layout, tables and motion arrays."""
+class Marcher:
+    """A problem ready for the generated kernels: its layout, tables and kernel module."""
 
     problem: Problem
     settings: SolverSettings
@@ -236,7 +241,7 @@ class Sweeper:
     module: object
 
     @classmethod
-    def prepare(cls, problem: Problem, settings: SolverSettings) -> Sweeper:
+    def prepare(cls, problem: Problem, settings: SolverSettings) -> Marcher:
         kernel = compile_kernel(problem.game, settings.scheme)
         layout = layout_of(problem.grid, stored_groups(problem.game, settings.exchange_symmetry))
         return cls(problem, settings, layout, _fill_tables(problem, kernel.tables), kernel.module)
@@ -246,56 +251,70 @@ class Sweeper:
         rows = np.arange(self.layout.stored_rows, dtype=np.int64)
         self.module.project(values, rows, self.layout.row_nodes, self.tables)
 
-    def sweep(self, values: np.ndarray, out: np.ndarray, order: Order, dt: float,
-              n_chunks: int | None = None) -> float:
-        """One update of ``order``'s rows (``sweep_orders``) from ``values`` into ``out``
-        (the same array: in place); returns the largest change near the zero level set."""
+    def iterate(self, values: np.ndarray, out: np.ndarray, order: Order, dt: float,
+                n_chunks: int | None = None) -> float:
+        """One iteration over ``order``'s rows (``iteration_orders``) from ``values`` into
+        ``out`` (the same array: in place); returns the largest change near the zero level
+        set."""
+        import numba
+
+        from solvers.hj import kernels
+
         game, grid = self.problem.game, self.problem.grid
         layout = self.layout
-        layout_arrays = (layout.row_nodes, layout.row_shape, layout.row_stride,
-                         layout.stored_of, np.int64(grid.shape[-1]))
-        motion = ((1.0 / np.asarray(grid.spacing)).astype(np.float32),
-                  np.array([p.speed for p in game.players], dtype=np.float32),
-                  np.array([p.role == "defender" for p in game.players]))
-        rows, planes, reverse = order
+        row_layout = kernels.RowLayout(layout.row_nodes, layout.row_shape, layout.row_stride,
+                                       layout.stored_of, np.int64(grid.shape[-1]))
+        motion = kernels.Motion((1.0 / np.asarray(grid.spacing)).astype(np.float32),
+                                np.array([p.speed for p in game.players], dtype=np.float32),
+                                np.array([p.role == "defender" for p in game.players]))
         chunks = n_chunks or 4 * numba.get_num_threads()
-        return float(self.module.sweep(values, out, rows, planes, reverse, layout_arrays,
-                                       motion, np.float32(dt), self.tables, chunks))
+        return float(self.module.iterate(values, out, order.rows, order.planes, order.reverse,
+                                         row_layout, motion, np.float32(dt), self.tables,
+                                         chunks))
+
+
+class Solved(NamedTuple):
+    """A marched problem: the stored value rows (float32, ``layout.stored_shape``), their
+    layout and how the solve went."""
+
+    values: np.ndarray
+    layout: Layout
+    result: SolveResult
 
 
 def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
-          label: str = "reach-avoid", warm_start: ValueFunction | None = None,
-          ) -> tuple[np.ndarray, Layout, SolveResult]:
-    """March ``problem`` to convergence; returns the stored value rows (float32,
-    ``layout.stored_shape``), their layout and how it went.
+          label: str = "reach-avoid", warm_start: ValueFunction | None = None) -> Solved:
+    """March ``problem`` to convergence (``Solved``).
 
     ``warm_start``: a converged solve of the same game on a coarser grid; the start is its
     interpolation plus ``settings.warm_margin`` (module docstring). With
     ``settings.clip_start`` the start is clipped by ``start.StartBound`` and checked after
-    the first sweep (if that sweep raised a clipped node, the solve starts again
+    the first iteration (if that iteration raised a clipped node, the solve starts again
     unclipped). The caller checks the memory first (``check_memory``, as
     ``solve.solve_declared`` does). Nothing is written anywhere; an interrupt (Ctrl-C)
-    between sweeps propagates and frees the arrays.
+    between iterations propagates and frees the arrays.
     """
-    sweeper = Sweeper.prepare(problem, settings)
-    layout = sweeper.layout
+    marcher = Marcher.prepare(problem, settings)
+    layout = marcher.layout
     dt = time_step(problem.game, problem.grid, settings)
     current = np.empty(layout.stored_shape, dtype=np.float32)
-    bound = StartBound.of(sweeper, current) if settings.clip_start else None
+    from solvers.hj.start import StartBound  # numba: only when solving
+
+    bound = StartBound.of(marcher, current) if settings.clip_start else None
 
     def begin(clipped: bool) -> str:
         if warm_start is None:
             current.fill(np.float32(1e30))
         else:
             _interpolate_start(warm_start, layout, settings.warm_margin, current)
-        sweeper.project(current)
+        marcher.project(current)
         if clipped:
             bound.clip(current)
         return ("warm" if warm_start is not None else "cold") + (", clipped" if clipped else "")
 
     how = begin(bound is not None)
     spare = np.empty_like(current) if settings.iteration == "jacobi" else current
-    orders = sweep_orders(layout, settings)
+    orders = iteration_orders(layout, settings)
     first = residual = math.inf
     iterations = wasted = 0
     converged = False
@@ -303,7 +322,7 @@ def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
     bar_format = "{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}{postfix}"
     with tqdm(total=100, desc=label, disable=not progress, bar_format=bar_format) as bar:
         while iterations < settings.max_iterations:
-            change = sweeper.sweep(current, spare, orders[iterations % len(orders)], dt)
+            change = marcher.iterate(current, spare, orders[iterations % len(orders)], dt)
             current, spare = spare, current
             iterations += 1
             if iterations == 1 and bound is not None and not bound.holds(current):
@@ -323,13 +342,15 @@ def solve(problem: Problem, settings: SolverSettings, progress: bool = True,
     del spare
     result = SolveResult(iterations=iterations + wasted, residual=residual, converged=converged,
                          seconds=time.perf_counter() - start, dt=dt, start=how)
-    return current, layout, result
+    return Solved(current, layout, result)
 
 
 def _interpolate_start(coarse: ValueFunction, layout: Layout, margin: float,
                        out: np.ndarray) -> None:
     """``out`` = the coarse value at the fine nodes plus ``margin``, row by row: the coarse
     rows are first interpolated onto the fine plane, then combined across the row axes."""
+    from solvers.hj import kernels
+
     fine, grid = layout.grid, coarse.grid
     if fine.lo != grid.lo or fine.hi != grid.hi:
         raise ValueError("warm_start: the coarse grid must span the same box")

@@ -3,7 +3,7 @@
 A scheme names its two kernel pieces (``kernels``: the term of the player whose plane is a
 row, and the term of a player across rows), how many nodes deep its stencil reaches
 (``width``; the row layout's colouring and neighbour tables follow from it) and the
-largest monotone time step. The solve loop and the generated sweep (``codegen``) read
+largest monotone time step. The solve loop and the generated iteration (``codegen``) read
 only these fields, so a new scheme is one instance here and two pieces in ``kernels``.
 """
 

@@ -3,13 +3,28 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 from solvers.hj.schemes import GODUNOV, Scheme, scheme_named
 
 SOLVER_VERSION = "3"
 """Bumped whenever a change can alter solved values or files; part of every cache key and
 checked when a value file is loaded (files of another version are solved again)."""
+
+
+
+class Grids(NamedTuple):
+    """Nodes per axis of a scenario's tubes: ``grid1`` for the 1 vs 1 game (``grid1^4``
+    nodes), ``grid2`` for the 2 vs 1 and 1 vs 2 games (``grid2^6``)."""
+
+    grid1: int
+    grid2: int
+
+
+PAPER_GRIDS = Grids(45, 30)
+"""The paper's grids: the defaults of every solve, tube and command."""
+TRAINING_GRIDS = Grids(31, 15)
+"""Coarser grids for training attackers against the HJ defenders (many envs, fast starts)."""
 
 Iteration = Literal["red_black", "jacobi"]
 Accuracy = Literal["low", "medium", "high"]
@@ -27,12 +42,12 @@ class SolverSettings:
       is second order). A name or a ``Scheme``.
     - ``iteration``: ``"red_black"`` (Gauss-Seidel) updates the value array in place, the
       rows of one colour at a time (``layout.Layout.colours``: one value array in memory);
-      ``"jacobi"`` computes every sweep from the previous one (two arrays).
+      ``"jacobi"`` computes every iteration from the previous one (two arrays).
     - ``cfl``: fraction of the scheme's largest stable time step, in (0, 1].
     - ``tolerance``: convergence when the largest change of the value over one unit of game
       time, on the grid nodes next to the zero level set, falls below this (value units per
       second; values are map units).
-    - ``max_iterations``: give up (``converged=False``) after this many sweeps.
+    - ``max_iterations``: give up (``converged=False``) after this many iterations.
     - ``exchange_symmetry``: store and solve one ordering of the game's exchangeable players
       (``Game.symmetries``) and read the others by index mapping; exact, halves the memory
       and work of 2 vs 1.

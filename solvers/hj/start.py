@@ -4,7 +4,7 @@ The solve marches the monotone update ``T(V) = max(min(V + dt H(V), l), g)`` fro
 above the largest fixed point ``V*`` (``reach_avoid``). In the defender-win region the
 cold start ``max(l, g)`` (up to the map's size) has to settle down to about the capture
 radius; this module bounds ``V*`` from above by a constant ``C`` on a set ``S`` of nodes
-and starts from ``min(start, C)`` there. It saves the sweeps that settling takes where it
+and starts from ``min(start, C)`` there. It saves the iterations that settling takes where it
 decides when the solve stops (the stopping rule looks at the nodes next to the zero level
 set only; BENCHMARKS.md, "Clipped start").
 
@@ -41,7 +41,7 @@ always), and below the cold start; the update is monotone under the CFL bound, s
 iterates from ``V0`` are squeezed between ``V*`` and the cold iterates and reach the
 cold solve's fixed point. ``V0`` is also a supersolution (``T(V0) <= V0``: at a node of
 ``S`` holding ``C`` the defenders' terms vanish as above), so the iterates only fall.
-The solve checks that after its first sweep (``StartBound.holds``: no node of ``S``
+The solve checks that after its first iteration (``StartBound.holds``: no node of ``S``
 above ``C``; elsewhere ``T(V) <= max(l, g)`` always) and starts again unclipped if not.
 In float32 a difference too small to move ``V + dt H`` does not move it, so the two
 solves' values agree to the tolerance at which they stop, not bit for bit.
@@ -63,7 +63,7 @@ from solvers.hj.schemes import GODUNOV
 
 if TYPE_CHECKING:
     from solvers.hj.layout import Layout
-    from solvers.hj.reach_avoid import Problem, Sweeper
+    from solvers.hj.reach_avoid import Marcher, Problem
 
 _HUGE = np.float32(1e30)
 
@@ -172,23 +172,23 @@ class StartBound:
     level: np.float32
 
     @classmethod
-    def of(cls, sweeper: Sweeper, scratch: np.ndarray) -> StartBound | None:
-        """The bound of ``sweeper``'s problem, or ``None`` where the module's claim does not
+    def of(cls, marcher: Marcher, scratch: np.ndarray) -> StartBound | None:
+        """The bound of ``marcher``'s problem, or ``None`` where the module's claim does not
         apply (another scheme than Godunov, no attacker node in the target). ``scratch``
         (the stored value shape, float32) is overwritten: two projections compute ``g``
         and ``max(l, g)`` in it."""
-        if sweeper.settings.scheme != GODUNOV:
+        if marcher.settings.scheme != GODUNOV:
             return None
-        sets = node_sets(sweeper.problem, sweeper.layout)
+        sets = node_sets(marcher.problem, marcher.layout)
         if sets is None:
             return None
         everywhere = np.ones_like(sets.row_inside)
         scratch.fill(-_HUGE)
-        sweeper.project(scratch)  # max(min(-inf, l), g) = g
+        marcher.project(scratch)  # max(min(-inf, l), g) = g
         avoid = largest_where(scratch, sets.row_inside, sets.element_inside, everywhere,
                               everywhere)
         scratch.fill(_HUGE)
-        sweeper.project(scratch)  # max(l, g)
+        marcher.project(scratch)  # max(l, g)
         arrived = largest_where(scratch, sets.row_inside, sets.element_inside,
                                 sets.row_arrived, sets.element_arrived)
         return cls(sets, np.float32(max(avoid, arrived)))
@@ -199,7 +199,7 @@ class StartBound:
         clip_where(values, self.sets.row_inside, self.sets.element_inside, self.level)
 
     def holds(self, values: np.ndarray) -> bool:
-        """Whether no node of ``S`` holds more than ``level`` (after the first sweep: the
+        """Whether no node of ``S`` holds more than ``level`` (after the first iteration: the
         start was a supersolution)."""
         everywhere = np.ones_like(self.sets.row_inside)
         top = largest_where(values, self.sets.row_inside, self.sets.element_inside,

@@ -1,4 +1,6 @@
-"""Slow pure-numpy twins of ``kernels``, written from the formulas, for tests.
+"""Slow pure-numpy twins of ``solvers.hj.kernels`` and of the generated iteration
+(``solvers/hj/iteration.py``), written from the formulas, for the tests; ``paper_sets``
+writes out the paper's sets by hand to check the games' declarations (``games.py``).
 
 They work on whole arrays of a game's full shape (each player's ``x``, ``y`` axes in
 order) in float64 and materialise everything; use them on small grids only.
@@ -94,7 +96,7 @@ def paper_sets(target: np.ndarray, attacker_free: np.ndarray, defender_free: np.
     return target_set, avoid
 
 
-def sweep(values: np.ndarray, spacing: tuple[float, ...], players: list[tuple[float, bool]],
+def iterate(values: np.ndarray, spacing: tuple[float, ...], players: list[tuple[float, bool]],
           dt: float, scheme: str, target: np.ndarray,
           avoid: np.ndarray) -> tuple[np.ndarray, float]:
     """One update ``max(min(V + dt H, l), g)`` and the largest change near the zero level set."""

@@ -1,17 +1,48 @@
-"""Pure-numpy twins of ``lookups``, for tests: the same tables and headings from
-``ValueFunction.value`` and ``defender_control`` called per batch of points and the
-certificate's own functions (the defenders' step-by-step computation before the batched
-kernels)."""
+"""Pure-numpy twins of ``policies.lookups``, for the tests: the same tables and headings
+from ``ValueFunction.value`` and ``defender_control`` called per batch of points and the
+certificate's rule written step by step (``still_winning``, ``restrict``): the defenders'
+computation before the batched kernels."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from policies.certificate import Game, Tubes, restrict, still_winning
-from policies.defenders import _headings
+from policies.certificate import Game, Margins, Tubes
+from policies.defenders import control_headings
 from policies.lookups import DecisionTables
 from reachavoid_env import GameState
 from solvers.hj import ValueFunction
+
+
+def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
+                  tubes: Tubes, values21: np.ndarray | None = None) -> list[Game]:
+    """The certified games of the last decision that are still on: attackers that left
+    (captured) are dropped from their game, and a game stays while its value is > 0
+    (``values21`` as in ``Tubes.slack``)."""
+    if not certified:
+        return []
+    active = state.active_attackers
+    games = []
+    for game in certified:
+        left = tuple(i for i in game.attackers if active[i])
+        if left:
+            games.append(Game(game.defenders, left))
+    keep = tubes.slack(games, state, values11, Margins(0.0, 0.0, 0.0), values21) > 0.0
+    return [game for game, on in zip(games, keep, strict=True) if on]
+
+
+def restrict(beats: np.ndarray, active: np.ndarray, fixed: list[Game]
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The program without the ``fixed`` games' players: their attackers inactive, their
+    defenders beaten by everyone (so they take nothing); returns ``beats``, ``active`` and
+    ``busy`` (the fixed defenders, which no team may use)."""
+    busy = np.zeros(beats.shape[1], dtype=bool)
+    if not fixed:
+        return beats, active, busy
+    active = active.copy()
+    active[[i for game in fixed for i in game.attackers]] = False
+    busy[[j for game in fixed for j in game.defenders]] = True
+    return beats | busy, active, busy
 
 
 def decision_tables(state: GameState, certified: list[Game], tubes: Tubes
@@ -53,7 +84,7 @@ def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.
                       values11: np.ndarray, values21: np.ndarray, vf11: ValueFunction,
                       vf21: ValueFunction | None, actions: np.ndarray) -> np.ndarray:
     """``lookups.decision_controls`` from the tubes' ``defender_control`` and ``value``."""
-    _defender_headings(attackers, defenders, singles, doubles, vf11, vf21, actions)
+    _defendercontrol_headings(attackers, defenders, singles, doubles, vf11, vf21, actions)
     slack = np.full(len(games), np.nan)
     for g, (j, k, i, other) in enumerate(games):
         if k >= 0:
@@ -70,13 +101,13 @@ def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.
     return slack
 
 
-def _defender_headings(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
+def _defendercontrol_headings(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
                        doubles: np.ndarray, vf11: ValueFunction, vf21: ValueFunction | None,
                        actions: np.ndarray) -> None:
     if len(singles):
         j, i = singles.T
         controls = vf11.defender_control(np.concatenate([attackers[i], defenders[j]], axis=1))
-        actions[j] = _headings(controls, attackers[i] - defenders[j])
+        actions[j] = control_headings(controls, attackers[i] - defenders[j])
     if len(doubles):
         j, first, second = doubles.T
         states = np.concatenate([attackers[first], attackers[second], defenders[j]], axis=1)
@@ -84,4 +115,4 @@ def _defender_headings(attackers: np.ndarray, defenders: np.ndarray, singles: np
         gaps = np.stack([attackers[first] - defenders[j], attackers[second] - defenders[j]])
         nearer = gaps[np.argmin(np.hypot(gaps[..., 0], gaps[..., 1]), axis=0),
                       np.arange(len(j))]
-        actions[j] = _headings(controls, nearer)
+        actions[j] = control_headings(controls, nearer)

@@ -1,0 +1,185 @@
+"""Benchmark: defender methods on the same seeded random starts (BENCHMARKS.md "Defenders").
+
+Cells: random starts of the paper map with M attackers and N defenders
+(``builtin_scenario("paper_2v1").with_players(M, N)``: 2v1, 6v2, 8v4) and of the
+equal-speed scenario (``paper_6v4_equal``, 6v4), against shortest-path, ``hj`` and random
+attackers. Every method plays the same seeds in every cell (``reachavoid.sweep.play_seed``
+on a process pool). Each finished episode is appended at once to ``--results`` (JSON
+lines), so a run can be stopped and resumed or extended (more seeds, methods or cells):
+episodes already stored are not played again.
+
+Reported per cell and method: the capture rate (mean over episodes of the fraction of
+attackers captured, 95% t interval over episodes), the all-captured rate (95% Wilson
+interval), the mean arrivals, and the paired difference of the capture rate against
+``hj`` (per-seed differences on the seeds both played, 95% t interval)::
+
+    python benchmarks/defenders.py --grid1 45 --grid2 30 --seeds 200 --results d.jsonl
+    python benchmarks/defenders.py --results d.jsonl --report      # tables only
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import multiprocessing
+import os
+import time
+from collections import defaultdict
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+
+import reachavoid_env
+from reachavoid.evaluation import Z95, wilson_interval
+from reachavoid.sweep import play_seed, sweep_of
+
+CONFIGS = {"2v1": ("paper_2v1", 2, 1), "6v2": ("paper_2v1", 6, 2),
+           "8v4": ("paper_2v1", 8, 4), "6v4eq": ("paper_6v4_equal", 6, 4)}
+"""Cell name: (built-in scenario, attackers, defenders)."""
+ATTACKERS = ("shortest-path", "hj", "random")
+METHODS = ("hj", "hj-pairs", "paper", "intercept", "greedy", "matching")
+REFERENCE = "hj"
+
+
+class Task(NamedTuple):
+    """One episode to play."""
+
+    config: str
+    attackers: str
+    method: str
+    seed: int
+    grid1: int
+    grid2: int
+
+
+def play(task: Task) -> dict[str, Any]:
+    """Play ``task`` (in a worker) and return its row."""
+    name, m, n = CONFIGS[task.config]
+    scenario = reachavoid_env.builtin_scenario(name).with_players(m, n)
+    method, *settings = task.method.split("+")
+    options = {key: _option(value) for key, value in (x.split("=", 1) for x in settings)}
+    sweep = sweep_of(scenario, method, task.attackers, [task.seed], grid1=task.grid1,
+                     grid2=task.grid2, progress=False, **options)
+    result = play_seed(sweep, task.seed)
+    return task._asdict() | {"attackers_total": m, "captured": result.captured_count,
+                             "arrived": result.arrived_count, "steps": result.steps,
+                             "seconds": result.seconds,
+                             "guaranteed_initial": result.guarantees[0]
+                             if result.guarantees else None}
+
+
+def _option(text: str) -> Any:
+    """A variant's option value: JSON (numbers, ``true``/``false``) where it parses."""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        return text
+
+
+def stored(path: Path) -> list[dict[str, Any]]:
+    """The rows already in ``path`` (none if it does not exist)."""
+    if not path.exists():
+        return []
+    with path.open() as handle:
+        return [json.loads(line) for line in handle if line.strip()]
+
+
+def _key(row: dict[str, Any]) -> tuple:
+    return tuple(row[field] for field in Task._fields)
+
+
+def run(tasks: list[Task], path: Path, workers: int) -> Iterator[dict[str, Any]]:
+    """Play ``tasks`` on ``workers`` processes, appending each row to ``path`` (one JSON
+    line, flushed) as it finishes."""
+    with path.open("a") as handle, \
+            multiprocessing.get_context("spawn").Pool(workers) as pool:
+        for row in pool.imap_unordered(play, tasks):
+            handle.write(json.dumps(row) + "\n")
+            handle.flush()
+            os.fsync(handle.fileno())
+            yield row
+
+
+def mean_interval(samples: np.ndarray) -> tuple[float, float, float]:
+    """Mean and 95% normal interval half-width of ``samples``: ``(mean, low, high)``."""
+    mean = float(np.mean(samples))
+    half = Z95 * float(np.std(samples, ddof=1)) / math.sqrt(len(samples)) \
+        if len(samples) > 1 else 0.0
+    return mean, mean - half, mean + half
+
+
+def report(rows: list[dict[str, Any]], grid: tuple[int, int] | None = None) -> str:
+    """The tables of ``rows`` (those on tubes ``grid`` if given), one per cell."""
+    cells: dict[tuple, dict[str, dict[int, dict]]] = defaultdict(lambda: defaultdict(dict))
+    for row in rows:
+        if grid is None or (row["grid1"], row["grid2"]) == grid:
+            cell = (row["config"], row["attackers"], row["grid1"], row["grid2"])
+            cells[cell][row["method"]][row["seed"]] = row
+    lines = []
+    for (config, attackers, g1, g2), methods in sorted(cells.items()):
+        lines += [f"\n{config}, {attackers} attackers, tubes {g1}/{g2}", "",
+                  "| method | episodes | capture rate | all captured | arrivals | "
+                  f"minus {REFERENCE}, paired (seeds) |", "|---|---|---|---|---|---|"]
+        reference = methods.get(REFERENCE, {})
+        for method in [m for m in METHODS if m in methods] + sorted(set(methods) - set(METHODS)):
+            episodes = methods[method]
+            fractions = np.array([r["captured"] / r["attackers_total"]
+                                  for r in episodes.values()])
+            everyone = sum(r["captured"] == r["attackers_total"] for r in episodes.values())
+            rate, low, high = mean_interval(fractions)
+            all_low, all_high = wilson_interval(everyone, len(episodes))
+            arrivals = np.mean([r["arrived"] for r in episodes.values()])
+            paired = "-"
+            common = sorted(set(episodes) & set(reference))
+            if method != REFERENCE and len(common) > 1:
+                diffs = np.array([episodes[s]["captured"] - reference[s]["captured"]
+                                  for s in common]) / episodes[common[0]]["attackers_total"]
+                d, d_low, d_high = mean_interval(diffs)
+                paired = (f"{100 * d:+.1f} [{100 * d_low:+.1f}, {100 * d_high:+.1f}] "
+                          f"({len(common)})")
+            share = everyone / len(episodes)
+            lines.append(f"| {method} | {len(episodes)} | {100 * rate:.1f}% "
+                         f"[{100 * low:.1f}, {100 * high:.1f}] | {100 * share:.1f}% "
+                         f"[{100 * all_low:.1f}, {100 * all_high:.1f}] | {arrivals:.2f} | "
+                         f"{paired} |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--grid1", type=int, default=45)
+    parser.add_argument("--grid2", type=int, default=30)
+    parser.add_argument("--seeds", type=int, default=200, help="seeds 0..N-1 per cell")
+    parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--configs", default=",".join(CONFIGS))
+    parser.add_argument("--attackers", default=",".join(ATTACKERS))
+    parser.add_argument("--methods", default=",".join(METHODS))
+    parser.add_argument("--results", type=Path, default=Path("defenders.jsonl"),
+                        help="JSON lines file the episodes are appended to (resumable)")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--report", action="store_true", help="only print the tables")
+    args = parser.parse_args()
+    split = lambda text: [x.strip() for x in text.split(",") if x.strip()]  # noqa: E731
+    grid = (args.grid1, args.grid2)
+    if not args.report:
+        done = {_key(row) for row in stored(args.results)}
+        tasks = [Task(config, attackers, method, seed, *grid)
+                 for config in split(args.configs) for attackers in split(args.attackers)
+                 for seed in range(args.first_seed, args.first_seed + args.seeds)
+                 for method in split(args.methods)]
+        tasks = [task for task in tasks if tuple(task) not in done]
+        started = time.perf_counter()
+        print(f"{len(tasks)} episodes to play on {args.workers} workers", flush=True)
+        for count, _ in enumerate(run(tasks, args.results, args.workers), 1):
+            if count % 50 == 0:
+                print(f"{count} / {len(tasks)} in {time.perf_counter() - started:.0f} s",
+                      flush=True)
+        print(f"wall time {time.perf_counter() - started:.0f} s")
+    print(report(stored(args.results), grid))
+
+
+if __name__ == "__main__":
+    main()

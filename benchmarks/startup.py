@@ -1,0 +1,95 @@
+"""Start-up of the ``reachavoid`` command in two checkouts side by side: ``--help`` and a
+``play`` on cached tubes, each run in fresh processes, alternating between the checkouts
+(A, B, A, B, ... ``--rounds`` each); then one table of medians.
+
+    python benchmarks/startup.py /work/main . --rounds 5 -- --grid1 25 --grid2 15
+
+Every process is ``python -X importtime -m reachavoid.cli ...`` run in the checkout it
+times (``-m`` puts the working folder first on ``sys.path``), with ``PYTHONPATH`` set to it
+too, so only the library code differs. Per checkout the table gives the
+wall time of ``--help``; of ``play`` (arguments after ``--``; the tubes must be cached, and
+a first untimed round fills numba's caches) its wall time, the time spent importing
+modules (the top-level entries of ``-X importtime``, whenever they were imported: at start
+or on first use), the part of that spent in OR-Tools and pandas (which
+``ortools.sat.python.cp_model`` imports), and the episode itself (``seconds`` of
+``play --json``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import statistics
+import subprocess
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+_LINE = re.compile(r"import time:\s+(\d+) \|\s+(\d+) \|( +)(\S+)")
+
+
+def import_seconds(report: str) -> tuple[float, Counter[str]]:
+    """Total import time of an ``-X importtime`` report (seconds) and each top-level
+    package's own share (seconds, by the package of each imported module)."""
+    total, own = 0, Counter[str]()
+    for line in report.splitlines():
+        match = _LINE.match(line)
+        if match is None:
+            continue
+        own[match[4].split(".")[0]] += int(match[1])
+        if len(match[3]) == 1:
+            total += int(match[2])
+    return total / 1e6, Counter({name: us / 1e6 for name, us in own.items()})
+
+
+def run(checkout: Path, arguments: list[str]) -> tuple[float, str, str]:
+    """Wall time (s), stdout and stderr of one fresh ``reachavoid`` process."""
+    env = dict(os.environ, PYTHONPATH=str(checkout.resolve()), SDL_VIDEODRIVER="dummy",
+               SDL_AUDIODRIVER="dummy")
+    started = time.perf_counter()
+    done = subprocess.run([sys.executable, "-X", "importtime", "-m", "reachavoid.cli",
+                           *arguments], env=env, cwd=checkout, capture_output=True, text=True,
+                          check=True)
+    return time.perf_counter() - started, done.stdout, done.stderr
+
+
+def measure(checkout: Path, play: list[str]) -> dict[str, float]:
+    """One round for ``checkout``: ``--help``, then ``play``."""
+    help_wall, _, _ = run(checkout, ["--help"])
+    play_wall, out, err = run(checkout, ["play", "--json", *play])
+    imports, own = import_seconds(err)
+    return {"help": help_wall, "play": play_wall, "imports": imports,
+            "ortools": own["ortools"] + own["pandas"],
+            "episode": float(json.loads(out)["seconds"])}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("checkouts", nargs=2, type=Path, metavar="CHECKOUT")
+    parser.add_argument("--rounds", type=int, default=5)
+    argv = sys.argv[1:]
+    split = argv.index("--") if "--" in argv else len(argv)
+    args = parser.parse_args(argv[:split])
+    args.play = argv[split + 1:] or ["--grid1", "25", "--grid2", "15"]
+    rows: dict[Path, list[dict[str, float]]] = {c: [] for c in args.checkouts}
+    for checkout in args.checkouts:  # untimed: fills numba's caches of each checkout
+        measure(checkout, args.play)
+    for _ in range(args.rounds):
+        for checkout in args.checkouts:
+            rows[checkout].append(measure(checkout, args.play))
+    print(f"{args.rounds} rounds, medians in seconds; play {' '.join(args.play)}")
+    print(f"  {'checkout':<20} {'--help':>7} {'play':>7} {'imports':>8} {'OR-Tools':>9} "
+          f"{'imports w/o OR-Tools':>21} {'episode':>8}")
+    for checkout, runs in rows.items():
+        med = {key: statistics.median(r[key] for r in runs) for key in runs[0]}
+        rest = statistics.median(r["imports"] - r["ortools"] for r in runs)
+        print(f"  {str(checkout):<20} {med['help']:7.2f} {med['play']:7.2f} "
+              f"{med['imports']:8.2f} {med['ortools']:9.2f} {rest:21.2f} "
+              f"{med['episode']:8.2f}")
+
+
+if __name__ == "__main__":
+    main()

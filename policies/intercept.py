@@ -1,0 +1,240 @@
+"""Time-to-intercept defenders: race each attacker to a point of its shortest path.
+
+An attacker heading for the target takes the shortest path around the obstacles (the
+descent of the map's geodesic distance field, ``policies.geodesic``). ``trace_paths``
+samples that path every ``step`` map units from each attacker's position; the attacker
+reaches the ``k``-th point after ``k * step / attacker_speed`` seconds. A defender
+*intercepts* at the first point it can reach, within the capture radius, no later than
+the attacker (straight-line distance at the defender's speed): heading there and
+re-planning every step cuts the attacker off before the target. Where no point can be
+reached in time, the defender's best point is the one it misses by the least time,
+which lies near the target: it guards the attacker's way in.
+
+``plan_intercepts`` assigns defenders to attackers by threat: the attacker closest to
+the target (in time) first, to the free defender that intercepts it earliest; attackers
+no free defender can intercept are skipped; defenders left over join the most
+threatening attacker (a second chaser, or a guard on its way in). ``InterceptDefender``
+is that plan as a policy (registry name ``intercept``), the heuristic bar the reference
+defenders must clear; ``policies.defenders`` uses the same plan for the defenders that
+no certified game holds.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from policies.geodesic import DEFAULT_CELLS, DistanceField, distance_field
+from reachavoid_env import GameState, Overlay, Scenario
+from reachavoid_env.rules import unit_vectors
+
+PATH_STEP = 0.02
+"""Spacing of the sampled attacker paths (map units)."""
+
+MAX_POINTS = 256
+"""Most points sampled on one path (``PATH_STEP`` times this covers any path of the paper
+map, whose longest is about 3 map units)."""
+
+
+@njit(cache=True)
+def _trace(values, x0, y0, hx, hy, starts, step, max_points, points, counts):
+    nx, ny = values.shape
+    for a in range(starts.shape[0]):
+        x, y = starts[a, 0], starts[a, 1]
+        count = 0
+        for _ in range(max_points):
+            u = min(max((x - x0) / hx, 0.0), nx - 1.0)
+            w = min(max((y - y0) / hy, 0.0), ny - 1.0)
+            i = min(int(u), nx - 2)
+            j = min(int(w), ny - 2)
+            tx, ty = u - i, w - j
+            v00, v10 = values[i, j], values[i + 1, j]
+            v01, v11 = values[i, j + 1], values[i + 1, j + 1]
+            points[a, count, 0], points[a, count, 1] = x, y
+            count += 1
+            if (v00 * (1 - tx) * (1 - ty) + v10 * tx * (1 - ty) + v01 * (1 - tx) * ty
+                    + v11 * tx * ty) <= 0.0:
+                break
+            gx = ((v10 - v00) * (1 - ty) + (v11 - v01) * ty) / hx
+            gy = ((v01 - v00) * (1 - tx) + (v11 - v10) * tx) / hy
+            norm = np.sqrt(gx * gx + gy * gy)
+            if norm < 1e-12:
+                break
+            x -= step * gx / norm
+            y -= step * gy / norm
+        counts[a] = count
+
+
+class Paths(NamedTuple):
+    """Sampled shortest paths: ``points (M, K, 2)`` (map units; row ``i`` valid up to
+    ``counts[i]``, the last valid point repeated after it) and ``counts (M,)``."""
+
+    points: np.ndarray
+    counts: np.ndarray
+
+
+def trace_paths(field: DistanceField, starts: np.ndarray, step: float = PATH_STEP,
+                max_points: int = MAX_POINTS) -> Paths:
+    """Each start's shortest path to the target, sampled every ``step`` map units.
+
+    Args:
+        field: the map's geodesic distance field.
+        starts: ``(M, 2)`` start points (map units).
+        step: spacing of the samples along the path (map units).
+        max_points: most samples per path.
+
+    Returns:
+        ``Paths``: the first point is the start; a path ends at its first point inside
+        the target (or where the field is flat, or after ``max_points``).
+    """
+    starts = np.ascontiguousarray(starts, dtype=np.float64).reshape(-1, 2)
+    points = np.empty((len(starts), max_points, 2))
+    counts = np.zeros(len(starts), dtype=np.int64)
+    hx, hy = field.spacing
+    _trace(field.values, float(field.xs[0]), float(field.ys[0]), hx, hy, starts, step,
+           max_points, points, counts)
+    last = np.maximum(counts - 1, 0)
+    beyond = np.arange(max_points)[None, :] >= counts[:, None]
+    points = np.where(beyond[..., None], points[np.arange(len(starts)), last][:, None, :],
+                      points)
+    return Paths(points, counts)
+
+
+class Races(NamedTuple):
+    """Every defender's race against every attacker along its path (``(M, N)`` arrays).
+
+    ``wins``: the defender reaches some point of the path, within the capture radius, no
+    later than the attacker. ``aims (M, N, 2)``: the first such point, else the point it
+    misses by the least time. ``times``: seconds until the attacker reaches ``aims``
+    (the interception time where ``wins``). ``threat (M,)``: the attacker's time to the
+    target along its path (seconds).
+    """
+
+    wins: np.ndarray
+    aims: np.ndarray
+    times: np.ndarray
+    threat: np.ndarray
+
+
+def races(paths: Paths, defenders: np.ndarray, attacker_speed: float,
+          defender_speed: float, capture_radius: float, step: float = PATH_STEP) -> Races:
+    """Race every defender ``(N, 2)`` against every traced attacker path (map units,
+    speeds in map units per second)."""
+    points, counts = paths
+    k = np.arange(points.shape[1])
+    attacker_time = k * step / attacker_speed                                    # (K,)
+    gaps = points[:, None, :, :] - defenders[None, :, None, :]                   # (M, N, K, 2)
+    defender_time = np.maximum(np.hypot(gaps[..., 0], gaps[..., 1]) - capture_radius,
+                               0.0) / defender_speed
+    slack = defender_time - attacker_time                                        # (M, N, K)
+    slack[np.broadcast_to(k[None, None, :] >= counts[:, None, None], slack.shape)] = np.inf
+    wins_at = slack <= 0.0
+    wins = wins_at.any(axis=2)
+    best = np.where(wins, np.argmax(wins_at, axis=2), np.argmin(slack, axis=2))
+    m, n = best.shape
+    aims = points[np.arange(m)[:, None], best]
+    return Races(wins, aims, attacker_time[best],
+                 attacker_time[np.maximum(counts - 1, 0)])
+
+
+class Plan(NamedTuple):
+    """Which attacker each defender goes for (``targets (N,)``, -1 for none) and the point
+    it heads to (``aims (N, 2)``, map units)."""
+
+    targets: np.ndarray
+    aims: np.ndarray
+
+
+def plan_intercepts(race: Races, free: np.ndarray, open_: np.ndarray) -> Plan:
+    """The free defenders' plan against the ``open_`` attackers (bool masks ``(N,)`` and
+    ``(M,)``).
+
+    Most threatening attacker first (smallest ``race.threat``), each gets the free
+    defender that intercepts it earliest; attackers no free defender can intercept are
+    skipped. Each defender still free then joins the open attacker it intercepts
+    earliest, or, where it intercepts none, the most threatening open attacker (its aim
+    the point it misses by the least time: a guard on that attacker's way in).
+    """
+    n = len(free)
+    targets = np.full(n, -1, dtype=np.int64)
+    aims = np.zeros((n, 2))
+    left = free.copy()
+    order = [int(i) for i in np.argsort(race.threat, kind="stable") if open_[i]]
+    if not order:
+        return Plan(targets, aims)
+    for i in order:
+        able = np.flatnonzero(left & race.wins[i])
+        if len(able):
+            j = int(able[np.argmin(race.times[i, able])])
+            targets[j], aims[j], left[j] = i, race.aims[i, j], False
+    for j in np.flatnonzero(left):
+        able = [i for i in order if race.wins[i, j]]
+        i = min(able, key=lambda i: race.times[i, j]) if able else order[0]
+        targets[j], aims[j] = i, race.aims[i, j]
+    return Plan(targets, aims)
+
+
+def headings(plan: Plan, defenders: np.ndarray, attackers: np.ndarray) -> np.ndarray:
+    """Unit headings ``(N, 2)`` towards each planned aim (straight at the attacker where
+    the aim is the defender's own position); zero for defenders without a target."""
+    planned = plan.targets >= 0
+    gaps = plan.aims - defenders
+    at_aim = np.hypot(gaps[:, 0], gaps[:, 1]) < 1e-9
+    gaps[at_aim] = attackers[plan.targets[at_aim]] - defenders[at_aim]
+    gaps[~planned] = 0.0
+    return unit_vectors(gaps) * planned[:, None]
+
+
+class InterceptDefender:
+    """Every defender races an attacker to a point of its shortest path (``plan_intercepts``),
+    re-planned every step; defenders left over back up the most threatening attacker.
+
+    ``cells`` is the resolution of the geodesic field (``policies.geodesic``).
+    ``overlay()`` shows each defender's target as an edge.
+    """
+
+    def __init__(self, cells: int = DEFAULT_CELLS) -> None:
+        self.cells = cells
+        self.field: DistanceField | None = None
+        self._edges: tuple[tuple[str, str], ...] = ()
+
+    def reset(self, scenario: Scenario) -> None:
+        self.field = distance_field(scenario.map, scenario.player_radius, self.cells)
+        self._edges = ()
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]:
+        if self.field is None:
+            raise RuntimeError("InterceptDefender.act called before reset(scenario)")
+        names = state.defender_names
+        actions = np.zeros((len(names), 2), dtype=np.float32)
+        active = state.active_attackers
+        if active.any():
+            plan = plan_intercepts(race_all(self.field, state),
+                                   np.ones(len(names), dtype=bool), active)
+            actions[:] = headings(plan, state.defender_positions, state.attacker_positions)
+            self._edges = tuple((names[j], f"attacker_{i}")
+                                for j, i in enumerate(plan.targets.tolist()) if i >= 0)
+        else:
+            self._edges = ()
+        return dict(zip(names, actions, strict=True))
+
+    def overlay(self) -> Overlay:
+        return Overlay(edges=self._edges)
+
+
+def race_all(field: DistanceField, state: GameState) -> Races:
+    """``races`` of every defender of ``state`` against every active attacker (the paths of
+    the active ones traced); an inactive attacker's rows are never won, at infinite
+    times."""
+    active = state.active_attackers
+    attackers = state.attacker_positions
+    race = races(trace_paths(field, attackers[active]), state.defender_positions,
+                 state.attacker_speed, state.defender_speed, state.capture_radius)
+    m, n = len(attackers), len(state.defender_positions)
+    full = Races(np.zeros((m, n), dtype=bool), np.zeros((m, n, 2)), np.full((m, n), np.inf),
+                 np.full(m, np.inf))
+    for name, array in zip(Races._fields, race, strict=True):
+        getattr(full, name)[active] = array
+    return full

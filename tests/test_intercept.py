@@ -1,0 +1,84 @@
+"""The time-to-intercept defenders (``policies.intercept``): the path tracer against a
+numpy twin, the races and the plan on hand-made cases, and a played game."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import reachavoid_env
+from policies.geodesic import distance_field
+from policies.intercept import (
+    PATH_STEP,
+    InterceptDefender,
+    Races,
+    plan_intercepts,
+    races,
+    trace_paths,
+)
+from policies.registry import make_policy
+from reachavoid.rollout import run_episode
+
+
+def reference_paths(field, starts, step=PATH_STEP, max_points=256):
+    """``trace_paths`` point by point with ``DistanceField.distance`` / ``gradient``."""
+    points = np.empty((len(starts), max_points, 2))
+    counts = np.zeros(len(starts), dtype=np.int64)
+    lo = np.array([field.xs[0], field.ys[0]])
+    hi = np.array([field.xs[-1], field.ys[-1]])
+    for a, start in enumerate(starts):
+        point = np.array(start, dtype=np.float64)
+        for k in range(max_points):
+            points[a, k] = point
+            counts[a] = k + 1
+            clamped = np.clip(point, lo, hi)
+            if field.distance(clamped) <= 0.0:
+                break
+            gradient = field.gradient(clamped)
+            norm = np.hypot(*gradient)
+            if norm < 1e-12:
+                break
+            point = point - step * gradient / norm
+        points[a, counts[a]:] = points[a, counts[a] - 1]
+    return points, counts
+
+
+def test_traced_paths_match_the_numpy_twin_and_end_in_the_target():
+    scenario = reachavoid_env.builtin_scenario("paper_2v1")
+    field = distance_field(scenario.map, scenario.player_radius)
+    starts = np.array([[-0.5, 0.0], [0.0, 0.8], [-0.8, -0.8], [0.7, 0.2]])
+    paths = trace_paths(field, starts)
+    points, counts = reference_paths(field, starts)
+    np.testing.assert_array_equal(paths.counts, counts)
+    np.testing.assert_allclose(paths.points, points, rtol=0, atol=1e-12)
+    ends = paths.points[np.arange(len(starts)), paths.counts - 1]
+    assert np.all(scenario.map.target_signed_distance(ends) <= 0.02)
+    assert paths.counts[3] == 1   # a start inside the target is its own path
+
+
+def test_races_and_the_plan_take_the_most_threatening_attacker_first():
+    scenario = reachavoid_env.builtin_scenario("paper_2v1")
+    field = distance_field(scenario.map, scenario.player_radius)
+    attackers = np.array([[0.3, 0.2], [-0.8, 0.8]])    # near the target, far from it
+    defenders = np.array([[0.5, 0.5], [-0.7, 0.7]])
+    race = races(trace_paths(field, attackers), defenders, 1.0, 1.5, 0.1)
+    assert race.threat[0] < race.threat[1]
+    assert race.wins[0, 0] and race.wins[1, 1] and not race.wins[0, 1]
+    plan = plan_intercepts(race, np.ones(2, dtype=bool), np.ones(2, dtype=bool))
+    assert plan.targets.tolist() == [0, 1]
+    one = plan_intercepts(race, np.array([True, False]), np.ones(2, dtype=bool))
+    assert one.targets.tolist() == [0, -1]
+    lost = Races(np.zeros((2, 1), bool), np.zeros((2, 1, 2)), np.ones((2, 1)),
+                 np.array([2.0, 1.0]))
+    spare = plan_intercepts(lost, np.ones(1, dtype=bool), np.ones(2, dtype=bool))
+    assert spare.targets.tolist() == [1]   # no race won: guard the most threatening
+
+
+def test_intercept_defenders_play_the_paper_games():
+    for name, captured in (("paper_2v1", 2), ("paper_6v2", 6)):
+        scenario = reachavoid_env.builtin_scenario(name)
+        defenders = make_policy("defenders", "intercept", scenario)
+        assert isinstance(defenders, InterceptDefender)
+        env = reachavoid_env.parallel_env(scenario=scenario)
+        result = run_episode(env, make_policy("attackers", "shortest-path", scenario),
+                             defenders, seed=0)
+        assert result.captured_count == captured, name
