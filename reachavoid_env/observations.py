@@ -18,8 +18,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from reachavoid_env.game_map import GameMap
 from reachavoid_env.game_state import GameState
-from reachavoid_env.scenario import GameMap
 
 
 class Normaliser(NamedTuple):
