@@ -459,7 +459,7 @@ def test_a_closed_pipe_ends_quietly():
 
 
 def test_ctrl_c_to_a_process_pool_leaves_no_warnings():
-    process = _command(*BENCH[:-6], "--episodes", "400", "--defenders", "greedy",
+    process = _command(*BENCH[:-6], "--episodes", "20000", "--defenders", "greedy",
                        "--attackers", "straight", "--backend", "process", "--workers", "2",
                        start_new_session=True, stdout=subprocess.DEVNULL)
     time.sleep(12)
