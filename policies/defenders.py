@@ -532,16 +532,15 @@ class HJDefenderPolicy(_AssignmentDefender):
     ``margin_cells=0``).
     """
 
-    def __init__(self, vf11: ValueFunction, vf21: ValueFunction, idle: str = "intercept",
-                 margin_cells: float = CERTIFICATE_CELLS) -> None:
+    def __init__(self, vf11: ValueFunction, vf21: ValueFunction | None,
+                 idle: str = "intercept", margin_cells: float = CERTIFICATE_CELLS) -> None:
         if idle not in IDLE:
             raise ValueError(f"idle: expected one of {', '.join(IDLE)}, got {idle!r}")
-        if vf11.game != "1v1" or vf21.game != "2v1":
+        if vf11.game != "1v1" or (vf21 is not None and vf21.game != "2v1"):
             raise ValueError(f"vf11, vf21: expected a 1v1 and a 2v1 value function, got "
-                             f"{vf11.game!r} and {vf21.game!r}")
+                             f"{vf11.game!r} and {None if vf21 is None else vf21.game!r}")
         super().__init__(vf11, vf21, self._team_tube(), "mip", margin_cells,
                          "intercept" if idle == "intercept" else "assignment")
-        self.vf21: ValueFunction = vf21
         self.idle = idle
 
     def _team_tube(self) -> ValueFunction | None:
@@ -553,7 +552,12 @@ class HJDefenderPolicy(_AssignmentDefender):
                      grid2: int = PAPER_GRIDS.grid2, idle: str = "intercept",
                      margin_cells: float = CERTIFICATE_CELLS,
                      progress: bool = True) -> HJDefenderPolicy:
-        """Load (or solve, with a progress bar, and cache) the scenario's tubes."""
+        """Load (or solve, with a progress bar, and cache) the scenario's tubes: the 1 vs 1
+        tube, and the 2 vs 1 tube where the scenario has two attackers or more (with one,
+        no pair can form)."""
+        if scenario.num_attackers < 2:
+            return cls(tube_1v1(scenario, grid1, progress), None, idle=idle,
+                       margin_cells=margin_cells)
         return cls(*tube_2v1(scenario, grid1, grid2, progress), idle=idle,
                    margin_cells=margin_cells)
 
@@ -567,7 +571,11 @@ class HJDefenderPolicy(_AssignmentDefender):
 
     def reset(self, scenario: Scenario) -> None:
         super().reset(scenario)
-        _check_tube(self.vf21, scenario, "vf21")
+        if self.vf21 is not None:
+            _check_tube(self.vf21, scenario, "vf21")
+        elif scenario.num_attackers > 1:
+            raise ValueError(f"vf21: {scenario.name!r} has {scenario.num_attackers} "
+                             f"attackers; these defenders were built without the 2 vs 1 tube")
 
     def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
                ) -> Assignment:

@@ -241,3 +241,21 @@ def test_every_example_answers_help_with_its_defaults(name):
                         "(default: 10)", "(default: 200)"):
             assert default in " ".join(result.stdout.split()), default
 
+def test_one_attacker_needs_no_2v1_tube():
+    """A 1 vs 1 scenario's HJ defenders solve the 1 vs 1 tube only."""
+    import os
+    from pathlib import Path
+
+    from policies import HJDefenderPolicy
+
+    defenders = HJDefenderPolicy.for_scenario(builtin_scenario("paper_1v1"), grid1=11,
+                                              grid2=6, progress=False)
+    assert defenders.vf21 is None
+    cache = Path(os.environ["REACHAVOID_CACHE_DIR"])
+    assert not list(cache.glob("2v1-6-*"))
+    env = reachavoid_env.parallel_env(scenario="paper_1v1", starts="random")
+    result = run_episode(env, ObservationPolicy(lambda b: np.tile([1.0, 0.0], (len(b), 1))),
+                         defenders, seed=0)
+    assert result.captured_count + result.arrived_count <= 1
+    with pytest.raises(ValueError, match="vf21: 'paper_2v1' has 2 attackers"):
+        defenders.reset(builtin_scenario("paper_2v1"))
