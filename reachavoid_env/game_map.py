@@ -153,3 +153,28 @@ def _shapes_overlap(a: Shape, b: Shape, samples: int = 64) -> bool:
     xs, ys = np.linspace(x0, x1, samples), np.linspace(y0, y1, samples)
     grid = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1)
     return bool(np.any((a.signed_distance(grid) < 0) & (b.signed_distance(grid) < 0)))
+
+
+def flood_fill(passable: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """The cells of a planar boolean grid ``passable`` joined to ``seeds`` by a path of
+    4-neighbours through passable cells (seeds outside ``passable`` are dropped).
+
+    Args:
+        passable: ``(nx, ny)`` bool, the cells a path may use.
+        seeds: ``(nx, ny)`` bool, where paths start.
+
+    Returns:
+        ``(nx, ny)`` bool, the reached cells.
+    """
+    passable = np.asarray(passable, dtype=bool)
+    reached = passable & np.asarray(seeds, dtype=bool)
+    while True:
+        grown = reached.copy()
+        grown[1:] |= reached[:-1]
+        grown[:-1] |= reached[1:]
+        grown[:, 1:] |= reached[:, :-1]
+        grown[:, :-1] |= reached[:, 1:]
+        grown &= passable
+        if np.array_equal(grown, reached):
+            return reached
+        reached = grown

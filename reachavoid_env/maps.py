@@ -37,6 +37,7 @@ import tomli_w
 
 from reachavoid_env import checks
 from reachavoid_env.files import atomic_write
+from reachavoid_env.game_map import flood_fill
 from reachavoid_env.scenario import (
     MAX_COORDINATE,
     MAX_SPEED,
@@ -309,19 +310,8 @@ def connected_to_target(game_map: GameMap, clearance: float, cells: int = 256) -
     """
     points = raster_points(game_map.domain, cells)
     free = game_map.obstacle_signed_distance(points) >= clearance
-    reached = free & game_map.in_target(points)
-    if not reached.any():
-        return False
-    while True:
-        grown = reached.copy()
-        grown[1:] |= reached[:-1]
-        grown[:-1] |= reached[1:]
-        grown[:, 1:] |= reached[:, :-1]
-        grown[:, :-1] |= reached[:, 1:]
-        grown &= free
-        if np.array_equal(grown, reached):
-            return bool(np.array_equal(reached, free))
-        reached = grown
+    reached = flood_fill(free, game_map.in_target(points))
+    return bool(reached.any() and np.array_equal(reached, free))
 
 
 def _area(shape: Shape) -> float:

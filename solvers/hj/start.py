@@ -59,6 +59,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit, prange
 
+from reachavoid_env.game_map import flood_fill
 from solvers.hj.schemes import GODUNOV
 
 if TYPE_CHECKING:
@@ -79,18 +80,7 @@ def reachable_nodes(free: np.ndarray, target: np.ndarray) -> np.ndarray:
     Returns:
         ``(nx, ny)`` bool.
     """
-    passable = np.asarray(free) >= 0
-    reached = passable & (np.asarray(target) <= 0)
-    while True:
-        grown = reached.copy()
-        grown[1:] |= reached[:-1]
-        grown[:-1] |= reached[1:]
-        grown[:, 1:] |= reached[:, :-1]
-        grown[:, :-1] |= reached[:, 1:]
-        grown &= passable
-        if np.array_equal(grown, reached):
-            return reached
-        reached = grown
+    return flood_fill(np.asarray(free) >= 0, np.asarray(target) <= 0)
 
 
 @dataclass(frozen=True)
