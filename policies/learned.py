@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from reachavoid_env import GameState, Scenario, checks
+from reachavoid_env import GameState, PolicyMismatch, Scenario, checks
 from reachavoid_env.observations import observe
 
 if TYPE_CHECKING:
@@ -66,12 +66,12 @@ class ObservationPolicy:
         self._held: dict[str, np.ndarray] = {}
 
     def check(self, scenario: Scenario) -> None:
-        """``ValueError`` when the policy's observations do not fit ``scenario``."""
+        """``PolicyMismatch`` when the policy's observations do not fit ``scenario``."""
         players = scenario.num_attackers + scenario.num_defenders
         size = 2 + 3 * players
         if self.observation_size is not None and self.observation_size != size:
             trained = (self.observation_size - 2) / 3
-            raise ValueError(
+            raise PolicyMismatch(
                 f"{self.side}: {self.label} observes {self.observation_size} numbers (a game "
                 f"of {trained:g} players); {scenario.name!r} has {scenario.num_attackers} "
                 f"attackers and {scenario.num_defenders} defenders ({size} numbers)")

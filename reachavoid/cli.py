@@ -42,7 +42,7 @@ from reachavoid.suite import (
     suite_names,
 )
 from reachavoid.sweep import BACKENDS
-from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
+from reachavoid_env import PolicyMismatch, Scenario, ScenarioError, checks, load_scenario
 from reachavoid_env.files import STDOUT, atomic_write, destination, is_stream
 from reachavoid_env.maps import (
     MAX_MAPS,
@@ -671,9 +671,12 @@ def _bench(args: argparse.Namespace) -> int:
     options = {name: getattr(args, name) for name in OPTION_FLAGS
                if getattr(args, name) is not None}
     started = time.perf_counter()
-    result = run_suite(suite, methods, args.episodes, baseline, options, OPTION_FLAGS,
-                       backend=args.backend, workers=args.workers, address=args.address,
-                       progress=args.progress)
+    try:
+        result = run_suite(suite, methods, args.episodes, baseline, options, OPTION_FLAGS,
+                           backend=args.backend, workers=args.workers, address=args.address,
+                           progress=args.progress)
+    except PolicyMismatch as err:   # a policy that cannot play a cell (a model's players)
+        raise UsageError(str(err)) from None
     seconds = time.perf_counter() - started
     report = result.to_dict() | {"episodes": args.episodes, "wall_seconds": seconds}
     if args.csv:

@@ -24,6 +24,7 @@ if TYPE_CHECKING:
         GameState,
         Overlay,
         Policy,
+        PolicyMismatch,
         merged_overlay,
     )
     from reachavoid_env.reach_avoid_v0 import env, parallel_env, raw_env
@@ -46,6 +47,7 @@ __all__ = [
     "GameState",
     "Overlay",
     "Policy",
+    "PolicyMismatch",
     "Polygon",
     "ReachAvoidEnv",
     "Scenario",
@@ -66,7 +68,8 @@ ENV_ID = "reachavoid/ReachAvoid-v0"
 
 __getattr__, __dir__ = lazy.attributes(__name__, {
     "GameMap": "reachavoid_env.game_map",
-    **dict.fromkeys(["AttackerStatus", "GameState", "Overlay", "Policy", "merged_overlay"],
+    **dict.fromkeys(["AttackerStatus", "GameState", "Overlay", "Policy", "PolicyMismatch",
+                     "merged_overlay"],
                     "reachavoid_env.game_state"),
     **dict.fromkeys(["Scenario", "ScenarioError", "builtin_map", "builtin_names",
                      "builtin_scenario", "load_scenario", "save_scenario"],

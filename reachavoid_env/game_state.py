@@ -143,6 +143,11 @@ def outcome_line(num_attackers: int, captured: int, arrived: int) -> str:
     return f"{num_attackers} attackers: " + ", ".join(parts)
 
 
+class PolicyMismatch(ValueError):
+    """A policy that cannot play a scenario (for example a learned model trained for other
+    player counts): bad input, reported in one line by the command line."""
+
+
 @runtime_checkable
 class Policy(Protocol):
     """Controls one side (all attackers or all defenders) of a game.

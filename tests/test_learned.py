@@ -178,6 +178,10 @@ def test_play_and_bench_take_a_model(model_path, tmp_path, capsys):
     assert [m["label"] for m in cell["methods"]] == ["greedy", "idle"]
     assert cli.main(["play", "--scenario", "paper_2v1", "--attackers", spec]) == 2
     assert "observes 8 numbers" in capsys.readouterr().err
+    assert cli.main(["bench", "--attackers", spec, "--config", "2v1", "--defenders",
+                     "greedy", "--episodes", "2", "--backend", "process", "--workers", "2"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "observes 8 numbers" in err, err   # one line, no traceback
     assert cli.main(["play", "--attackers", "sb3:nowhere.zip"]) == 2
     assert "'nowhere.zip' (in 'sb3:nowhere.zip') is not a file" in capsys.readouterr().err
 
