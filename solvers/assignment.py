@@ -30,12 +30,11 @@ single-worker solver.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from ortools.graph.python import min_cost_flow
-from ortools.sat.python import cp_model
 
 
 @dataclass(frozen=True)
@@ -86,15 +85,21 @@ class Assignment:
         return None
 
 
-class _Model(cp_model.CpModel):
-    """A ``CpModel`` without the camelCase aliases OR-Tools attaches to every new model.
+@functools.cache
+def _model_class() -> type:
+    """``CpModel`` without the camelCase aliases OR-Tools attaches to every new model
+    (OR-Tools is imported here, on the first program solved, not with this module).
 
     Attaching them walks ``dir(model)`` and costs about 0.4 ms per model, more than
     solving a typical instance here; this module uses the snake_case names only.
     """
+    from ortools.sat.python import cp_model
 
-    def _add_pre_pep8_methods(self) -> None:
-        pass
+    class _Model(cp_model.CpModel):
+        def _add_pre_pep8_methods(self) -> None:
+            pass
+
+    return _Model
 
 
 @dataclass(frozen=True)
@@ -232,7 +237,9 @@ def solve_assignment(beats_1v1: np.ndarray, beats_2v1: np.ndarray,
     if not candidates.any() and not team_candidates.any():
         return Assignment.from_pairs([], n)
 
-    model = _Model()
+    from ortools.sat.python import cp_model
+
+    model = _model_class()()
     e = {(int(i), int(j)): model.new_bool_var(f"e_{i}_{j}")  # (c1), (c4)
          for i, j in np.argwhere(candidates)}
     f = {(int(i), int(j), int(k)): model.new_bool_var(f"f_{i}_{j}_{k}")  # (c6), (c7)
@@ -286,6 +293,8 @@ def max_matching(beats_1v1: np.ndarray, active: np.ndarray | None = None,
         return Assignment.from_pairs([], n)
     source, sink = m + n, m + n + 1  # attackers are nodes 0..m-1, defenders m..m+n-1
     top = 0 if pref is None else int(np.where(candidates, pref, 0).max())
+    from ortools.graph.python import min_cost_flow
+
     flow = min_cost_flow.SimpleMinCostFlow()
     edges = [(int(i), int(j)) for i, j in np.argwhere(candidates)]
     arcs = [flow.add_arc_with_capacity_and_unit_cost(
