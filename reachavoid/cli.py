@@ -114,6 +114,25 @@ def _grid_options(parser: argparse.ArgumentParser, for_policies: bool = True) ->
                                  f"(default: {DEFAULT_GRID[game]}, the paper's)")
 
 
+def _backend_options(parser: argparse.ArgumentParser, where: str, workers: str) -> None:
+    """``--backend``, ``--workers`` and ``--address`` (``_check_backend_options`` checks
+    them)."""
+    parser.add_argument("--backend", choices=BACKENDS, default="serial",
+                        help=f"{where}: here, on a process pool, or as Ray tasks "
+                             "(default: %(default)s)")
+    parser.add_argument("--workers", type=int, default=None, metavar="N", help=workers)
+    parser.add_argument("--address", default=None, metavar="ADDR",
+                        help="with --backend ray, an existing Ray cluster (default: start a "
+                             "local one)")
+
+
+def _check_backend_options(args: argparse.Namespace) -> None:
+    if args.workers is not None:
+        _check(checks.integer, args.workers, "--workers", 1, 4096)
+    if args.address is not None and args.backend != "ray":
+        raise UsageError("--address: only with --backend ray")
+
+
 def _margin_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--margin-cells", type=float, default=None, metavar="C",
                         help="certificate margin of the hj, hj-pairs and matching defenders in "
@@ -188,14 +207,9 @@ def build_parser() -> argparse.ArgumentParser:
                             "every map of --scenario, at --grid1/--grid2; what the cache holds "
                             "is skipped")
     _grid_options(solve, for_policies=False)
-    solve.add_argument("--backend", choices=BACKENDS, default="serial",
-                       help="with --defenders, where the maps are solved: here, on a process "
-                            "pool, or as Ray tasks (default: %(default)s)")
-    solve.add_argument("--workers", type=int, default=None, metavar="N",
-                       help="with --defenders, concurrent solves (default: all cores; refused "
-                            "when they would not fit in memory)")
-    solve.add_argument("--address", default=None, metavar="ADDR",
-                       help="with --backend ray, an existing Ray cluster")
+    _backend_options(solve, "with --defenders, where the maps are solved",
+                     "with --defenders, concurrent solves (default: all cores; refused when "
+                     "they would not fit in memory)")
     solve.add_argument("--out", metavar="DIR", help="also save the value function here")
     solve.add_argument("--plot", metavar="OUT.png",
                        help="draw the value's slices at the scenario's starts (paper Fig. 2)")
@@ -230,14 +244,9 @@ def build_parser() -> argparse.ArgumentParser:
                             "cell may fix its own)")
     bench.add_argument("--seed", type=int, default=None,
                        help="episode k uses seed SEED + k (default: the suite's, or 0)")
-    bench.add_argument("--backend", choices=BACKENDS, default="serial",
-                       help="where episodes run: here, on a process pool, or as Ray tasks "
-                            "(same results for the same seeds; default: %(default)s)")
-    bench.add_argument("--workers", type=int, default=None, metavar="N",
-                       help="processes of the pool, or CPUs of a local Ray instance "
-                            "(default: all cores)")
-    bench.add_argument("--address", default=None, metavar="ADDR",
-                       help="an existing Ray cluster (default: start a local one)")
+    _backend_options(bench, "where episodes run (same results for the same seeds)",
+                     "processes of the pool, or CPUs of a local Ray instance (default: all "
+                     "cores)")
     bench.add_argument("--csv", metavar="FILE.csv",
                        help="write one row per episode ('-': standard output, the tables then "
                             "go to standard error)")
@@ -607,10 +616,7 @@ def _solve_library(args: argparse.Namespace) -> int:
         if value is not None:
             raise UsageError(f"{flag}: not with --defenders (a library goes to the cache)")
     methods = _methods(args.defenders)
-    if args.workers is not None:
-        _check(checks.integer, args.workers, "--workers", 1, 4096)
-    if args.address is not None and args.backend != "ray":
-        raise UsageError("--address: only with --backend ray")
+    _check_backend_options(args)
     scenarios = [sc for source in args.scenario for sc in _library(source)]
     try:
         rows = solve_library(scenarios, methods, args.grid1, args.grid2, backend=args.backend,
@@ -651,10 +657,7 @@ def _bench(args: argparse.Namespace) -> int:
     if baseline not in methods:
         raise UsageError(f"--baseline: {baseline!r} is not among --defenders "
                          f"({', '.join(methods)})")
-    if args.workers is not None:
-        _check(checks.integer, args.workers, "--workers", 1, 4096)
-    if args.address is not None and args.backend != "ray":
-        raise UsageError("--address: only with --backend ray")
+    _check_backend_options(args)
     for flag, path in (("--csv", args.csv), ("--plot", args.plot), ("--json", args.json)):
         if path not in (None, "-"):
             writable_file(path, flag, args.force, text=flag != "--plot")
