@@ -33,6 +33,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 import reachavoid_env
+from policies.registry import PolicySpec
 from reachavoid.evaluation import Z95, wilson_interval
 from reachavoid.sweep import play_seed, sweep_of
 
@@ -61,8 +62,10 @@ def play(task: Task) -> dict[str, Any]:
     scenario = reachavoid_env.builtin_scenario(name).with_players(m, n)
     method, *settings = task.method.split("+")
     options = {key: _option(value) for key, value in (x.split("=", 1) for x in settings)}
-    sweep = sweep_of(scenario, method, task.attackers, [task.seed], grid1=task.grid1,
-                     grid2=task.grid2, progress=False, **options)
+    grids = {key: value for key, value in (("grid1", task.grid1), ("grid2", task.grid2))
+             if any(PolicySpec(side, source).choice.takes(key)
+                    for side, source in (("defenders", method), ("attackers", task.attackers)))}
+    sweep = sweep_of(scenario, method, task.attackers, [task.seed], **grids, **options)
     result = play_seed(sweep, task.seed)
     return task._asdict() | {"attackers_total": m, "captured": result.captured_count,
                              "arrived": result.arrived_count, "steps": result.steps,
