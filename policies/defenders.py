@@ -213,12 +213,12 @@ class _AssignmentDefender(ABC):
     read it, never pay for it). ``margin_cells=0`` is the paper's Algorithm 1 exactly:
     nothing is kept, and both counts are the program's objective.
 
-    **The free defenders.** ``free="intercept"``: every defender outside the certified
-    games (with ``margin_cells=0`` every game of the assignment is one) plays
-    ``policies.intercept.plan_intercepts`` against the attackers no certified game covers
-    (all active attackers where every one is covered), never touching a certified game;
-    and the defender of a certified 1 vs 1 game closes on its attacker as far as the value
-    allows (``_steer_certified``).
+    **The free defenders.** ``free="intercept"``: the plan proposes, the certificate
+    filters. One ``policies.intercept.plan_intercepts`` plan of the whole team (every
+    defender, every active attacker) each step; every defender outside the certified games
+    (with ``margin_cells=0`` every game of the assignment is one) plays it, and the
+    defender of a certified 1 vs 1 game plays it as far as the value allows
+    (``_steer_certified``); certified pairs and teams keep their optimal controls.
     ``free="assignment"``: every assigned defender plays its game's optimal control and
     the unassigned ones do what ``_idle_targets`` says.
     """
@@ -535,8 +535,8 @@ class HJDefenderPolicy(_AssignmentDefender):
     paper's rule.
 
     ``idle`` says what the defenders outside the certified games do: ``"intercept"``
-    (default) race the attackers the certified games leave open
-    (``policies.intercept``), which touches no certified game; ``"shadow"`` plays the
+    (default) play the team's intercept plan (``policies.intercept``; a certified 1 vs 1
+    game's defender too, as far as its certificate allows); ``"shadow"`` plays the
     assignment's games and shadows, with the 1 vs 1 optimal control, the unassigned
     attacker it is best placed against (largest 1 vs 1 value; any attacker if none is
     unassigned); ``"stand"`` plays the assignment's games and stands still unassigned, as
