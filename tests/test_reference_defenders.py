@@ -61,6 +61,12 @@ def test_worked_example_is_not_certified(coarse_tubes):
     assert 0.0 < value21 <= reference.margin(vf21)
     assert reference.nominal_captures == 2 == len(reference.assignment)
     assert reference.guaranteed_captures == 0 and reference.certified_games == []
+    # nothing certified: the defender races, and the overlay says so (not the program's
+    # uncertified pair, which is not played)
+    overlay = reference.overlay()
+    assert [(e.defender, e.kind) for e in overlay.kinded_edges] == [("defender_0",
+                                                                      EdgeKind.RACE)]
+    assert overlay.lines == ("MIP: 0 guaranteed, 2 nominal",)
 
 
 def _check_certificate(policy, state, previous: list[Game]) -> int:
