@@ -459,8 +459,8 @@ class _AssignmentDefender(ABC):
         across = aim - along[:, None] * best
         width = np.hypot(across[:, 0], across[:, 1])
         across = across / np.maximum(width, 1e-12)[:, None]
-        edge = (cone[:, None] * best
-                + np.sqrt(np.clip(1.0 - cone**2, 0.0, None))[:, None] * across)
+        rim = np.minimum(cone, 1.0)  # the cone's edge; used only where cone < 1
+        edge = rim[:, None] * best + np.sqrt(1.0 - rim**2)[:, None] * across
         step = (state.attacker_speed + state.defender_speed) * self._dt
         clear = value - self.tubes.margins.m11 > step
         heading = np.where((clear | (along >= cone))[:, None], aim, edge)
