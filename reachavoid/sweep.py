@@ -148,8 +148,9 @@ def _serial(task: Callable[[Item], Result], items: Sequence[Item],
 
 def _process_pool(task: Callable[[Item], Result], items: Sequence[Item], workers: int | None,
                   **_: Any) -> Iterator[Result]:
-    pool = multiprocessing.get_context("spawn").Pool(pool_size(workers, len(items)),
-                                                     initializer=_start_worker)
+    size = pool_size(workers, len(items))
+    pool = multiprocessing.get_context("spawn").Pool(
+        size, initializer=_start_worker, initargs=(max(1, (os.cpu_count() or 1) // size),))
     try:
         yield from pool.imap_unordered(task, items)
     except BaseException:
@@ -161,13 +162,17 @@ def _process_pool(task: Callable[[Item], Result], items: Sequence[Item], workers
         pool.join()
 
 
-def _start_worker() -> None:
+def _start_worker(threads: int) -> None:
     """Workers leave Ctrl-C (sent to the terminal's whole process group) to the driver,
     which stops them; their (hidden) tqdm bars take a thread lock instead of tqdm's
     multiprocessing one, which a stopped worker would leave registered (resource_tracker's
-    "leaked semaphore" warnings)."""
+    "leaked semaphore" warnings); and they share the CPUs: ``threads`` numba threads each
+    (a parallel HJ solve in every worker would otherwise oversubscribe them)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     tqdm.set_lock(threading.RLock())
+    import numba
+
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
 
 
 def _call(task: Callable[[Item], Result], item: Item) -> Result:
