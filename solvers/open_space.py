@@ -262,17 +262,20 @@ def defender_certifies(game_map: GameMap, attackers: np.ndarray, defenders: np.n
                   & (sign * corners[..., axis] <= edge - clearance).all(axis=1))
         certified &= safe | inside
     # the region: the capsule of the disc's radius from its centre to the shoulder, then
-    # the cone in _CONE_PIECES pieces, each inside the capsule of its widest half-width
+    # the cone in _CONE_PIECES pieces, each inside the capsule of its widest half-width;
+    # all pieces of the states still in traced in one batch
     shoulder = (corners[:, 1] + corners[:, 3]) / 2  # on the axis, where the cone meets the band
     todo = np.flatnonzero(certified)
-    certified[todo] = segment_clear(game_map, centres[todo], shoulder[todo],
-                                    radii[todo] + clearance)
-    for j in range(_CONE_PIECES):
-        todo = np.flatnonzero(certified)
-        start = shoulder[todo] + j / _CONE_PIECES * (d[todo] - shoulder[todo])
-        end = shoulder[todo] + (j + 1) / _CONE_PIECES * (d[todo] - shoulder[todo])
-        width = radii[todo] * (1 - j / _CONE_PIECES) + clearance
-        certified[todo] = segment_clear(game_map, start, end, width)
+    if todo.size == 0:
+        return certified
+    cuts = np.linspace(0.0, 1.0, _CONE_PIECES + 1)[:, None, None]
+    cone = shoulder[todo] + cuts * (d[todo] - shoulder[todo])
+    starts = np.concatenate([centres[todo][None], cone[:-1]])
+    ends = np.concatenate([shoulder[todo][None], cone[1:]])
+    widths = np.concatenate([radii[todo][None], radii[todo] * (1 - cuts[:-1, :, 0])]) + clearance
+    clear = segment_clear(game_map, starts.reshape(-1, 2), ends.reshape(-1, 2),
+                          widths.reshape(-1))
+    certified[todo] = clear.reshape(_CONE_PIECES + 1, -1).all(axis=0)
     return certified
 
 
