@@ -187,11 +187,11 @@ players in the first Apollonius disc and the disc only shrinks. The env plays in
 of ``dt`` and the defender reads the attacker's velocity from its last step (pure
 pursuit on the first), so where the attacker turns the line of sight turns by up to
 ``2 vA dt`` over the players' distance, and the disc of the new positions may stick out
-of the first one. Measured (a throwaway script: discrete parallel navigation at
-``vA = 1``, ``vD = 1.5``, ``dt = 0.005`` against random, zigzag, away-running and a
-greedy attacker choosing each step the heading that pushes the new disc farthest out;
-BENCHMARKS.md "Guarantee with open-space certificates"): the disc never stuck out of
-the first by more than 0.41 ``vA dt``. The keep margin (``OPEN_KEEP_STEPS``) must stay
+of the first one. Measured (``tests/test_open_space.py``
+``test_the_disc_drifts_less_than_half_a_step``: discrete parallel navigation at
+``vA = 1``, ``vD = 1.5``, ``dt = 0.005`` against random, zigzag and a greedy attacker
+choosing each step the heading that pushes the next disc farthest out): the disc never
+stuck out of the first by more than 0.41 ``vA dt``. The keep margin (``OPEN_KEEP_STEPS``) must stay
 at least one step ``vA dt`` (the attacker starts each step inside the disc of that
 step's positions; a disc farther than one attacker step from the target leaves no
 arrival within the step) and the certify margin above it by more than the drift: 3 and
