@@ -227,18 +227,17 @@ class OpenSpace:
         return cls(scenario.map, (va, vd), scenario.player_radius, OPEN_CERTIFY_STEPS * step,
                    OPEN_KEEP_STEPS * step, scenario.dt)
 
-    def wins(self, state: GameState) -> np.ndarray:
+    def wins(self, state: GameState, asked: np.ndarray) -> np.ndarray:
         """``(M, N)`` bool: defender ``j`` wins alone against the active attacker ``i`` by
-        the open-space condition at the certify margin."""
+        the open-space condition at the certify margin, checked where ``asked`` ``(M, N)``
+        (false elsewhere)."""
         attackers, defenders = state.attacker_positions, state.defender_positions
-        m, n = len(attackers), len(defenders)
-        wins = np.zeros((m, n), dtype=bool)
-        active = np.flatnonzero(state.active_attackers)
-        if active.size:
-            wins[active] = open_space.defender_certifies(
-                self.game_map, np.repeat(attackers[active], n, axis=0),
-                np.tile(defenders, (active.size, 1)), self.speeds, self.certify,
-                self.clearance).reshape(-1, n)
+        wins = np.zeros(asked.shape, dtype=bool)
+        i, j = np.nonzero(asked & state.active_attackers[:, None])
+        if i.size:
+            wins[i, j] = open_space.defender_certifies(
+                self.game_map, attackers[i], defenders[j], self.speeds, self.certify,
+                self.clearance)
         return wins
 
     def held(self, certified: list[Game], state: GameState, wins: np.ndarray) -> np.ndarray:

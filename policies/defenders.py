@@ -366,19 +366,26 @@ class _AssignmentDefender(ABC):
         """The step's tables (one lookup), the certified games still on, and the program's
         answer with them joined."""
         certified = self._certified if self._certifies else []
-        if self._open is None:
-            wins = np.zeros((len(state.attacker_positions), len(state.defender_positions)),
-                            dtype=bool)
-            held = np.zeros(len(certified), dtype=bool)
-        else:
-            wins = self._open.wins(state)
-            held = self._open.held(certified, state, wins)
+        wins = self._open_wins(state)
+        held = (np.zeros(len(certified), dtype=bool) if self._open is None
+                else self._open.held(certified, state, wins))
         tables = self._tables(state, state.active_attackers, certified, wins, held)
         kept = kept_games(certified, tables.kept, tables.left, held, tables.values11)
         assignment = self._solve(self.solver, state, tables)
         if kept:
             assignment = _joined(assignment, tuple(kept), len(state.defender_positions))
         return _Decision(state, tables, kept, assignment, wins)
+
+    def _open_wins(self, state: GameState) -> np.ndarray:
+        """``OpenSpace.wins`` (all false without it), asked only where it can change
+        something: where the 1 vs 1 value does not clear its margin (elsewhere the tube
+        already certifies the game and the program counts the win)."""
+        shape = len(state.attacker_positions), len(state.defender_positions)
+        if self._open is None:
+            return np.zeros(shape, dtype=bool)
+        values = self.vf11.value(pair_states(state.attacker_positions,
+                                             state.defender_positions))
+        return self._open.wins(state, values <= self.tubes.margins.m11)
 
     def _play_games(self, decision: _Decision, actions: np.ndarray) -> list[Game]:
         """Write the optimal control of every defender alone in a game of the assignment

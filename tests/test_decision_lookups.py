@@ -23,10 +23,9 @@ class StepByStepDefender(HJDefenderPolicy):
 def open_space_tables(policy, state, certified):
     """The open-space ``wins`` and ``held`` the policy's ``_decide`` passes on (none
     where the policy has no open-space certificate)."""
+    wins = policy._open_wins(state)
     if policy._open is None:
-        shape = len(state.attacker_positions), len(state.defender_positions)
-        return np.zeros(shape, dtype=bool), np.zeros(len(certified), dtype=bool)
-    wins = policy._open.wins(state)
+        return wins, np.zeros(len(certified), dtype=bool)
     return wins, policy._open.held(certified, state, wins)
 
 

@@ -78,7 +78,7 @@ def _check_certificate(policy, state, previous: list[Game]) -> int:
     assert set(certified) <= set(games_of(policy.last_assignment))
     tubes = policy.tubes
     space = policy._open
-    held = None if space is None else space.held(previous, state, space.wins(state))
+    held = None if space is None else space.held(previous, state, policy._open_wins(state))
     still = still_winning(previous, state, values11, tubes, held=held)
     assert set(still) <= set(certified)
     in_band = 0
