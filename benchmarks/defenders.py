@@ -33,6 +33,9 @@ from typing import Any, NamedTuple
 import numpy as np
 
 import reachavoid_env
+from policies.geodesic import distance_field
+from policies.intercept import race_all
+from policies.registry import PolicySpec
 from reachavoid.evaluation import Z95, wilson_interval
 from reachavoid.sweep import play_seed, sweep_of
 
@@ -61,14 +64,31 @@ def play(task: Task) -> dict[str, Any]:
     scenario = reachavoid_env.builtin_scenario(name).with_players(m, n)
     method, *settings = task.method.split("+")
     options = {key: _option(value) for key, value in (x.split("=", 1) for x in settings)}
-    sweep = sweep_of(scenario, method, task.attackers, [task.seed], grid1=task.grid1,
-                     grid2=task.grid2, progress=False, **options)
+    grids = {key: value for key, value in (("grid1", task.grid1), ("grid2", task.grid2))
+             if any(PolicySpec(side, source).choice.takes(key)
+                    for side, source in (("defenders", method), ("attackers", task.attackers)))}
+    sweep = sweep_of(scenario, method, task.attackers, [task.seed], **grids, **options)
     result = play_seed(sweep, task.seed)
-    return task._asdict() | {"attackers_total": m, "captured": result.captured_count,
+    return task._asdict() | {"attackers_total": m, "interceptable": interceptable(scenario,
+                                                                                task.seed),
+                             "captured": result.captured_count,
                              "arrived": result.arrived_count, "steps": result.steps,
                              "seconds": result.seconds,
                              "guaranteed_initial": result.guarantees[0]
                              if result.guarantees else None}
+
+
+def interceptable(scenario: reachavoid_env.Scenario, seed: int) -> int:
+    """How many attackers of ``seed``'s start some defender can intercept: reach within
+    the capture radius, by a straight line at full speed, a point of the attacker's
+    shortest path to the target no later than the attacker
+    (``policies.intercept.race_all``). No defender policy captures more attackers that
+    run their shortest paths (the ``shortest-path`` team): the cell's headroom."""
+    env = reachavoid_env.parallel_env(scenario=scenario)
+    env.reset(seed=seed)
+    state = env.game_state()
+    race = race_all(distance_field(scenario.map, scenario.player_radius), state)
+    return int(race.wins[state.active_attackers].any(axis=1).sum())
 
 
 def _option(text: str) -> Any:
@@ -120,7 +140,10 @@ def report(rows: list[dict[str, Any]], grid: tuple[int, int] | None = None) -> s
             cells[cell][row["method"]][row["seed"]] = row
     lines = []
     for (config, attackers, g1, g2), methods in sorted(cells.items()):
-        lines += [f"\n{config}, {attackers} attackers, tubes {g1}/{g2}", "",
+        lines += [f"\n{config}, {attackers} attackers, tubes {g1}/{g2}", ""]
+        if attackers == "shortest-path":
+            lines += [_headroom(methods), ""]
+        lines += [
                   "| method | episodes | capture rate | all captured | arrivals | "
                   f"minus {REFERENCE}, paired (seeds) |", "|---|---|---|---|---|---|"]
         reference = methods.get(REFERENCE, {})
@@ -146,6 +169,19 @@ def report(rows: list[dict[str, Any]], grid: tuple[int, int] | None = None) -> s
                          f"[{100 * all_low:.1f}, {100 * all_high:.1f}] | {arrivals:.2f} | "
                          f"{paired} |")
     return "\n".join(lines)
+
+
+def _headroom(methods: dict[str, dict[int, dict]]) -> str:
+    """The cell's bound (``interceptable``) and the episodes of any method above it."""
+    starts = {seed: row for episodes in methods.values() for seed, row in episodes.items()
+              if "interceptable" in row}
+    if not starts:
+        return "bound: not recorded"
+    bound = np.mean([row["interceptable"] / row["attackers_total"] for row in starts.values()])
+    above = sum(row["captured"] > row.get("interceptable", math.inf)
+                for episodes in methods.values() for row in episodes.values())
+    return (f"bound: {100 * bound:.1f}% of the attackers can be intercepted at the start "
+            f"({len(starts)} seeds; episodes of any method capturing more: {above})")
 
 
 def main() -> None:

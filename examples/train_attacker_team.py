@@ -10,7 +10,11 @@ Needs the ``rl`` extra (torch, stable-baselines3, supersuit).
     python examples/train_attacker_team.py --imitate-from hj \\
         --evaluate-only runs/attacker_team/model.zip
 
-The game is ``paper_6v2`` with random starts every episode. The attacker-only env
+The game is ``--scenario`` (default ``paper_6v2``) with random starts every episode; a map
+library (a folder of ``reachavoid maps``, its ``index.toml``) draws one of its maps per
+episode, and ``--evaluate-on LIBRARY`` evaluates on other maps (held-out ones) than those
+trained on. The observations carry the players only (``reachavoid_env.observations``), not
+the map: across maps the learner sees neither the target nor the obstacles. The attacker-only env
 (``policies.training.make_attackers_parallel_env``) goes through SuperSuit's chain
 (``reachavoid_env.integrations.supersuit.sb3_vec_env``): one vector slot per attacker and
 game copy, all slots one policy. As in ``train_attacker_sb3.py`` (the one-attacker
@@ -72,6 +76,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import json
 import sys
 import time
@@ -98,11 +103,12 @@ from policies.training import (
     reward_options,
 )
 from reachavoid.evaluation import bootstrap_interval
-from reachavoid_env import AttackerStatus, Policy, Scenario, load_scenario
+from reachavoid_env import AttackerStatus, Policy, Scenario
 from reachavoid_env.files import atomic_write
 from reachavoid_env.integrations.supersuit import sb3_vec_env
+from reachavoid_env.maps import load_library
 from reachavoid_env.video import RecordEpisode
-from reachavoid_env.wrappers import AttackerParallelEnv
+from reachavoid_env.wrappers import AttackerParallelEnv, PerMapPolicy
 
 TEAMS = ("learned", *ATTACKERS)
 """``learned`` and every scripted attacker team of ``policies.registry.ATTACKERS``."""
@@ -112,7 +118,7 @@ DEFAULT_TEAMS = ("learned", "shortest-path", "random")
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    add_defender_arguments(parser, scenario="paper_6v2")
+    add_defender_arguments(parser, scenario="paper_6v2", library=True)
     parser.add_argument("--timesteps", type=int, default=1_000_000,
                         help="PPO agent steps, one per attacker slot and env step; 0: no PPO "
                              "(default: %(default)s)")
@@ -171,6 +177,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--video-width", type=int, default=320,
                         help="video width in pixels (default: %(default)s)")
     parser.add_argument("--no-video", action="store_true", help="skip the video")
+    parser.add_argument("--evaluate-on", default=None, metavar="SCENARIO|LIBRARY",
+                        help="evaluate on these maps (held-out ones: a map library) instead "
+                             "of --scenario's")
     parser.add_argument("--evaluate-only", type=Path, default=None, metavar="MODEL",
                         help="skip training: evaluate (and record) this saved model; without "
                              "it and without 'learned' in --teams nothing is trained")
@@ -215,14 +224,19 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     return args
 
 
-def team_scenario(args: argparse.Namespace) -> Scenario:
-    """The scenario's players and map, random starts every episode."""
-    scenario = load_scenario(args.scenario)
-    return scenario.with_players(scenario.num_attackers, scenario.num_defenders)
+Maps = tuple[Scenario, ...]
+"""The maps a run plays: one scenario, or a map library (each reset draws one)."""
 
 
-def game(args: argparse.Namespace, scenario: Scenario, **env_kwargs: Any) -> AttackerParallelEnv:
-    return make_attackers_parallel_env(scenario, defenders=args.defenders,
+def team_maps(source: str) -> Maps:
+    """The maps of ``source`` (a scenario or a map library, ``maps.load_library``), each
+    with its players and random starts every episode."""
+    return tuple(s.with_players(s.num_attackers, s.num_defenders)
+                 for s in load_library(source))
+
+
+def game(args: argparse.Namespace, maps: Maps, **env_kwargs: Any) -> AttackerParallelEnv:
+    return make_attackers_parallel_env(maps, defenders=args.defenders,
                                        defender_options=defender_options(args), **env_kwargs)
 
 
@@ -329,7 +343,7 @@ def discounted(rewards: Sequence[float], gamma: float) -> list[float]:
     return returns[::-1]
 
 
-def collect_demonstrations(args: argparse.Namespace, scenario: Scenario, gamma: float,
+def collect_demonstrations(args: argparse.Namespace, maps: Maps, gamma: float,
                            player: Team | None = None, steps: int | None = None,
                            seed: int | None = None, desc: str = "cloning") -> Demonstrations:
     """``steps`` (default ``args.imitate_steps``) rows of ``player`` (default: the
@@ -339,8 +353,8 @@ def collect_demonstrations(args: argparse.Namespace, scenario: Scenario, gamma: 
     labelled with the ``--imitate-from`` team's action in that state, whoever plays, and
     with the discounted return of the rewards that followed it in the game played."""
     steps = args.imitate_steps if steps is None else steps
-    env = game(args, scenario, **reward_options(args))
-    teacher = scripted_team(args.imitate_from, args, scenario)
+    env = game(args, maps, **reward_options(args))
+    teacher = scripted_team(args.imitate_from, args, maps)
     observations: list[np.ndarray] = []
     actions: list[np.ndarray] = []
     returns: list[float] = []
@@ -374,7 +388,7 @@ def collect_demonstrations(args: argparse.Namespace, scenario: Scenario, gamma: 
     return Demonstrations(np.asarray(observations[:steps], dtype=np.float32),
                           np.asarray(actions[:steps], dtype=np.float32),
                           np.asarray(returns, dtype=np.float32)[:steps], episodes,
-                          arrived / (episodes * scenario.num_attackers))
+                          arrived / (episodes * maps[0].num_attackers))
 
 
 def imitate(model: PPO, demonstrations: Demonstrations, epochs: int, batch_size: int,
@@ -417,14 +431,14 @@ def action_error(model: PPO, demonstrations: Demonstrations) -> float:
             means, torch.as_tensor(demonstrations.actions)))
 
 
-def clone(args: argparse.Namespace, scenario: Scenario, model: PPO) -> dict[str, Any]:
+def clone(args: argparse.Namespace, maps: Maps, model: PPO) -> dict[str, Any]:
     """Fit ``model`` to ``--imitate-steps`` of the ``--imitate-from`` team, then run
     ``--dagger-rounds`` of DAgger: the fitted policy (deterministic, as ``learned_team``)
     plays ``--dagger-steps`` in the training env, the teacher labels every state it
     visits, and the policy is fitted again (``--dagger-epochs``) on all the labelled rows
     so far. Returns what was done, per round."""
     start = time.perf_counter()
-    demonstrations = collect_demonstrations(args, scenario, model.gamma)
+    demonstrations = collect_demonstrations(args, maps, model.gamma)
     collected = time.perf_counter()
     losses = imitate(model, demonstrations, args.imitate_epochs, args.batch_size,
                      args.imitate_learning_rate, args.imitate_log_std)
@@ -441,7 +455,7 @@ def clone(args: argparse.Namespace, scenario: Scenario, model: PPO) -> dict[str,
     for number in range(1, args.dagger_rounds + 1):
         start = time.perf_counter()
         visited = collect_demonstrations(
-            args, scenario, model.gamma, player=learned_team(model, hold=1),
+            args, maps, model.gamma, player=learned_team(model, hold=1),
             steps=args.dagger_steps, seed=args.seed + IMITATION_SEED_OFFSET + number,
             desc=f"DAgger {number}")
         collected = time.perf_counter()
@@ -464,11 +478,11 @@ def clone(args: argparse.Namespace, scenario: Scenario, model: PPO) -> dict[str,
 
 # ---- training ---------------------------------------------------------------------------
 
-def train(args: argparse.Namespace, scenario: Scenario,
+def train(args: argparse.Namespace, maps: Maps,
           ) -> tuple[PPO, TrainingCurve, dict[str, Any] | None]:
     """PPO on the training env, from the cloned script with ``--imitate-steps``; returns the
     model, its curve and what the cloning did (None without it)."""
-    envs = sb3_vec_env(game(args, scenario, **reward_options(args)), copies=args.copies)
+    envs = sb3_vec_env(game(args, maps, **reward_options(args)), copies=args.copies)
     model = PPO("MlpPolicy", envs, n_steps=args.n_steps, batch_size=args.batch_size,
                 learning_rate=args.learning_rate, clip_range=args.clip_range,
                 ent_coef=args.ent_coef, seed=args.seed, device="cpu", verbose=0,
@@ -477,7 +491,7 @@ def train(args: argparse.Namespace, scenario: Scenario,
     cloning: dict[str, Any] | None = None
     try:
         if args.imitate_steps:
-            cloning = clone(args, scenario, model)
+            cloning = clone(args, maps, model)
             with atomic_write(args.out / "cloned.zip", "wb") as handle:
                 model.save(handle)
         if args.timesteps:
@@ -581,33 +595,34 @@ class TeamResult:
                 "mean_arrived": float(np.mean(self.arrived))}
 
 
-def scripted_team(name: str, args: argparse.Namespace, scenario: Scenario) -> ScriptedTeam:
+def scripted_team(name: str, args: argparse.Namespace, maps: Maps) -> ScriptedTeam:
     """The scripted attackers ``name`` (``policies.registry.ATTACKERS``): ``random`` seeded
     with ``--seed``, ``hj`` on the defenders' 1 vs 1 tube (``--grid1``)."""
     grid = {"grid1": args.grid1} if PolicySpec("attackers", name).choice.takes("grid1") else {}
     spec = PolicySpec.of("attackers", name, **grid)
-    return ScriptedTeam(spec(scenario, seed=args.seed, progress=False))
+    return ScriptedTeam(PerMapPolicy(functools.partial(spec, seed=args.seed, progress=False),
+                                     "attackers", first=maps[0]))
 
 
 def make_team(name: str, model: PPO | None, args: argparse.Namespace,
-              scenario: Scenario) -> Team:
+              maps: Maps) -> Team:
     if name == "learned":
         return learned_team(model, args.action_repeat)
-    return scripted_team(name, args, scenario)
+    return scripted_team(name, args, maps)
 
 
-def evaluate(args: argparse.Namespace, scenario: Scenario, model: PPO | None,
+def evaluate(args: argparse.Namespace, maps: Maps, model: PPO | None,
              teams: Sequence[str]) -> dict[str, TeamResult]:
     """Every team in ``teams`` on the starts ``reset(seed=k)``, k < ``args.episodes``, of one
     attacker-only env (no shaping; the defenders of ``args``)."""
-    env = game(args, scenario)
+    env = game(args, maps)
     results = {}
     for name in teams:
-        team = make_team(name, model, args, scenario)
+        team = make_team(name, model, args, maps)
         outcomes = [play(env, team, seed) for seed in tqdm(
             range(args.episodes), desc=name, unit="episode", disable=not sys.stderr.isatty())]
         results[name] = TeamResult(name, *map(tuple, zip(*outcomes, strict=True)),
-                                   attackers=scenario.num_attackers)
+                                   attackers=maps[0].num_attackers)
     env.close()
     return results
 
@@ -619,10 +634,10 @@ def paired_difference(first: TeamResult, second: TeamResult) -> dict[str, Any]:
             "arrival_rate_ci95": bootstrap_interval(difference)}
 
 
-def record(args: argparse.Namespace, scenario: Scenario, model: PPO, seed: int) -> int:
+def record(args: argparse.Namespace, maps: Maps, model: PPO, seed: int) -> int:
     """The learned team on start ``seed`` to ``args.video`` in real time; returns frames."""
-    env = game(args, scenario, render_mode="rgb_array", render_width=args.video_width)
-    fps = 1.0 / (scenario.dt * args.video_every)
+    env = game(args, maps, render_mode="rgb_array", render_width=args.video_width)
+    fps = 1.0 / (maps[0].dt * args.video_every)
     with RecordEpisode(env, args.video, fps=fps, every=args.video_every) as recorded:
         play(recorded, learned_team(model, args.action_repeat), seed)
     return recorded.frames
@@ -634,13 +649,16 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     args = parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(1)    # small networks: more threads only contend for the cores
-    scenario = team_scenario(args)
+    maps = team_maps(args.scenario)
+    held_out = maps if args.evaluate_on is None else team_maps(args.evaluate_on)
     if args.defenders == "hj":
         print(f"loading (or solving and caching) the HJ tubes at grids {args.grid1}/"
-              f"{args.grid2} ...", flush=True)
-        defender_factory("hj", **defender_options(args))(scenario)
+              f"{args.grid2} of {len(set(maps + held_out))} map(s) ...", flush=True)
+        for scenario in dict.fromkeys(maps + held_out):
+            defender_factory("hj", **defender_options(args))(scenario)
     report: dict[str, Any] = {
-        "scenario": scenario.name, "attackers": scenario.num_attackers,
+        "scenario": args.scenario, "maps": [s.name for s in maps],
+        "evaluated_on": [s.name for s in held_out], "attackers": maps[0].num_attackers,
         "defenders": args.defenders,
         "grids": [args.grid1, args.grid2] if args.defenders == "hj" else None,
         **reward_options(args), "seed": args.seed,
@@ -650,12 +668,12 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         model = PPO.load(args.evaluate_only, device="cpu")
         report["model"] = str(args.evaluate_only)
     elif "learned" in args.teams:
-        model, curve, cloning = train(args, scenario)
+        model, curve, cloning = train(args, maps)
         setattr(model, TRAINING_ATTRIBUTE, {"action_repeat": args.action_repeat,
-                                            "scenario": scenario.name})
+                                            "scenario": args.scenario})
         with atomic_write(args.out / "model.zip", "wb") as handle:
             model.save(handle)
-        game_steps = model.num_timesteps // scenario.num_attackers * args.action_repeat
+        game_steps = model.num_timesteps // maps[0].num_attackers * args.action_repeat
         seconds = curve.seconds
         report["training"] = {
             "agent_steps": model.num_timesteps, "game_steps": game_steps,
@@ -676,7 +694,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
                        f"{args.defenders}" + (f" {args.grid1}/{args.grid2}"
                                               if args.defenders == "hj" else ""))
             report["curve"] = {"csv": str(args.out / "curve.csv"), "plot": str(args.plot)}
-    results = evaluate(args, scenario, model, args.teams)
+    results = evaluate(args, held_out, model, args.teams)
     report["evaluation"] = {"seeds": [0, args.episodes - 1],
                             **{name: result.summary() for name, result in results.items()}}
     for first, second in (("learned", "shortest-path"), ("learned", args.imitate_from),
@@ -696,7 +714,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
                   f"{high:+.4f}]", flush=True)
     if model is not None and not args.no_video:
         report["video"] = {"path": str(args.video), "seed": 0,
-                           "frames": record(args, scenario, model, seed=0)}
+                           "frames": record(args, held_out, model, seed=0)}
     report["per_episode"] = {name: asdict(result) for name, result in results.items()}
     with atomic_write(args.out / "report.json") as handle:
         json.dump(report, handle, indent=2)

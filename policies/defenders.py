@@ -26,8 +26,8 @@ from policies.certificate import (
     no_team_values,
 )
 from policies.geodesic import DistanceField, distance_field
-from policies.intercept import Races, plan_intercepts, race_all
 from policies.intercept import headings as intercept_headings
+from policies.intercept import plan_intercepts, race_all
 from policies.lookups import (
     HEADING_FLOOR,
     DecisionTables,
@@ -220,12 +220,12 @@ class _AssignmentDefender(ABC):
     (``policies.certificate.OpenSpace``), which the program sees as a win, and is then
     played by parallel navigation (``_play_open``, over whatever the free play wrote).
 
-    **The free defenders.** ``free="intercept"``: every defender outside the certified
-    games (with ``margin_cells=0`` every game of the assignment is one) plays
-    ``policies.intercept.plan_intercepts`` against the attackers no certified game covers
-    (all active attackers where every one is covered), never touching a certified game;
-    and the defender of a certified 1 vs 1 game closes on its attacker as far as the value
-    allows (``_steer_certified``).
+    **The free defenders.** ``free="intercept"``: the plan proposes, the certificate
+    filters. One ``policies.intercept.plan_intercepts`` plan of the whole team (every
+    defender, every active attacker) each step; every defender outside the certified games
+    (with ``margin_cells=0`` every game of the assignment is one) plays it, and the
+    defender of a certified 1 vs 1 game plays it as far as the value allows
+    (``_steer_certified``); certified pairs and teams keep their optimal controls.
     ``free="assignment"``: every assigned defender plays its game's optimal control and
     the unassigned ones do what ``_idle_targets`` says.
     """
@@ -255,6 +255,7 @@ class _AssignmentDefender(ABC):
         self._nominal_solver.reset()
         self._decision = self._nominal = None
         self._certified = []
+        self._races: tuple[tuple[int, int], ...] = ()
         self._dt = scenario.dt
         self._open = OpenSpace.of(scenario) if self._certifies else None
         self._previous = None
@@ -318,26 +319,38 @@ class _AssignmentDefender(ABC):
         return self._assignment
 
     def overlay(self) -> Overlay:
-        """The assignment edges, and the guaranteed and nominal captures as a text line."""
+        """The games played, as edges by kind, and the guaranteed and nominal captures as
+        a text line. With ``free="assignment"`` the games are the assignment's; with
+        ``free="intercept"`` the certified games, and an ``EdgeKind.RACE`` edge from every
+        other defender to the attacker it races (the program's uncertified games are not
+        played)."""
         if self._assignment is None:
             return Overlay()
         method = "MIP" if self.solver.method == "mip" else "matching"
-        teams = tuple((f"defender_{d}", f"attacker_{i}") for i, j, k in self._assignment.shared
-                      for d in (j, k))
-        # a defender with two attackers plays a 2 vs 1 game (pair); a shared attacker a
-        # 1 vs 2 game (team)
-        by_defender = self._assignment.by_defender
-        kinds = tuple(EdgeKind.PAIR if len(by_defender[j]) == 2 else EdgeKind.ASSIGN
-                      for _, j in self._assignment.pairs) + (EdgeKind.TEAM,) * len(teams)
-        return Overlay(edges=tuple(self.assignment) + teams, kinds=kinds,
+        games = (games_of(self._assignment) if self.free == "assignment"
+                 else self._certified)
+        edges, kinds = [], []
+        for game in games:
+            # a defender with two attackers plays a 2 vs 1 game (pair); two defenders on one
+            # attacker a 1 vs 2 game (team)
+            kind = (EdgeKind.TEAM if len(game.defenders) == 2 else
+                    EdgeKind.PAIR if len(game.attackers) == 2 else EdgeKind.ASSIGN)
+            edges += [(f"defender_{j}", f"attacker_{i}") for j in game.defenders
+                      for i in game.attackers]
+            kinds += [kind] * (len(game.defenders) * len(game.attackers))
+        if self.free == "intercept":
+            edges += [(f"defender_{j}", f"attacker_{i}") for j, i in self._races]
+            kinds += [EdgeKind.RACE] * len(self._races)
+        return Overlay(edges=tuple(edges), kinds=tuple(kinds),
                        lines=(f"{method}: {self.guaranteed_captures} guaranteed, "
                               f"{self.nominal_captures} nominal",))
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
         """One decision: the assignment keeping the certified games (``_decide``), the
         optimal controls of its games and the certificate of the new ones
-        (``_play_games``), the teams' controls (``_play_teams``), then the free
-        defenders' (``_play_free``)."""
+        (``_play_games``), the teams' controls (``_play_teams``), then, with
+        ``free="intercept"``, the plan (``_play_plan``); last, parallel navigation in the
+        open-space games (``_play_open``)."""
         names = state.defender_names
         actions = np.zeros((len(names), 2), dtype=np.float32)
         self._nominal = None
@@ -351,9 +364,7 @@ class _AssignmentDefender(ABC):
         self._certified = decision.kept + fresh
         self._play_teams(decision, actions)
         if self.free == "intercept":
-            race = race_all(self._field, state)
-            self._steer_certified(state, actions)
-            self._play_free(decision, race, actions)
+            self._play_plan(state, actions)
         self._play_open(state, actions)
         self._previous = state.attacker_positions.copy()
         return dict(zip(names, actions, strict=True))
@@ -436,17 +447,36 @@ class _AssignmentDefender(ABC):
             actions[j] = control_headings(self.vf12.control(states, player),
                                    attackers[teams[:, 0]] - defenders[j])
 
-    def _steer_certified(self, state: GameState, actions: np.ndarray) -> None:
-        """Within each certified 1 vs 1 game, head as close to straight at the attacker as
-        the value allows, over the optimal control already in ``actions``.
+    def _play_plan(self, state: GameState, actions: np.ndarray) -> None:
+        """Every defender outside a certified game plays the intercept plan of the whole
+        team (``policies.intercept.plan_intercepts``: every defender, every active
+        attacker); a certified 1 vs 1 game's defender plays it as far as the certificate
+        allows (``_steer_certified``); the other certified games keep their optimal
+        controls."""
+        plan = plan_intercepts(race_all(self._field, state),
+                               np.ones(len(actions), dtype=bool), state.active_attackers)
+        desired = intercept_headings(plan, state.defender_positions, state.attacker_positions)
+        free = np.ones(len(actions), dtype=bool)
+        free[[j for game in self._certified for j in game.defenders]] = False
+        actions[free] = desired[free]
+        self._races = tuple((j, int(plan.targets[j])) for j in np.flatnonzero(free)
+                            if plan.targets[j] >= 0)
+        self._steer_certified(state, desired, actions)
+
+    def _steer_certified(self, state: GameState, desired: np.ndarray,
+                         actions: np.ndarray) -> None:
+        """Within each certified 1 vs 1 game, take the heading ``desired`` (unit vectors
+        ``(N, 2)``, zero for none: then straight at the attacker) as far as the value
+        allows, over the optimal control already in ``actions``: the certificate is the
+        filter, the plan proposes.
 
         Where the value clears the game's margin by more than one step of both players
         can change it (``(v_A + v_D) dt`` map units, taking the value 1-Lipschitz in each
-        position), straight at the attacker: the game stays above its margin. Else, among
-        the headings ``u`` that keep the value from falling whatever the attacker does to
+        position), the desired heading: the game stays above its margin. Else, among the
+        headings ``u`` that keep the value from falling whatever the attacker does to
         first order, ``v_D grad_D V . u >= v_A |grad_A V|`` (a cone around the optimal
-        control, narrowed by ``CONE_SLACK``), the one nearest the attacker's direction;
-        the optimal control where the cone is empty."""
+        control, narrowed by ``CONE_SLACK``), the one nearest the desired heading; the
+        optimal control where the cone is empty."""
         games = [game for game in self._certified
                  if len(game.defenders) == 1 and len(game.attackers) == 1]
         if not games:
@@ -464,36 +494,19 @@ class _AssignmentDefender(ABC):
                         / (state.defender_speed * np.maximum(size_d, HEADING_FLOOR)), np.inf)
         cone = cone + CONE_SLACK
         best = grad_d / np.maximum(size_d, HEADING_FLOOR)[:, None]
-        aim = unit_vectors(attackers[i] - defenders[j])
+        aim = np.where(desired[j].any(axis=1)[:, None], desired[j],
+                       unit_vectors(attackers[i] - defenders[j]))
         along = np.einsum("kd,kd->k", aim, best)
         across = aim - along[:, None] * best
         width = np.hypot(across[:, 0], across[:, 1])
         across = across / np.maximum(width, 1e-12)[:, None]
-        edge = (cone[:, None] * best
-                + np.sqrt(np.clip(1.0 - cone**2, 0.0, None))[:, None] * across)
+        rim = np.minimum(cone, 1.0)  # the cone's edge; used only where cone < 1
+        edge = rim[:, None] * best + np.sqrt(1.0 - rim**2)[:, None] * across
         step = (state.attacker_speed + state.defender_speed) * self._dt
         clear = value - self.tubes.margins.m11 > step
         heading = np.where((clear | (along >= cone))[:, None], aim, edge)
         steer = clear | (cone < 1.0) & (width > 1e-9) | (along >= cone)
         actions[j[steer]] = heading[steer]
-
-    def _play_free(self, decision: _Decision, race: Races, actions: np.ndarray) -> None:
-        """Every defender outside a certified game (with ``margin_cells=0`` every game of
-        the assignment is) races an attacker no held game covers
-        (``policies.intercept.plan_intercepts``; all active attackers where every one is
-        covered)."""
-        state = decision.state
-        held = self._certified
-        free = np.ones(len(actions), dtype=bool)
-        free[[j for game in held for j in game.defenders]] = False
-        if not free.any():
-            return
-        active = state.active_attackers
-        open_ = active.copy()
-        open_[[i for game in held for i in game.attackers]] = False
-        plan = plan_intercepts(race, free, open_ if open_.any() else active)
-        actions[free] = intercept_headings(plan, state.defender_positions,
-                                           state.attacker_positions)[free]
 
     @functools.cached_property
     def _margins(self) -> np.ndarray:
@@ -573,8 +586,8 @@ class HJDefenderPolicy(_AssignmentDefender):
     paper's rule.
 
     ``idle`` says what the defenders outside the certified games do: ``"intercept"``
-    (default) race the attackers the certified games leave open
-    (``policies.intercept``), which touches no certified game; ``"shadow"`` plays the
+    (default) play the team's intercept plan (``policies.intercept``; a certified 1 vs 1
+    game's defender too, as far as its certificate allows); ``"shadow"`` plays the
     assignment's games and shadows, with the 1 vs 1 optimal control, the unassigned
     attacker it is best placed against (largest 1 vs 1 value; any attacker if none is
     unassigned); ``"stand"`` plays the assignment's games and stands still unassigned, as

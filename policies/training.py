@@ -61,10 +61,13 @@ def attacker_factory(name: str = "shortest-path", **options: Any) -> PolicySpec:
 
 
 def add_defender_arguments(parser: argparse.ArgumentParser, scenario: str = "paper_6v2",
-                           defenders: str = "hj") -> None:
-    """The training scripts' ``--scenario``, ``--defenders``, ``--grid1`` and ``--grid2``
-    (coarse tubes by default, so a run starts in seconds; ``defender_options`` reads them)."""
-    parser.add_argument("--scenario", default=scenario, help="built-in name or TOML file")
+                           defenders: str = "hj", library: bool = False) -> None:
+    """The training scripts' ``--scenario`` (a map library too when the script takes one:
+    ``library``), ``--defenders``, ``--grid1`` and ``--grid2`` (coarse tubes by default, so a
+    run starts in seconds; ``defender_options`` reads them)."""
+    parser.add_argument("--scenario", default=scenario,
+                        help="built-in name, TOML file or map library (folder or index.toml)"
+                        if library else "built-in name or TOML file")
     parser.add_argument("--defenders", default=defenders, choices=DEFENDERS,
                         help="scripted defenders (default: %(default)s)")
     parser.add_argument("--grid1", type=int, default=TRAINING_GRIDS.grid1,

@@ -28,13 +28,20 @@ from typing import Any, NoReturn
 import reachavoid_env
 import solvers.hj
 from policies.registry import PolicySpec, names_help, policy_specs
-from reachavoid.evaluation import MIN_BOOTSTRAP, one_start, write_csv
+from reachavoid.evaluation import (
+    MIN_BOOTSTRAP,
+    CaptureSummary,
+    PairedDifference,
+    one_start,
+    write_csv,
+)
 from reachavoid.rollout import EpisodeResult, episode_title, first_frame, run_episode
 from reachavoid.solve import DEFAULT_GRID, GAMES, solve_library, solve_scenario
 from reachavoid.suite import (
     Cell,
     Suite,
     SuiteResult,
+    library_suite,
     load_suite,
     parse_players,
     plot_suite,
@@ -226,10 +233,13 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--suite", default=None, metavar="NAME|FILE.toml",
                        help=f"play a suite of cells instead of one --config (built-ins: "
                             f"{', '.join(suite_names())})")
-    _scenario_option(bench, ONE_CELL["scenario"], "without --suite: the map, speeds and settings")
-    bench.add_argument("--config", default=ONE_CELL["config"], metavar="MvN",
-                       help="without --suite: attackers v defenders, drawn at random each "
-                            "episode (default: %(default)s)")
+    _scenario_option(bench, ONE_CELL["scenario"],
+                     "without --suite: the map, speeds and settings; a map library (a folder "
+                     "of `reachavoid maps`, its index.toml) plays a cell per map and pools them")
+    bench.add_argument("--config", default=None, metavar="MvN",
+                       help=f"without --suite: attackers v defenders, drawn at random each "
+                            f"episode (default: {ONE_CELL['config']}; over a map library, its "
+                            f"maps' own)")
     bench.add_argument("--defenders", default="hj,matching", metavar="A,B",
                        help=f"comma-separated defender methods, each {SPEC} (default: "
                             f"%(default)s). {names_help('defenders')}")
@@ -594,7 +604,7 @@ def _bench_suite(args: argparse.Namespace) -> Suite:
     """The suite to play: ``--suite``, or one cell of ``--scenario`` and ``--config``."""
     if args.suite is not None:
         given = [f"--{key}" for key, default in ONE_CELL.items()
-                 if getattr(args, key) != default]
+                 if getattr(args, key) not in (None, default)]
         if given:
             raise UsageError(f"{given[0]}: not with --suite (the suite names its cells)")
         try:
@@ -605,8 +615,13 @@ def _bench_suite(args: argparse.Namespace) -> Suite:
             raise UsageError(str(err)) from None
         return suite if args.seed is None else Suite(suite.name, suite.version, args.seed,
                                                       suite.cells)
-    m, n = _check(parse_players, args.config, "--config")
-    scenario = _load(args.scenario).with_players(m, n)
+    players = (None if args.config is None
+               else _check(parse_players, args.config, "--config"))
+    scenarios = _library(args.scenario)
+    if len(scenarios) > 1:
+        return library_suite(args.scenario, scenarios, args.attackers, args.seed or 0, players)
+    scenario = scenarios[0].with_players(*(players or parse_players(ONE_CELL["config"],
+                                                                    "--config")))
     cell = Cell(scenario.name, scenario, args.attackers)
     return Suite(scenario.name, 0, args.seed or 0, (cell,))
 
@@ -720,7 +735,8 @@ def _percent(value: float, interval: tuple[float, float], method: str = "") -> s
 
 
 def _bench_tables(result: SuiteResult, seconds: float) -> str:
-    """A table per cell: each method's capture rates, then its paired difference."""
+    """A table per cell, then per pooled attacker policy: each method's capture rates, then
+    its paired difference."""
     suite = result.suite
     width = max(10, *(len(m) for m in result.methods))
     title = (f"suite {suite.name} v{suite.version}, {len(suite.cells)} cells"
@@ -733,23 +749,37 @@ def _bench_tables(result: SuiteResult, seconds: float) -> str:
         episodes = comparison.summaries[0].episodes
         lines += ["", f"{cell.cell.label}: {episodes} episode(s), seeds {suite.seed}.."
                       f"{suite.seed + episodes - 1}" + (" (all from one start)"
-                                                        if cell.one_start else ""),
-                  f"  {'defenders':<{width}} {'capture rate [95% CI]':<29} "
-                  f"{'all captured [95% CI]':<26} {'guaranteed':>10} {'nominal':>8} "
-                  f"{'violations':>10} {'s/episode':>9}"]
-        for s in comparison.summaries:
-            guaranteed, nominal = ("-" if x is None else f"{x:.2f}"
-                                   for x in (s.guaranteed_initial, s.nominal_initial))
-            rate = _percent(s.capture_rate, s.capture_rate_ci, s.capture_rate_method)
-            lines.append(f"  {s.label:<{width}} {rate:<29} "
-                         f"{_percent(s.all_captured_rate, s.all_captured_ci):<26} "
-                         f"{guaranteed:>10} {nominal:>8} {s.guarantee_violations:>10} "
-                         f"{cell.seconds_per_episode[s.label]:>9.2f}")
-        for d in comparison.differences:
-            lines.append(f"  {d.label} - {d.baseline}: capture rate {d.difference:+.1%} "
-                         f"[{d.ci[0]:+.1%}, {d.ci[1]:+.1%}] ({d.method}, {d.episodes} "
-                         f"paired seed(s))")
+                                                        if cell.one_start else "")]
+        lines += _method_rows(comparison.summaries, comparison.differences, width,
+                              cell.seconds_per_episode)
+    for pooled in result.pooled:
+        lines += ["", f"pooled / {pooled.attackers}: {pooled.cells} maps, "
+                      f"{pooled.summaries[0].episodes} episodes (differences paired by map "
+                      f"and seed)"]
+        lines += _method_rows(pooled.summaries, pooled.differences, width)
     return "\n".join(lines)
+
+
+def _method_rows(summaries: Sequence[CaptureSummary], differences: Sequence[PairedDifference],
+                 width: int, seconds: dict[str, float] | None = None) -> list[str]:
+    """A header, a row per method's summary (``seconds`` per episode when given), then a
+    row per paired difference."""
+    lines = [f"  {'defenders':<{width}} {'capture rate [95% CI]':<29} "
+             f"{'all captured [95% CI]':<26} {'guaranteed':>10} {'nominal':>8} "
+             f"{'violations':>10}" + (f" {'s/episode':>9}" if seconds else "")]
+    for s in summaries:
+        guaranteed, nominal = ("-" if x is None else f"{x:.2f}"
+                               for x in (s.guaranteed_initial, s.nominal_initial))
+        rate = _percent(s.capture_rate, s.capture_rate_ci, s.capture_rate_method)
+        lines.append(f"  {s.label:<{width}} {rate:<29} "
+                     f"{_percent(s.all_captured_rate, s.all_captured_ci):<26} "
+                     f"{guaranteed:>10} {nominal:>8} {s.guarantee_violations:>10}"
+                     + (f" {seconds[s.label]:>9.2f}" if seconds else ""))
+    for d in differences:
+        lines.append(f"  {d.label} - {d.baseline}: capture rate {d.difference:+.1%} "
+                     f"[{d.ci[0]:+.1%}, {d.ci[1]:+.1%}] ({d.method}, {d.episodes} "
+                     f"paired seed(s))")
+    return lines
 
 
 def _maps(args: argparse.Namespace) -> int:

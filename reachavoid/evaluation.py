@@ -252,6 +252,25 @@ def one_start(scenario: Scenario) -> bool:
     return scenario.attackers is not None and scenario.defenders is not None
 
 
+def score(labels: Sequence[str], results: Sequence[Sequence[EpisodeResult]],
+          baseline: str | None = None
+          ) -> tuple[tuple[CaptureSummary, ...], tuple[PairedDifference, ...]]:
+    """Each method's ``summarize`` and, with a ``baseline`` among ``labels``, every other
+    method's ``paired_difference`` from it (``results[k]``: method ``labels[k]``'s episodes,
+    the same seeds in the same order for every method)."""
+    summaries = tuple(summarize(label, played) for label, played in zip(labels, results,
+                                                                          strict=True))
+    if baseline is None:
+        return summaries, ()
+    if baseline not in labels:
+        raise ValueError(f"baseline: {baseline!r} is not among the methods "
+                         f"({', '.join(labels)})")
+    reference = results[list(labels).index(baseline)]
+    return summaries, tuple(paired_difference(label, played, baseline, reference)
+                            for label, played in zip(labels, results, strict=True)
+                            if label != baseline)
+
+
 @dataclass(frozen=True)
 class Comparison:
     """``compare_defenders``' answer: one summary per method, the paired differences of
@@ -271,17 +290,7 @@ def compare(scenario: Scenario, sweeps: Sequence[Sweep], results: Sequence[Seque
     seeds)."""
     labels = [sweep.defenders.label for sweep in sweeps]
     attackers = sweeps[0].attackers.label
-    summaries = tuple(summarize(label, played) for label, played in zip(labels, results,
-                                                                          strict=True))
-    differences: tuple[PairedDifference, ...] = ()
-    if baseline is not None:
-        if baseline not in labels:
-            raise ValueError(f"baseline: {baseline!r} is not among the methods "
-                             f"({', '.join(labels)})")
-        reference = results[labels.index(baseline)]
-        differences = tuple(paired_difference(label, played, baseline, reference)
-                            for label, played in zip(labels, results, strict=True)
-                            if label != baseline)
+    summaries, differences = score(labels, results, baseline)
     rows = tuple({"defenders": label, "attackers": attackers, **r.to_dict()}
                  for label, played in zip(labels, results, strict=True) for r in played)
     return Comparison(scenario, attackers, summaries, differences, rows)

@@ -22,7 +22,9 @@ A cell is one scenario (its fixed starts, or random starts of ``players`` on its
 against one attacker policy; ``episodes`` fixes a cell's episode count, else the command's
 ``--episodes`` applies. ``run_suite`` plays every cell with every method
 (``evaluation.compare``: summaries and paired differences against a baseline);
-``plot_suite`` draws the capture rates with their intervals.
+``plot_suite`` draws the capture rates with their intervals. ``library_suite`` makes a
+suite of a map library (``reachavoid bench --scenario DIR``): a cell per map, and every
+map's episodes of one attacker policy pooled as well (``SuiteResult.pooled``).
 """
 
 from __future__ import annotations
@@ -37,7 +39,15 @@ from pathlib import Path
 from typing import Any
 
 from policies.registry import Factory, policy_specs
-from reachavoid.evaluation import Comparison, compare, one_start
+from reachavoid.evaluation import (
+    CaptureSummary,
+    Comparison,
+    PairedDifference,
+    compare,
+    one_start,
+    score,
+)
+from reachavoid.rollout import EpisodeResult
 from reachavoid.sweep import Sweep, run_sweeps
 from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
 from reachavoid_env.files import atomic_write
@@ -80,12 +90,27 @@ class Cell:
 @dataclass(frozen=True)
 class Suite:
     """A named, versioned list of cells; episode ``k`` of every cell uses seed
-    ``seed + k``."""
+    ``seed + k``. ``pooled``: the cells are the maps of one library, and ``run_suite``
+    pools each attacker policy's cells as well."""
 
     name: str
     version: int
     seed: int
     cells: tuple[Cell, ...]
+    pooled: bool = False
+
+
+def library_suite(name: str, scenarios: Sequence[Scenario], attackers: str, seed: int = 0,
+                  players: tuple[int, int] | None = None) -> Suite:
+    """A pooled suite of a map library: one cell per map (its label the map's name) with
+    the map's own players, or random starts of ``players`` (attackers, defenders), against
+    ``attackers``."""
+    cells = []
+    for scenario in scenarios:
+        if players is not None:
+            scenario = scenario.with_players(*players)
+        cells.append(Cell(scenario.name, scenario, attackers))
+    return Suite(name, 0, seed, tuple(cells), pooled=True)
 
 
 def suite_names() -> list[str]:
@@ -197,13 +222,33 @@ class CellResult:
 
 
 @dataclass(frozen=True)
+class Pooled:
+    """Every cell of one attacker policy as one sample (a pooled suite: the maps of a
+    library, the same number of episodes on each): each method's summary and its paired
+    differences from the baseline, seed by seed within each map."""
+
+    attackers: str
+    cells: int
+    summaries: tuple[CaptureSummary, ...]
+    differences: tuple[PairedDifference, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"attackers": self.attackers, "cells": self.cells,
+                "episodes": self.summaries[0].episodes,
+                "methods": [s.to_dict() for s in self.summaries],
+                "differences": [d.to_dict() for d in self.differences]}
+
+
+@dataclass(frozen=True)
 class SuiteResult:
-    """What ``run_suite`` played: one result per cell, in the suite's order."""
+    """What ``run_suite`` played: one result per cell, in the suite's order, and for a
+    pooled suite one ``Pooled`` per attacker policy."""
 
     suite: Suite
     methods: tuple[str, ...]
     baseline: str
     cells: tuple[CellResult, ...]
+    pooled: tuple[Pooled, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: the suite, per cell the summaries and paired differences, and one
@@ -221,7 +266,8 @@ class SuiteResult:
             rows.extend({"cell": result.cell.label, **row} for row in comparison.rows)
         return {"suite": self.suite.name, "version": self.suite.version,
                 "seed": self.suite.seed, "defenders": list(self.methods),
-                "baseline": self.baseline, "cells": cells, "rows": rows}
+                "baseline": self.baseline, "cells": cells,
+                "pooled": [p.to_dict() for p in self.pooled], "rows": rows}
 
 
 def run_suite(suite: Suite, methods: Sequence[str | Factory], episodes: int,
@@ -249,13 +295,27 @@ def run_suite(suite: Suite, methods: Sequence[str | Factory], episodes: int,
                         address=address, progress=progress, description=suite.name)
     labels = [specs["defenders", m].label for m in methods]
     results = []
+    outcomes = []
     for k, (cell, group) in enumerate(zip(suite.cells, sweeps, strict=True)):
         outcome = played[k * len(methods):(k + 1) * len(methods)]
+        outcomes.append(outcome)
         seconds = {label: sum(r.seconds for r in episodes_) / len(episodes_)
                    for label, episodes_ in zip(labels, outcome, strict=True)}
         results.append(CellResult(cell, compare(cell.scenario, group, outcome, baseline),
                                   seconds))
-    return SuiteResult(suite, tuple(labels), baseline, tuple(results))
+    pooled = (tuple(_pool(suite.cells, outcomes, attacker, labels, baseline)
+                    for attacker in attackers) if suite.pooled else ())
+    return SuiteResult(suite, tuple(labels), baseline, tuple(results), pooled)
+
+
+def _pool(cells: Sequence[Cell], outcomes: Sequence[Sequence[Sequence[EpisodeResult]]],
+          attackers: str, labels: Sequence[str], baseline: str) -> Pooled:
+    """``attackers``' cells as one sample: each method's episodes of every such cell, in
+    the cells' order (so the paired differences pair the same map and seed)."""
+    chosen = [outcome for cell, outcome in zip(cells, outcomes, strict=True)
+              if cell.attackers == attackers]
+    merged = [[r for outcome in chosen for r in outcome[k]] for k in range(len(labels))]
+    return Pooled(attackers, len(chosen), *score(labels, merged, baseline))
 
 
 def plot_suite(result: SuiteResult, path: str | os.PathLike[str]) -> None:

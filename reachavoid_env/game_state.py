@@ -92,6 +92,7 @@ class EdgeKind(str, Enum):
     ASSIGN = "assign"  # one defender on one attacker (a 1 vs 1 game)
     PAIR = "pair"      # one defender on two attackers (a 2 vs 1 game): both its edges
     TEAM = "team"      # two defenders on one attacker (a 1 vs 2 game): both edges to it
+    RACE = "race"      # a defender racing to intercept an attacker, in no certified game
 
 
 class Edge(NamedTuple):

@@ -24,6 +24,7 @@ CAPTURED: Color = (40, 40, 40)
 EDGE: Color = (20, 150, 55)           # an assignment edge: one defender, one attacker (1 vs 1)
 PAIR_EDGE: Color = (235, 120, 0)      # one defender on two attackers (a 2 vs 1 game)
 TEAM_EDGE: Color = (150, 60, 200)     # two defenders on one attacker (a 1 vs 2 game)
+RACE_EDGE: Color = (90, 110, 130)     # a defender racing to intercept, in no certified game
 TEXT: Color = (30, 32, 38)
 TEXT_DIM: Color = (80, 86, 98)
 HALO: Color = (255, 255, 255)         # the outline that keeps text readable over anything

@@ -59,6 +59,7 @@ EDGE_STYLES: dict[EdgeKind, EdgeStyle] = {
     EdgeKind.ASSIGN: EdgeStyle(P.EDGE, 1.0, 0.0, "assigned (1 vs 1)"),
     EdgeKind.PAIR: EdgeStyle(P.PAIR_EDGE, 10.0, 5.0, "pair: 1 defender on 2 attackers (2 vs 1)"),
     EdgeKind.TEAM: EdgeStyle(P.TEAM_EDGE, 3.0, 4.0, "team: 2 defenders on 1 attacker (1 vs 2)"),
+    EdgeKind.RACE: EdgeStyle(P.RACE_EDGE, 2.0, 6.0, "racing to intercept (no guarantee)"),
 }
 
 
@@ -295,7 +296,7 @@ class Renderer:
                           f"captured: {wide}", counts=True),
              _LegendEntry(self._draw_arrival, lambda s: f"reached target: {len(s.arrived)}",
                           f"reached target: {wide}", counts=True)],
-            [edges[EdgeKind.PAIR], edges[EdgeKind.TEAM]],
+            [edges[EdgeKind.PAIR], edges[EdgeKind.TEAM], edges[EdgeKind.RACE]],
         ]
 
     def _layout_legend(self, room: int) -> tuple[list[list[tuple[_LegendEntry, int]]], int]:

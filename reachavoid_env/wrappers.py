@@ -166,6 +166,22 @@ class _OnGame:
     """What a training view passes straight to its ``game`` (a ``ReachAvoidEnv``)."""
 
     game: ReachAvoidEnv
+    metadata: dict[str, Any]
+
+    def _open_game(self, scenario: ScenarioSource, max_cycles: int | None,
+                   render_mode: str | None, shaping: float, timeout_reward: float,
+                   action_repeat: int, scripted_every: int, render_width: int,
+                   info_format: str, starts: str) -> ReachAvoidEnv:
+        """Check the view's own options, set them and ``metadata``, and build the game
+        (which checks the rest)."""
+        self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
+        self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
+        self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
+        game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
+                             shaping=shaping, render_width=render_width, info_format=info_format,
+                             starts=starts)
+        self.metadata = _metadata(self.metadata, game, self.action_repeat)
+        return game
 
     def game_state(self) -> GameState:
         return self.game.game_state()
@@ -215,13 +231,9 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
                           timeout_reward=timeout_reward, action_repeat=action_repeat,
                           scripted_every=scripted_every, render_width=render_width,
                           info_format=info_format, starts=starts)
-        self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
-        self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
-        self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
-        game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
-                             shaping=shaping, render_width=render_width, info_format=info_format,
-                             starts=starts)
-        self.metadata = _metadata(self.metadata, game, self.action_repeat)
+        game = self._open_game(scenario, max_cycles, render_mode, shaping, timeout_reward,
+                               action_repeat, scripted_every, render_width, info_format,
+                               starts)
         self.game = game
         self.render_mode = render_mode
         self.defenders = scripted_policy(defenders, game, "defenders")
@@ -343,13 +355,9 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
                           shaping=shaping, timeout_reward=timeout_reward,
                           action_repeat=action_repeat, scripted_every=scripted_every,
                           render_width=render_width, info_format=info_format, starts=starts)
-        self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
-        self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
-        self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
-        game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
-                             shaping=shaping, render_width=render_width, info_format=info_format,
-                             starts=starts)
-        self.metadata = _metadata(self.metadata, game, self.action_repeat)
+        game = self._open_game(scenario, max_cycles, render_mode, shaping, timeout_reward,
+                               action_repeat, scripted_every, render_width, info_format,
+                               starts)
         base = game.base_scenario
         m = base.num_attackers
         if isinstance(attacker, bool) or not isinstance(attacker, int) \

@@ -242,3 +242,33 @@ def test_a_library_is_accepted_by_the_registered_ids_and_by_play(tmp_path, capsy
     assert main(["play", "--scenario", str(tmp_path / INDEX), "--defenders", "greedy",
                  "--attackers", "straight", "--seed", "4", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["scenario"] == drawn.scenario.name
+
+
+def test_bench_over_a_library_plays_a_cell_per_map_and_pools_them(tmp_path, capsys):
+    import json
+
+    write_library(tmp_path, SMALL, 5, 2)
+    assert main(["bench", "--scenario", str(tmp_path), "--defenders", "greedy,idle",
+                 "--attackers", "straight", "--episodes", "3", "--seed", "7", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    maps = [s.name for s in load_library(tmp_path)]
+    assert [c["cell"] for c in report["cells"]] == [f"{name} / straight" for name in maps]
+    assert all(c["methods"][0]["attackers"] == SMALL.attackers for c in report["cells"])
+    [pooled] = report["pooled"]
+    assert (pooled["attackers"], pooled["cells"], pooled["episodes"]) == ("straight", 2, 6)
+    for k, method in enumerate(pooled["methods"]):   # the pool is the cells' episodes
+        rates = [c["methods"][k]["capture_rate"] for c in report["cells"]]
+        assert method["capture_rate"] == pytest.approx(np.mean(rates))
+    [difference] = pooled["differences"]
+    assert (difference["label"], difference["baseline"], difference["episodes"]) == (
+        "idle", "greedy", 6)
+    assert main(["bench", "--scenario", str(tmp_path), "--config", "3v1", "--defenders",
+                 "greedy", "--attackers", "straight", "--episodes", "2"]) == 0
+    table = capsys.readouterr().out
+    assert "pooled / straight: 2 maps, 4 episodes" in table
+    assert all(f"{s.with_players(3, 1).name} / straight: 2 episode(s)" in table
+               for s in load_library(tmp_path))
+    assert main(["bench", "--scenario", str(tmp_path), "--config", "3v1", "--defenders",
+                 "greedy", "--attackers", "straight", "--episodes", "1", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["rows"]
+    assert {r["num_attackers"] for r in rows} == {3}

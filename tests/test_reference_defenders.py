@@ -62,6 +62,12 @@ def test_worked_example_is_not_certified(coarse_tubes):
     assert 0.0 < value21 <= reference.margin(vf21)
     assert reference.nominal_captures == 2 == len(reference.assignment)
     assert reference.guaranteed_captures == 0 and reference.certified_games == []
+    # nothing certified: the defender races, and the overlay says so (not the program's
+    # uncertified pair, which is not played)
+    overlay = reference.overlay()
+    assert [(e.defender, e.kind) for e in overlay.kinded_edges] == [("defender_0",
+                                                                      EdgeKind.RACE)]
+    assert overlay.lines == ("MIP: 0 guaranteed, 2 nominal",)
 
 
 def _check_certificate(policy, state, previous: list[Game]) -> int:
@@ -229,3 +235,46 @@ def test_guarantee_over_random_starts(coarse_tubes, record_property):
     print(f"guarantee violated in {violations} of {episodes} episodes at 25^4 / 13^6")
     assert promised >= episodes, "the MIP promised almost nothing: the test would be vacuous"
     assert violations <= 1
+
+
+def test_certified_game_takes_the_plan_only_as_far_as_its_value_allows(coarse_tubes):
+    """A certified 1 vs 1 game's defender takes the proposed heading where the value
+    clears the margin by more than a step's change, else a heading that keeps the value
+    from falling to first order (or the optimal control where none does)."""
+    vf11, vf21 = coarse_tubes
+    scenario = reachavoid_env.builtin_scenario("paper_2v1").with_players(4, 2)
+    env = reachavoid_env.parallel_env(scenario=scenario)
+    policy = HJDefenderPolicy(vf11, vf21, margin_cells=0.1)  # a thin margin: both branches
+    branches = set()
+    for seed in range(40):
+        env.reset(seed=seed)
+        policy.reset(env.unwrapped.scenario)
+        state = env.unwrapped.game_state()
+        actions = np.array(list(policy.act(state).values()))
+        games = [g for g in policy.certified_games if len(g.defenders) == len(g.attackers) == 1]
+        if not games:
+            continue
+        i = np.array([g.attackers[0] for g in games])
+        j = np.array([g.defenders[0] for g in games])
+        away = np.zeros_like(state.defender_positions)
+        gap = state.defender_positions[j] - state.attacker_positions[i]
+        away[j] = gap / np.linalg.norm(gap, axis=1)[:, None]     # the worst proposal
+        optimal = actions.copy()
+        policy._play_games(policy._decision, optimal)             # the games' optimal controls
+        steered = optimal.copy()
+        policy._steer_certified(state, away, steered)
+        value, gradient = vf11.value_and_gradient(
+            pair_states(state.attacker_positions, state.defender_positions)[i, j])
+        step = (state.attacker_speed + state.defender_speed) * scenario.dt
+        for k in range(len(games)):
+            u = steered[j[k]]
+            if value[k] - policy.tubes.margins.m11 > step:
+                branches.add("clear")
+                np.testing.assert_allclose(u, away[j[k]], atol=1e-6)
+            else:
+                grad_a, grad_d = gradient[k, :2], gradient[k, 2:]
+                change = (state.defender_speed * grad_d @ u
+                          - state.attacker_speed * np.linalg.norm(grad_a))
+                branches.add("cone" if change >= -1e-6 else "optimal")
+                assert change >= -1e-6 or np.allclose(u, optimal[j[k]], atol=1e-6)
+    assert "clear" in branches and branches - {"clear"}

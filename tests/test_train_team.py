@@ -144,7 +144,7 @@ def test_demonstrations_line_up_with_their_returns(tmp_path):
     recipe = example("train_attacker_team")
     args = recipe.parse_args(["--defenders", "greedy", "--imitate-steps", "200",
                               "--out", str(tmp_path)])
-    demonstrations = recipe.collect_demonstrations(args, recipe.team_scenario(args), 0.9)
+    demonstrations = recipe.collect_demonstrations(args, recipe.team_maps(args.scenario), 0.9)
     assert demonstrations.observations.shape == (200, 2 + 3 * 8)
     assert demonstrations.actions.shape == (200, 2) and demonstrations.returns.shape == (200,)
     lengths = np.linalg.norm(demonstrations.actions, axis=1)
@@ -164,9 +164,10 @@ def test_the_hj_team_is_cloned_and_evaluated_beside_the_clone(tmp_path):
     args = recipe.parse_args(["--defenders", "greedy", "--grid1", "11", "--imitate-steps",
                               "6", "--imitate-from", "hj", "--out", str(tmp_path)])
     assert args.teams == ("learned", "shortest-path", "random", "hj")
-    scenario = recipe.team_scenario(args)
-    demonstrations = recipe.collect_demonstrations(args, scenario, 0.9)
-    env = recipe.game(args, scenario)
+    maps = recipe.team_maps(args.scenario)
+    [scenario] = maps
+    demonstrations = recipe.collect_demonstrations(args, maps, 0.9)
+    env = recipe.game(args, maps)
     env.reset(seed=args.seed + recipe.IMITATION_SEED_OFFSET)
     first_steps = []                # the rows start with attacker_0's first step
     for teacher in (HJAttacker(tube_1v1(scenario, 11, progress=False)),
@@ -230,7 +231,7 @@ def test_dagger_rows_are_the_learner_states_labelled_by_the_teacher(tmp_path):
     action there, not the player's."""
     recipe = example("train_attacker_team")
     args = recipe.parse_args(["--defenders", "greedy", "--out", str(tmp_path)])
-    scenario = recipe.team_scenario(args)
+    maps = recipe.team_maps(args.scenario)
 
     class Still:
         def reset(self, env):
@@ -239,8 +240,8 @@ def test_dagger_rows_are_the_learner_states_labelled_by_the_teacher(tmp_path):
         def act(self, observations, env):
             return {name: np.zeros(2, dtype=np.float32) for name in env.agents}
 
-    taught = recipe.collect_demonstrations(args, scenario, 0.9, steps=30, seed=5)
-    still = recipe.collect_demonstrations(args, scenario, 0.9, player=Still(), steps=30,
+    taught = recipe.collect_demonstrations(args, maps, 0.9, steps=30, seed=5)
+    still = recipe.collect_demonstrations(args, maps, 0.9, player=Still(), steps=30,
                                           seed=5)
     # the rows start with attacker_0's steps: the same first state and label, then the
     # states where the player, not the teacher, has moved it
@@ -260,3 +261,22 @@ def test_dagger_arguments_are_checked(tmp_path, capsys):
             recipe.parse_args([*argv, "--out", str(tmp_path)])
         assert stopped.value.code == 2
     assert "--dagger-rounds: needs --imitate-steps" in capsys.readouterr().err
+
+
+def test_trained_on_one_library_evaluated_on_another(tmp_path):
+    """``--scenario LIBRARY --evaluate-on LIBRARY``: training plays the first library's maps,
+    the evaluation the second's, with the scripted teams built per map."""
+    from reachavoid_env.maps import MapOptions, write_library
+
+    small = MapOptions(obstacles=(1, 2), shapes=("box", "circle"), density=(0.0, 0.3))
+    write_library(tmp_path / "train", small, 0, 2)
+    write_library(tmp_path / "test", small, 1, 2)
+    recipe = example("train_attacker_team")
+    report = recipe.main(["--defenders", "greedy", "--scenario", str(tmp_path / "train"),
+                          "--evaluate-on", str(tmp_path / "test"), "--imitate-steps", "20",
+                          "--imitate-epochs", "1", "--timesteps", "0", "--teams",
+                          "learned,shortest-path", "--episodes", "4", "--no-video",
+                          "--out", str(tmp_path / "out")])
+    assert [m.split("_")[0] for m in report["maps"]] == ["gen-s0-0000", "gen-s0-0001"]
+    assert [m.split("_")[0] for m in report["evaluated_on"]] == ["gen-s1-0000", "gen-s1-0001"]
+    assert report["evaluation"]["shortest-path"]["episodes"] == 4
