@@ -15,29 +15,57 @@ and back.
 A game's value is what the program reads: ``V11`` for one defender against one attacker;
 the smallest of ``V21`` and both ``V11`` for one defender against a pair (constraints c4
 and c5); ``V12`` for a team of two defenders against one attacker.
+
+**Open space** (``OpenSpace``, where ``vD > vA``). Beside the tube, a 1 vs 1 game is won
+where the grid-free condition of ``solvers.open_space.defender_certifies`` holds (the
+Apollonius disc misses the target, the parallel-navigation region misses obstacles and
+walls); such a game is played by ``solvers.open_space.parallel_navigation``, the
+strategy that proves it, so the promise and the play agree. Each game records what
+certifies it (``Game.basis``): a game the tube certifies stays a tube game; one only the
+open-space condition certifies is an open-space game. The program sees these wins too:
+where the condition says defender ``j`` wins attacker ``i`` alone, the 1 vs 1 table counts
+a defender win whatever the tube says (``policies.lookups.decision_tables`` ``wins``), so
+the program may assign that single game and the certificate takes it. A team needs no
+rule of its own: the program forms a team only against an attacker that beats both
+defenders alone, so where either member wins alone the program plays that member's single
+game instead.
 """
 
 from __future__ import annotations
 
+import enum
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
 from policies.lookups import values21_at
-from reachavoid_env import GameState
+from reachavoid_env import GameMap, GameState, Scenario
+from solvers import open_space
 from solvers.assignment import Assignment
 from solvers.hj import ValueFunction
+
+
+class Basis(enum.Enum):
+    """What certifies a game, and so what plays it."""
+
+    TUBE = "tube"
+    """Its tube value (played by the tube's controls)."""
+    OPEN = "open"
+    """The open-space condition (``OpenSpace``; played by parallel navigation)."""
 
 
 @dataclass(frozen=True)
 class Game:
     """One assigned game: ``defenders`` (one, or a team ``j < k``) against ``attackers``
-    (one, or a pair ``i < k`` taken by one defender), as indices."""
+    (one, or a pair ``i < k`` taken by one defender), as indices; ``basis``, what
+    certifies it (of a certified game), is no part of which game it is (equality and hash
+    ignore it)."""
 
     defenders: tuple[int, ...]
     attackers: tuple[int, ...]
+    basis: Basis = field(default=Basis.TUBE, compare=False)
 
 
 def games_of(assignment: Assignment) -> list[Game]:
@@ -125,16 +153,127 @@ def game_rows(games: tuple[Game, ...]) -> tuple[np.ndarray, np.ndarray]:
     return rows, teams
 
 
-def kept_games(certified: list[Game], kept: np.ndarray, left: np.ndarray) -> list[Game]:
+def kept_games(certified: list[Game], kept: np.ndarray, left: np.ndarray,
+               held: np.ndarray, values11: np.ndarray) -> list[Game]:
     """The ``certified`` games still on (``kept`` and ``left`` from
-    ``policies.lookups.decision_tables``), without the attackers that left."""
+    ``policies.lookups.decision_tables``), without the attackers that left, each with
+    what keeps it: an open-space game stays one while ``held`` (``OpenSpace.held``),
+    else its tube value kept it; a tube game stays one while its value ``values11``
+    ``(M, N)`` is > 0, else ``held`` kept it (games of more than two players are held by
+    their tube alone)."""
     games = []
-    for game, on, present in zip(certified, kept.tolist(), left.tolist(), strict=True):
-        here = present[:len(game.attackers)]
-        if on:
-            games.append(game if all(here) else Game(game.defenders, tuple(
-                i for i, stays in zip(game.attackers, here, strict=True) if stays)))
+    for game, on, present, open_ in zip(certified, kept.tolist(), left.tolist(),
+                                        held.tolist(), strict=True):
+        if not on:
+            continue
+        attackers = tuple(i for i, stays in zip(game.attackers, present, strict=False)
+                          if stays)
+        if game.basis is Basis.OPEN:
+            basis = Basis.OPEN if open_ else Basis.TUBE
+        else:
+            basis = Basis.OPEN if open_ and values11[attackers[0], game.defenders[0]] <= 0.0 \
+                else Basis.TUBE
+        games.append(game if attackers == game.attackers and basis is game.basis
+                     else Game(game.defenders, attackers, basis))
     return games
+
+
+OPEN_CERTIFY_STEPS = 3.0
+"""The open-space margin (``solvers.open_space.defender_certifies``' ``margin``) a game is
+certified with, in attacker steps ``vA dt`` (map units: 0.015 on the paper scenarios).
+
+Why a margin, and why this one. In continuous time parallel navigation keeps both
+players in the first Apollonius disc and the disc only shrinks. The env plays in steps
+of ``dt`` and the defender reads the attacker's velocity from its last step (pure
+pursuit on the first), so where the attacker turns the line of sight turns by up to
+``2 vA dt`` over the players' distance, and the disc of the new positions may stick out
+of the first one. Measured (``tests/test_open_space.py``
+``test_the_disc_drifts_less_than_half_a_step``: discrete parallel navigation at
+``vA = 1``, ``vD = 1.5``, ``dt = 0.005`` against random, zigzag and a greedy attacker
+choosing each step the heading that pushes the next disc farthest out): the disc never
+stuck out of the first by more than 0.41 ``vA dt``. The keep margin (``OPEN_KEEP_STEPS``) must stay
+at least one step ``vA dt`` (the attacker starts each step inside the disc of that
+step's positions; a disc farther than one attacker step from the target leaves no
+arrival within the step) and the certify margin above it by more than the drift: 3 and
+1.5 steps leave 1.5 steps (3.6 times the measured drift) between them."""
+
+OPEN_KEEP_STEPS = 1.5
+"""The open-space margin (attacker steps ``vA dt``) a certified open-space game is kept
+with (``OPEN_CERTIFY_STEPS`` says why)."""
+
+
+@dataclass(frozen=True)
+class OpenSpace:
+    """The open-space 1 vs 1 certificate of one scenario (module docstring): its map,
+    speeds ``(vA, vD)``, the clearance the players keep from obstacles and walls (the
+    players' radius: the physics world stops a player's centre that far from them), the
+    margins a game is certified and kept with (map units) and the step ``dt``."""
+
+    game_map: GameMap
+    speeds: tuple[float, float]
+    clearance: float
+    certify: float
+    keep: float
+    dt: float
+
+    @classmethod
+    def of(cls, scenario: Scenario) -> OpenSpace | None:
+        """The certificate of ``scenario`` (``None`` where defenders are not faster: no
+        Apollonius disc)."""
+        va, vd = scenario.attacker_speed, scenario.defender_speed
+        if not vd > va:
+            return None
+        step = va * scenario.dt
+        return cls(scenario.map, (va, vd), scenario.player_radius, OPEN_CERTIFY_STEPS * step,
+                   OPEN_KEEP_STEPS * step, scenario.dt)
+
+    def wins(self, state: GameState, asked: np.ndarray) -> np.ndarray:
+        """``(M, N)`` bool: defender ``j`` wins alone against the active attacker ``i`` by
+        the open-space condition at the certify margin, checked where ``asked`` ``(M, N)``
+        (false elsewhere)."""
+        attackers, defenders = state.attacker_positions, state.defender_positions
+        wins = np.zeros(asked.shape, dtype=bool)
+        i, j = np.nonzero(asked & state.active_attackers[:, None])
+        if i.size:
+            wins[i, j] = open_space.defender_certifies(
+                self.game_map, attackers[i], defenders[j], self.speeds, self.certify,
+                self.clearance)
+        return wins
+
+    def held(self, certified: list[Game], state: GameState, wins: np.ndarray) -> np.ndarray:
+        """``(G,)`` bool: which ``certified`` games of one defender against one active
+        attacker the open-space condition holds: an open-space game at the keep margin,
+        a tube game at the certify margin (``wins``, this step's table)."""
+        held = np.zeros(len(certified), dtype=bool)
+        active = state.active_attackers
+        opened = []
+        for g, game in enumerate(certified):
+            left = [i for i in game.attackers if active[i]]
+            if len(game.defenders) != 1 or len(left) != 1:
+                continue
+            if game.basis is Basis.OPEN:
+                opened.append((g, left[0], game.defenders[0]))
+            else:
+                held[g] = wins[left[0], game.defenders[0]]
+        if opened:
+            g, i, j = np.array(opened).T
+            held[g] = open_space.defender_certifies(
+                self.game_map, state.attacker_positions[i], state.defender_positions[j],
+                self.speeds, self.keep, self.clearance)
+        return held
+
+    def headings(self, games: list[Game], state: GameState,
+                 previous: np.ndarray | None) -> np.ndarray:
+        """``(G, 2)`` the parallel-navigation headings of the defenders of the 1 vs 1
+        ``games``, each attacker's velocity that of its last step (from its ``previous``
+        positions ``(M, 2)``; none: zero, pure pursuit)."""
+        i = np.array([game.attackers[0] for game in games], dtype=np.int64)
+        j = np.array([game.defenders[0] for game in games], dtype=np.int64)
+        attackers = state.attacker_positions[i]
+        velocities = (np.zeros_like(attackers) if previous is None
+                      else (attackers - previous[i]) / self.dt)
+        return open_space.parallel_navigation(attackers, state.defender_positions[j],
+                                              velocities, self.speeds[1])
 
 
 def joined(rest: Assignment, fixed: list[Game], num_defenders: int) -> Assignment:

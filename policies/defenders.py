@@ -14,8 +14,10 @@ from typing import NamedTuple
 import numpy as np
 
 from policies.certificate import (
+    Basis,
     Game,
     Margins,
+    OpenSpace,
     Tubes,
     game_rows,
     games_of,
@@ -178,13 +180,15 @@ IDLE = ("intercept", "shadow", "stand")
 
 class _Decision(NamedTuple):
     """One step's decision before its controls: the step's tables, the certified games of
-    the last decision still on (``kept``), and the assignment played (the program's
-    answer with ``kept`` joined)."""
+    the last decision still on (``kept``), the assignment played (the program's answer
+    with ``kept`` joined) and the open-space wins ``(M, N)`` (``OpenSpace.wins``; all
+    false without it)."""
 
     state: GameState
     tables: DecisionTables
     kept: list[Game]
     assignment: Assignment
+    wins: np.ndarray
 
 
 @functools.lru_cache(maxsize=1024)
@@ -211,7 +215,10 @@ class _AssignmentDefender(ABC):
     games; ``nominal_captures`` is the paper's count, the objective of the program with
     nothing kept (solved on demand on a second solver, so the training envs, which never
     read it, never pay for it). ``margin_cells=0`` is the paper's Algorithm 1 exactly:
-    nothing is kept, and both counts are the program's objective.
+    nothing is kept, and both counts are the program's objective. Where defenders are
+    faster, a 1 vs 1 game is also certified by the open-space condition
+    (``policies.certificate.OpenSpace``), which the program sees as a win, and is then
+    played by parallel navigation (``_play_open``, over whatever the free play wrote).
 
     **The free defenders.** ``free="intercept"``: the plan proposes, the certificate
     filters. One ``policies.intercept.plan_intercepts`` plan of the whole team (every
@@ -239,6 +246,8 @@ class _AssignmentDefender(ABC):
         self._certified: list[Game] = []
         self._nominal: int | None = None
         self._field: DistanceField | None = None
+        self._open: OpenSpace | None = None
+        self._previous: np.ndarray | None = None
 
     def reset(self, scenario: Scenario) -> None:
         _check_tube(self.vf11, scenario, "vf11")
@@ -248,6 +257,8 @@ class _AssignmentDefender(ABC):
         self._certified = []
         self._races: tuple[tuple[int, int], ...] = ()
         self._dt = scenario.dt
+        self._open = OpenSpace.of(scenario) if self._certifies else None
+        self._previous = None
         if self.free == "intercept":
             self._field = distance_field(scenario.map, scenario.player_radius)
 
@@ -287,7 +298,7 @@ class _AssignmentDefender(ABC):
             return decision.assignment.captures
         if self._nominal is None:
             state = decision.state
-            tables = self._tables(state, state.active_attackers, [])
+            tables = self._tables(state, state.active_attackers, [], decision.wins)
             self._nominal = self._solve(self._nominal_solver, state, tables).captures
         return self._nominal
 
@@ -338,13 +349,15 @@ class _AssignmentDefender(ABC):
         """One decision: the assignment keeping the certified games (``_decide``), the
         optimal controls of its games and the certificate of the new ones
         (``_play_games``), the teams' controls (``_play_teams``), then, with
-        ``free="intercept"``, the plan (``_play_plan``)."""
+        ``free="intercept"``, the plan (``_play_plan``); last, parallel navigation in the
+        open-space games (``_play_open``)."""
         names = state.defender_names
         actions = np.zeros((len(names), 2), dtype=np.float32)
         self._nominal = None
         if not state.active_attackers.any():
             self._decision = None
             self._certified = []
+            self._previous = None
             return dict(zip(names, actions, strict=True))
         decision = self._decision = self._decide(state)
         fresh = self._play_games(decision, actions)
@@ -352,6 +365,8 @@ class _AssignmentDefender(ABC):
         self._play_teams(decision, actions)
         if self.free == "intercept":
             self._play_plan(state, actions)
+        self._play_open(state, actions)
+        self._previous = state.attacker_positions.copy()
         return dict(zip(names, actions, strict=True))
 
     @property
@@ -362,19 +377,34 @@ class _AssignmentDefender(ABC):
         """The step's tables (one lookup), the certified games still on, and the program's
         answer with them joined."""
         certified = self._certified if self._certifies else []
-        tables = self._tables(state, state.active_attackers, certified)
-        kept = kept_games(certified, tables.kept, tables.left)
+        wins = self._open_wins(state)
+        held = (np.zeros(len(certified), dtype=bool) if self._open is None
+                else self._open.held(certified, state, wins))
+        tables = self._tables(state, state.active_attackers, certified, wins, held)
+        kept = kept_games(certified, tables.kept, tables.left, held, tables.values11)
         assignment = self._solve(self.solver, state, tables)
         if kept:
             assignment = _joined(assignment, tuple(kept), len(state.defender_positions))
-        return _Decision(state, tables, kept, assignment)
+        return _Decision(state, tables, kept, assignment, wins)
+
+    def _open_wins(self, state: GameState) -> np.ndarray:
+        """``OpenSpace.wins`` (all false without it), asked only where it can change
+        something: where the 1 vs 1 value does not clear its margin (elsewhere the tube
+        already certifies the game and the program counts the win)."""
+        shape = len(state.attacker_positions), len(state.defender_positions)
+        if self._open is None:
+            return np.zeros(shape, dtype=bool)
+        values = self.vf11.value(pair_states(state.attacker_positions,
+                                             state.defender_positions))
+        return self._open.wins(state, values <= self.tubes.margins.m11)
 
     def _play_games(self, decision: _Decision, actions: np.ndarray) -> list[Game]:
         """Write the optimal control of every defender alone in a game of the assignment
         (and of every shadowing one) into ``actions``; return the new games (not kept)
         that the certificate takes (with ``margin_cells=0``, every game: the paper's
-        rule)."""
-        state, tables, kept, assignment = decision
+        rule); a 1 vs 1 game the tube does not certify is an open-space game where
+        ``decision.wins`` says the defender wins it."""
+        state, tables, kept, assignment, wins = decision
         roles = _roles(assignment)
         singles = roles.singles
         if roles.idle and self.free == "assignment":
@@ -391,7 +421,18 @@ class _AssignmentDefender(ABC):
         if len(teams):
             slack[teams] = self.tubes.slack([fresh[g] for g in teams], state,
                                             tables.values11)
-        return [game for game, on in zip(fresh, (slack > 0.0).tolist(), strict=True) if on]
+        return [game if on else Game(game.defenders, game.attackers, Basis.OPEN)
+                for game, on, open_ in zip(fresh, (slack > 0.0).tolist(),
+                                           _open_games(fresh, wins), strict=True)
+                if on or open_]
+
+    def _play_open(self, state: GameState, actions: np.ndarray) -> None:
+        """Every defender of an open-space game plays parallel navigation (over whatever
+        ``actions`` holds): the strategy its certificate is proved for."""
+        games = [game for game in self._certified if game.basis is Basis.OPEN]
+        if games:
+            actions[[game.defenders[0] for game in games]] = self._open.headings(
+                games, state, self._previous)
 
     def _play_teams(self, decision: _Decision, actions: np.ndarray) -> None:
         """Both defenders of every team play the 1 vs 2 optimal controls."""
@@ -477,18 +518,21 @@ class _AssignmentDefender(ABC):
         """The 1 vs 1 and 2 vs 1 tubes as the batched lookups take them."""
         return TubeArrays.of(self.vf11), None if self.vf21 is None else TubeArrays.of(self.vf21)
 
-    def _tables(self, state: GameState, active: np.ndarray, certified: list[Game]
-                ) -> DecisionTables:
+    def _tables(self, state: GameState, active: np.ndarray, certified: list[Game],
+                wins: np.ndarray, held: np.ndarray | None = None) -> DecisionTables:
         """``decision_tables`` of ``state`` with the ``certified`` games of the last
-        decision (the 1 vs 2 values of their teams looked up first)."""
+        decision (the 1 vs 2 values of their teams looked up first), the open-space
+        ``wins`` and the certified games it ``held`` (none held by default)."""
         rows, teams = game_rows(tuple(certified))
         team_values = no_team_values(len(rows))
         if len(teams):
             team_values = np.full(len(rows), np.nan)
             team_values[teams] = self.vf12.value(team_states(
                 state.attacker_positions, state.defender_positions, rows[teams][:, [2, 0, 1]]))
+        if held is None:
+            held = np.zeros(len(rows), dtype=bool)
         return decision_tables(state.attacker_positions, state.defender_positions, active,
-                               rows, team_values, *self._tube_arrays)
+                               rows, team_values, held, wins, *self._tube_arrays)
 
     @abstractmethod
     def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
@@ -504,6 +548,13 @@ class _AssignmentDefender(ABC):
         """``(defender, attacker)``: the attacker whose 1 vs 1 optimal control each of the
         unassigned defenders ``idle`` plays with ``free="assignment"`` (those left out
         stand still); ``values11 (M, N)`` is this step's 1 vs 1 table."""
+
+
+def _open_games(games: list[Game], wins: np.ndarray) -> list[bool]:
+    """Whether each of ``games`` is one defender against one attacker that ``wins``
+    ``(M, N)`` (``OpenSpace.wins``) says the defender wins."""
+    return [len(game.defenders) == len(game.attackers) == 1
+            and bool(wins[game.attackers[0], game.defenders[0]]) for game in games]
 
 
 def _check_tube(vf: ValueFunction, scenario: Scenario, name: str) -> None:

@@ -121,8 +121,8 @@ def _fill_pairs(tube21, attackers, defenders, triples, count, values21):
 
 
 @njit(cache=True)
-def _decision_tables(attackers, defenders, active, certified, team_values, tube11, tube21,
-                     with_pairs):
+def _decision_tables(attackers, defenders, active, certified, team_values, held, wins, tube11,
+                     tube21, with_pairs):
     m, n = attackers.shape[0], defenders.shape[0]
     sc = _scratch(tube11)
     lower, weights, point = sc.lower, sc.weights, sc.point
@@ -164,7 +164,7 @@ def _decision_tables(attackers, defenders, active, certified, team_values, tube1
                     value = min(value, values11[certified[g, 2 + a], d1])
             if left[g, 0] and left[g, 1]:
                 value = min(value, values21[a1, a2, d1])
-        if value > 0.0:
+        if value > 0.0 or held[g]:
             kept[g] = True
             for a in range(2):
                 if left[g, a]:
@@ -175,7 +175,7 @@ def _decision_tables(attackers, defenders, active, certified, team_values, tube1
     beats = np.empty((m, n), dtype=np.bool_)
     for i in range(m):
         for j in range(n):
-            beats[i, j] = values11[i, j] <= 0.0 or busy[j]
+            beats[i, j] = (values11[i, j] <= 0.0 and not wins[i, j]) or busy[j]
     beats_2v1 = np.zeros((m, m, n), dtype=np.bool_)
     if not with_pairs:
         return DecisionTables(values11, values21, kept, left, beats, beats_2v1, program_active,
@@ -197,8 +197,9 @@ def _decision_tables(attackers, defenders, active, certified, team_values, tube1
 
 
 def decision_tables(attackers: np.ndarray, defenders: np.ndarray, active: np.ndarray,
-                    certified: np.ndarray, team_values: np.ndarray, tube11: TubeArrays,
-                    tube21: TubeArrays | None) -> DecisionTables:
+                    certified: np.ndarray, team_values: np.ndarray, held: np.ndarray,
+                    wins: np.ndarray, tube11: TubeArrays, tube21: TubeArrays | None
+                    ) -> DecisionTables:
     """Everything one decision reads of the tubes before its program, in one call.
 
     ``values11 (M, N)``: the 1 vs 1 value of every attacker (positions ``(M, 2)``,
@@ -206,17 +207,19 @@ def decision_tables(attackers: np.ndarray, defenders: np.ndarray, active: np.nda
     ``certified`` games, int64 rows ``(j, k, i, l)`` (defenders ``j`` and ``k``, attackers
     ``i < l``; -1 where a game has one), ``team_values`` their 1 vs 2 values (read for
     teams only): ``left (G, 2)`` which of each game's attackers are still active, ``kept
-    (G,)`` the games still on (an attacker left and the game's value, over those left,
-    > 0; ``policies.certificate.still_winning``). The program without the kept games'
-    players (``policies.certificate.restrict``): ``beats (M, N)`` (``values11 <= 0``,
-    every attacker beating a ``busy`` defender), ``active``, ``busy (N,)``, and
+    (G,)`` the games still on (an attacker left, and the game's value over those left
+    > 0 or the game ``held`` ``(G,)`` by the open-space certificate;
+    ``lookups_reference.still_winning``). The program without the kept games' players
+    (``lookups_reference.restrict``): ``beats (M, N)`` (``values11 <= 0`` except where
+    the open-space certificate ``wins (M, N)`` says the defender wins, every attacker
+    beating a ``busy`` defender), ``active``, ``busy (N,)``, and
     ``beats_2v1 (M, M, N)``: the 2 vs 1 table where (c5) binds, the pairs of attackers
     that a defender beats one by one (false elsewhere). ``values21 (M, M, N)``: the
     2 vs 1 values read for these (state order ``i < k``, both entries filled), NaN
     elsewhere (``values21_at`` reads more). Without ``tube21`` no 2 vs 1 value is read:
     no certified game may have two attackers."""
-    return _decision_tables(attackers, defenders, active, certified, team_values, tube11,
-                            tube11 if tube21 is None else tube21, tube21 is not None)
+    return _decision_tables(attackers, defenders, active, certified, team_values, held, wins,
+                            tube11, tube11 if tube21 is None else tube21, tube21 is not None)
 
 
 def values21_at(values21: np.ndarray, first: np.ndarray, second: np.ndarray,

@@ -33,8 +33,8 @@ cone of the disc) and in the band of the disc's width around the axis. Both play
 in the disc together with the part of that cone-and-band from the disc's centre on
 (``play_region``), which lies inside the capsule of radius ``r`` around the segment from
 ``c`` to the shoulder (where the cone meets the band) followed by capsules narrowing
-along the cone to ``d``: the test is that these are clear of obstacles (sphere tracing
-of the exact signed distance) and that the domain's walls cannot stop the defender
+along the cone to ``d``: the test is that these are clear of obstacles (exact
+segment-to-shape distances, ``segment_gaps``) and that the domain's walls cannot stop the defender
 (``defender_certifies``).
 
 A game certified by either condition is won by the strategy that proves it: the
@@ -48,10 +48,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from reachavoid_env import GameMap
-
-_TRACE_STEPS = 64
-"""Sphere-tracing steps per segment; a segment not cleared by then counts as blocked."""
+from reachavoid_env import Circle, GameMap
+from reachavoid_env.shapes import Shape
 
 
 def target_points(game_map: GameMap, spacing: float = 0.01) -> np.ndarray:
@@ -71,38 +69,47 @@ def target_points(game_map: GameMap, spacing: float = 0.01) -> np.ndarray:
 def segment_clear(game_map: GameMap, start: np.ndarray, end: np.ndarray,
                   clearance: np.ndarray | float = 0.0) -> np.ndarray:
     """Whether every point of each segment ``start``-``end`` lies farther than
-    ``clearance`` from every obstacle (the obstacles' exact signed distance, sphere
-    traced; the domain's edge is not an obstacle here).
+    ``clearance`` from every obstacle (exact distances, ``segment_gaps``; the domain's
+    edge is not an obstacle here).
 
     Args:
         start, end: ``(K, 2)`` map units.
         clearance: ``(K,)`` or a number, map units.
 
     Returns:
-        ``(K,)`` bool; a segment the tracing does not clear in ``_TRACE_STEPS`` steps
-        counts as blocked.
+        ``(K,)`` bool.
     """
     start, end = np.asarray(start, dtype=np.float64), np.asarray(end, dtype=np.float64)
     clearance = np.broadcast_to(np.asarray(clearance, dtype=np.float64), (len(start),))
-    if not game_map.obstacles:
-        return np.ones(len(start), dtype=bool)
-    length = np.linalg.norm(end - start, axis=1)
-    direction = (end - start) / np.maximum(length, 1e-300)[:, None]
-    along = np.zeros(len(start))
-    clear = np.zeros(len(start), dtype=bool)
-    active = np.arange(len(start))
-    for _ in range(_TRACE_STEPS):
-        points = start[active] + along[active, None] * direction[active]
-        room = np.min([shape.signed_distance(points) for shape in game_map.obstacles],
-                      axis=0) - clearance[active]
-        blocked = room <= 1e-9
-        along[active] += room
-        done = ~blocked & (along[active] >= length[active])
-        clear[active[done]] = True
-        active = active[~blocked & ~done]
-        if active.size == 0:
-            break
+    clear = np.ones(len(start), dtype=bool)
+    low = np.minimum(start, end) - clearance[:, None]
+    high = np.maximum(start, end) + clearance[:, None]
+    for shape in game_map.obstacles:
+        x0, x1, y0, y1 = shape.bounds()
+        near = np.flatnonzero((low[:, 0] <= x1) & (high[:, 0] >= x0) & (low[:, 1] <= y1)
+                              & (high[:, 1] >= y0))  # the others are clear of its bounds
+        if near.size:
+            clear[near] &= segment_gaps(shape, start[near], end[near]) > clearance[near]
     return clear
+
+
+def segment_gaps(shape: Shape, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """``(K,)`` the distance from each segment ``start``-``end`` ``(K, 2)`` to ``shape``
+    (0 where they meet): a circle's from its centre less its radius; a box's or polygon's
+    from its outline, its exact boundary (the distance between two segments that do not
+    cross is the smallest of their endpoints' distances to the other)."""
+    meets = np.isfinite(shape.segment_entry_time(start, end))
+    if isinstance(shape, Circle):
+        centre = np.broadcast_to(np.asarray(shape.center, dtype=np.float64), start.shape)
+        gaps = _segment_distance(centre, start, end) - shape.radius
+    else:
+        ring = shape.outline()
+        corners, after = ring[None], np.roll(ring, -1, axis=0)[None]
+        gaps = np.minimum(
+            _segment_distance(corners, start[:, None], end[:, None]).min(axis=1),
+            np.minimum(_segment_distance(start[:, None], corners, after),
+                       _segment_distance(end[:, None], corners, after)).min(axis=1))
+    return np.where(meets, 0.0, gaps)
 
 
 def attacker_certifies(game_map: GameMap, attackers: np.ndarray, defenders: np.ndarray,
@@ -169,7 +176,7 @@ def _slack_block(game_map, a, d, speeds, capture_radius, z, candidates, floor, c
     slack = (reach - capture_radius) / vd - run
     best = np.argsort(-slack, axis=1)[:, :candidates]
     value = np.take_along_axis(slack, best, axis=1)
-    state, rank = np.nonzero(value > floor)  # only runs that would decide are traced
+    state, rank = np.nonzero(value > floor)  # only runs that would decide are checked
     clear = np.zeros(value.shape, dtype=bool)
     clear[state, rank] = segment_clear(game_map, a[state], z[best[state, rank]], clearance)
     first = np.argmax(clear, axis=1)
@@ -262,17 +269,20 @@ def defender_certifies(game_map: GameMap, attackers: np.ndarray, defenders: np.n
                   & (sign * corners[..., axis] <= edge - clearance).all(axis=1))
         certified &= safe | inside
     # the region: the capsule of the disc's radius from its centre to the shoulder, then
-    # the cone in _CONE_PIECES pieces, each inside the capsule of its widest half-width
+    # the cone in _CONE_PIECES pieces, each inside the capsule of its widest half-width;
+    # all pieces of the states still in checked in one batch
     shoulder = (corners[:, 1] + corners[:, 3]) / 2  # on the axis, where the cone meets the band
     todo = np.flatnonzero(certified)
-    certified[todo] = segment_clear(game_map, centres[todo], shoulder[todo],
-                                    radii[todo] + clearance)
-    for j in range(_CONE_PIECES):
-        todo = np.flatnonzero(certified)
-        start = shoulder[todo] + j / _CONE_PIECES * (d[todo] - shoulder[todo])
-        end = shoulder[todo] + (j + 1) / _CONE_PIECES * (d[todo] - shoulder[todo])
-        width = radii[todo] * (1 - j / _CONE_PIECES) + clearance
-        certified[todo] = segment_clear(game_map, start, end, width)
+    if todo.size == 0:
+        return certified
+    cuts = np.linspace(0.0, 1.0, _CONE_PIECES + 1)[:, None, None]
+    cone = shoulder[todo] + cuts * (d[todo] - shoulder[todo])
+    starts = np.concatenate([centres[todo][None], cone[:-1]])
+    ends = np.concatenate([shoulder[todo][None], cone[1:]])
+    widths = np.concatenate([radii[todo][None], radii[todo] * (1 - cuts[:-1, :, 0])]) + clearance
+    clear = segment_clear(game_map, starts.reshape(-1, 2), ends.reshape(-1, 2),
+                          widths.reshape(-1))
+    certified[todo] = clear.reshape(_CONE_PIECES + 1, -1).all(axis=0)
     return certified
 
 

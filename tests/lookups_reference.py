@@ -15,20 +15,25 @@ from solvers.hj import ValueFunction
 
 
 def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
-                  tubes: Tubes, values21: np.ndarray | None = None) -> list[Game]:
+                  tubes: Tubes, values21: np.ndarray | None = None,
+                  held: np.ndarray | None = None) -> list[Game]:
     """The certified games of the last decision that are still on: attackers that left
     (captured) are dropped from their game, and a game stays while its value is > 0
-    (``values21`` as in ``Tubes.slack``)."""
+    (``values21`` as in ``Tubes.slack``) or the open-space certificate ``held`` it
+    (``(G,)`` bool, one per certified game; none by default)."""
     if not certified:
         return []
+    if held is None:
+        held = np.zeros(len(certified), dtype=bool)
     active = state.active_attackers
-    games = []
-    for game in certified:
+    games, holds = [], []
+    for game, open_ in zip(certified, held, strict=True):
         left = tuple(i for i in game.attackers if active[i])
         if left:
             games.append(Game(game.defenders, left))
+            holds.append(open_)
     keep = tubes.slack(games, state, values11, Margins(0.0, 0.0, 0.0), values21) > 0.0
-    return [game for game, on in zip(games, keep, strict=True) if on]
+    return [game for game, on, open_ in zip(games, keep, holds, strict=True) if on or open_]
 
 
 def restrict(beats: np.ndarray, active: np.ndarray, fixed: list[Game]
@@ -45,11 +50,12 @@ def restrict(beats: np.ndarray, active: np.ndarray, fixed: list[Game]
     return beats | busy, active, busy
 
 
-def decision_tables(state: GameState, certified: list[Game], tubes: Tubes
-                    ) -> DecisionTables:
+def decision_tables(state: GameState, certified: list[Game], tubes: Tubes,
+                    wins: np.ndarray, held: np.ndarray | None = None) -> DecisionTables:
     """``lookups.decision_tables`` the step-by-step way: the 1 vs 1 table from the tube's
-    ``value``, ``still_winning`` and ``restrict`` (``policies.certificate``), and the
-    2 vs 1 value of every candidate pair of the restricted program in one lookup."""
+    ``value``, ``still_winning`` and ``restrict``, the open-space ``wins (M, N)`` counted
+    as defender wins, and the 2 vs 1 value of every candidate pair of the restricted
+    program in one lookup."""
     attackers, defenders = state.attacker_positions, state.defender_positions
     active = state.active_attackers
     m, n = len(attackers), len(defenders)
@@ -57,14 +63,15 @@ def decision_tables(state: GameState, certified: list[Game], tubes: Tubes
                             axis=1)
     values11 = tubes.vf11.value(states).reshape(m, n)
     values21 = np.full((m, m, n), np.nan)
-    kept = still_winning(certified, state, values11, tubes, values21) if certified else []
+    kept = (still_winning(certified, state, values11, tubes, values21, held) if certified
+            else [])
     left = np.zeros((len(certified), 2), dtype=bool)
     on = np.zeros(len(certified), dtype=bool)
     for g, game in enumerate(certified):
         left[g, :len(game.attackers)] = active[list(game.attackers)]
         still = tuple(i for i in game.attackers if active[i])
         on[g] = Game(game.defenders, still) in kept
-    beats, program_active, busy = restrict(values11 <= 0.0, active, kept)
+    beats, program_active, busy = restrict((values11 <= 0.0) & ~wins, active, kept)
     beats_2v1 = np.zeros((m, m, n), dtype=bool)
     candidates = program_active[:, None] & ~beats
     first, second = np.triu_indices(m, k=1)

@@ -16,8 +16,17 @@ from policies import defenders as defenders_module
 class StepByStepDefender(HJDefenderPolicy):
     """``HJDefenderPolicy`` with the reference tables (its headings: ``step_by_step``)."""
 
-    def _tables(self, state, active, certified):
-        return reference.decision_tables(state, certified, self.tubes)
+    def _tables(self, state, active, certified, wins, held=None):
+        return reference.decision_tables(state, certified, self.tubes, wins, held)
+
+
+def open_space_tables(policy, state, certified):
+    """The open-space ``wins`` and ``held`` the policy's ``_decide`` passes on (none
+    where the policy has no open-space certificate)."""
+    wins = policy._open_wins(state)
+    if policy._open is None:
+        return wins, np.zeros(len(certified), dtype=bool)
+    return wins, policy._open.held(certified, state, wins)
 
 
 def step_by_step(monkeypatch, vf11, vf21):
@@ -61,15 +70,18 @@ def test_tables_and_headings_match_step_by_step(coarse_tubes, seed, attackers, m
     vf11, vf21 = coarse_tubes
     policy = HJDefenderPolicy(vf11, vf21, margin_cells=margin)
     tubes = lookups.TubeArrays.of(vf11), lookups.TubeArrays.of(vf21)
-    kept_steps = 0
+    kept_steps = opened = 0
 
     def decide(scenario, step, state):
-        nonlocal kept_steps
+        nonlocal kept_steps, opened
         if step == 0:
             policy.reset(scenario)
         certified = policy.certified_games if margin > 0 else []
-        ours = policy._tables(state, state.active_attackers, certified)
-        assert_same_tables(ours, reference.decision_tables(state, certified, policy.tubes))
+        wins, held = open_space_tables(policy, state, certified)
+        ours = policy._tables(state, state.active_attackers, certified, wins, held)
+        assert_same_tables(ours, reference.decision_tables(state, certified, policy.tubes,
+                                                           wins, held))
+        opened += bool(wins.any())
         kept_steps += bool(ours.kept.any())
         m, n = len(state.attacker_positions), len(state.defender_positions)
         every = np.arange(n)
@@ -100,6 +112,7 @@ def test_tables_and_headings_match_step_by_step(coarse_tubes, seed, attackers, m
 
     play(seed, attackers, decide)
     assert margin == 0 or kept_steps > 0, "no certified game was ever checked"
+    assert margin == 0 or opened > 0, "no open-space win was ever read"
 
 
 @pytest.mark.parametrize("seed, attackers, margin", [

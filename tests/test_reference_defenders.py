@@ -17,10 +17,11 @@ from policies import (
     RandomAttacker,
     ShortestPathAttacker,
 )
-from policies.certificate import Game, games_of
+from policies.certificate import Basis, Game, games_of
 from policies.defenders import pair_states
 from reachavoid.rollout import run_episode
 from reachavoid_env.game_state import EdgeKind
+from solvers import open_space
 
 
 def first_decision(policy, scenario_name: str):
@@ -72,18 +73,32 @@ def test_worked_example_is_not_certified(coarse_tubes):
 def _check_certificate(policy, state, previous: list[Game]) -> int:
     """Every certified game is played, and either clears its tube's margin now or was
     certified the step before (less attackers that left) and still has a value > 0; every
-    such game of the step before is still certified. Returns how many certified games lie
-    inside the margin band."""
+    such game of the step before is still certified. An open-space game is one defender
+    against one attacker that the tube does not certify now, and either passes the
+    open-space condition at the certify margin now or was certified the step before and
+    passes it at the keep margin. Returns how many tube games lie inside the margin
+    band."""
     values11 = policy.vf11.value(pair_states(state.attacker_positions,
                                              state.defender_positions))
     certified = policy.certified_games
     assert set(certified) <= set(games_of(policy.last_assignment))
     tubes = policy.tubes
-    still = still_winning(previous, state, values11, tubes)
+    space = policy._open
+    held = None if space is None else space.held(previous, state, policy._open_wins(state))
+    still = still_winning(previous, state, values11, tubes, held=held)
     assert set(still) <= set(certified)
     in_band = 0
     for game, slack in zip(certified, tubes.slack(certified, state, values11), strict=True):
-        if slack <= 0.0:
+        if game.basis is Basis.OPEN:
+            assert len(game.defenders) == len(game.attackers) == 1, game
+            (i,), (j,) = game.attackers, game.defenders
+            now, kept = (open_space.defender_certifies(
+                space.game_map, state.attacker_positions[[i]], state.defender_positions[[j]],
+                space.speeds, margin, space.clearance)[0] for margin in (space.certify,
+                                                                          space.keep))
+            assert now or (kept and game in previous), game
+            assert slack <= 0.0 or game in previous, game
+        elif slack <= 0.0:
             assert game in still, game
             in_band += 1
     return in_band
