@@ -273,7 +273,7 @@ def test_preview_writes_the_first_frame_without_playing(tmp_path, capsys):
     assert main(["play", "--scenario", "paper_6v2", *SIMPLE, "--width", "320",
                  "--preview", str(preview)]) == 0
     out, _ = capsys.readouterr()
-    assert out.splitlines()[1] == f"  first frame: {preview} (320x400)"
+    assert out.splitlines()[1] == f"  first frame: {preview} (320x416)"  # legend: 4 rows
     assert sorted(tmp_path.iterdir()) == [preview]  # nothing else: no episode played
     play_json(capsys, "--scenario", "paper_6v2", *SIMPLE, "--width", "320", "--video", str(video))
     drawn, first = iio.imread(preview), iio.imread(video)[0]
