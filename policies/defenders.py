@@ -171,6 +171,12 @@ CONE_SLACK = 0.05
 """Added to the cosine a certified defender's heading keeps with its optimal control
 (``_AssignmentDefender._steer_certified``), beyond what holds the value to first order."""
 
+_ANGLES = np.linspace(0.0, 2.0 * np.pi, 32, endpoint=False)
+ATTACKER_MOVES = np.concatenate([np.stack([np.cos(_ANGLES), np.sin(_ANGLES)], axis=1),
+                                 np.zeros((1, 2))])
+"""The attacker's moves the one-step check of a certified game tries (``_held_one_step``):
+32 headings at full speed, and standing still."""
+
 FREE_PLAY = ("intercept", "assignment")
 """What the defenders outside the held games do (``_AssignmentDefender``)."""
 
@@ -472,7 +478,14 @@ class _AssignmentDefender(ABC):
 
         Where the value clears the game's margin by more than one step of both players
         can change it (``(v_A + v_D) dt`` map units, taking the value 1-Lipschitz in each
-        position), the desired heading: the game stays above its margin. Else, among the
+        position), or where the tube's value one step on stays above the margin whatever
+        the attacker does (``_held_one_step``: 32 headings and standing still; every other
+        move lies within ``v_A dt / 2`` of a sampled one, and the game stays certified
+        down to a value of 0, a whole margin below), the desired heading. Where the
+        value sits in a thin band above the margin (coarse tubes: a cell is nearly the
+        capture radius) its gradient is small and noisy and the cone below flips from
+        step to step, so certified games stalled there; the one-step check closes them.
+        Else, among the
         headings ``u`` that keep the value from falling whatever the attacker does to
         first order, ``v_D grad_D V . u >= v_A |grad_A V|`` (a cone around the optimal
         control, narrowed by ``CONE_SLACK``), the one nearest the desired heading; the
@@ -504,9 +517,22 @@ class _AssignmentDefender(ABC):
         edge = rim[:, None] * best + np.sqrt(1.0 - rim**2)[:, None] * across
         step = (state.attacker_speed + state.defender_speed) * self._dt
         clear = value - self.tubes.margins.m11 > step
+        clear |= self._held_one_step(state, i, j, aim)
         heading = np.where((clear | (along >= cone))[:, None], aim, edge)
         steer = clear | (cone < 1.0) & (width > 1e-9) | (along >= cone)
         actions[j[steer]] = heading[steer]
+
+    def _held_one_step(self, state: GameState, i: np.ndarray, j: np.ndarray,
+                       headings: np.ndarray) -> np.ndarray:
+        """Whether the 1 vs 1 value of each game (attackers ``i``, defenders ``j``) stays
+        above its margin one step on, with the defender on ``headings`` (unit vectors
+        ``(G, 2)``) and the attacker on each of ``ATTACKER_MOVES`` (the worst counts)."""
+        moves = ATTACKER_MOVES * (state.attacker_speed * self._dt)
+        a = state.attacker_positions[i][:, None, :] + moves[None]
+        d = (state.defender_positions[j] + headings * (state.defender_speed * self._dt))
+        states = np.concatenate([a, np.broadcast_to(d[:, None, :], a.shape)], axis=-1)
+        after = self.vf11.value(states.reshape(-1, 4)).reshape(len(i), -1)
+        return after.min(axis=1) > self.tubes.margins.m11
 
     @functools.cached_property
     def _margins(self) -> np.ndarray:

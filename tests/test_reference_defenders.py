@@ -239,8 +239,9 @@ def test_guarantee_over_random_starts(coarse_tubes, record_property):
 
 def test_certified_game_takes_the_plan_only_as_far_as_its_value_allows(coarse_tubes):
     """A certified 1 vs 1 game's defender takes the proposed heading where the value
-    clears the margin by more than a step's change, else a heading that keeps the value
-    from falling to first order (or the optimal control where none does)."""
+    clears the margin by more than a step's change or holds it one step on against every
+    sampled attacker move, else a heading that keeps the value from falling to first
+    order (or the optimal control where none does)."""
     vf11, vf21 = coarse_tubes
     scenario = reachavoid_env.builtin_scenario("paper_2v1").with_players(4, 2)
     env = reachavoid_env.parallel_env(scenario=scenario)
@@ -268,7 +269,8 @@ def test_certified_game_takes_the_plan_only_as_far_as_its_value_allows(coarse_tu
         step = (state.attacker_speed + state.defender_speed) * scenario.dt
         for k in range(len(games)):
             u = steered[j[k]]
-            if value[k] - policy.tubes.margins.m11 > step:
+            held = policy._held_one_step(state, i[k:k + 1], j[k:k + 1], away[j[k]][None])[0]
+            if value[k] - policy.tubes.margins.m11 > step or held:
                 branches.add("clear")
                 np.testing.assert_allclose(u, away[j[k]], atol=1e-6)
             else:
@@ -278,3 +280,27 @@ def test_certified_game_takes_the_plan_only_as_far_as_its_value_allows(coarse_tu
                 branches.add("cone" if change >= -1e-6 else "optimal")
                 assert change >= -1e-6 or np.allclose(u, optimal[j[k]], atol=1e-6)
     assert "clear" in branches and branches - {"clear"}
+
+
+def test_one_step_check_takes_the_worst_attacker_move(coarse_tubes):
+    """``_held_one_step`` is the smallest value over the attacker's sampled moves, one
+    step on, against the game's margin."""
+    from policies.defenders import ATTACKER_MOVES
+
+    vf11, vf21 = coarse_tubes
+    scenario = reachavoid_env.builtin_scenario("paper_2v1").with_players(3, 2)
+    env = reachavoid_env.parallel_env(scenario=scenario)
+    policy = HJDefenderPolicy(vf11, vf21)
+    env.reset(seed=3)
+    policy.reset(env.unwrapped.scenario)
+    state = env.unwrapped.game_state()
+    i, j = np.array([0, 1, 2, 0]), np.array([0, 0, 1, 1])
+    headings = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.6, 0.8]])
+    held = policy._held_one_step(state, i, j, headings)
+    for k in range(len(i)):
+        attackers = state.attacker_positions[i[k]] + ATTACKER_MOVES * (
+            state.attacker_speed * scenario.dt)
+        defender = state.defender_positions[j[k]] + headings[k] * (
+            state.defender_speed * scenario.dt)
+        worst = min(vf11.value(np.concatenate([a, defender])) for a in attackers)
+        assert held[k] == (worst > policy.tubes.margins.m11)
