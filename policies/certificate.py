@@ -21,7 +21,7 @@ where the grid-free condition of ``solvers.open_space.defender_certifies`` holds
 Apollonius disc misses the target, the parallel-navigation region misses obstacles and
 walls); such a game is played by ``solvers.open_space.parallel_navigation``, the
 strategy that proves it, so the promise and the play agree. Each game records what
-certifies it (``Game.basis``): a game the tube certifies stays a tube game; one only the
+certifies it (``Match.basis``): a game the tube certifies stays a tube game; one only the
 open-space condition certifies is an open-space game. The program sees these wins too:
 where the condition says defender ``j`` wins attacker ``i`` alone, the 1 vs 1 table counts
 a defender win whatever the tube says (``policies.lookups.decision_tables`` ``wins``), so
@@ -57,8 +57,9 @@ class Basis(enum.Enum):
 
 
 @dataclass(frozen=True)
-class Game:
-    """One assigned game: ``defenders`` (one, or a team ``j < k``) against ``attackers``
+class Match:
+    """One assigned game (a match, named apart from ``solvers.hj``'s HJ games):
+    ``defenders`` (one, or a team ``j < k``) against ``attackers``
     (one, or a pair ``i < k`` taken by one defender), as indices; ``basis``, what
     certifies it (of a certified game), is no part of which game it is (equality and hash
     ignore it)."""
@@ -68,10 +69,10 @@ class Game:
     basis: Basis = field(default=Basis.TUBE, compare=False)
 
 
-def games_of(assignment: Assignment) -> list[Game]:
+def games_of(assignment: Assignment) -> list[Match]:
     """The games of ``assignment``: every defender's own attackers, then every team."""
-    alone = [Game((j,), mine) for j, mine in enumerate(assignment.by_defender) if mine]
-    return alone + [Game((j, k), (i,)) for i, j, k in assignment.shared]
+    alone = [Match((j,), mine) for j, mine in enumerate(assignment.by_defender) if mine]
+    return alone + [Match((j, k), (i,)) for i, j, k in assignment.shared]
 
 
 class Margins(NamedTuple):
@@ -92,7 +93,7 @@ class Tubes:
     vf12: ValueFunction | None
     margins: Margins
 
-    def slack(self, games: list[Game], state: GameState, values11: np.ndarray,
+    def slack(self, games: list[Match], state: GameState, values11: np.ndarray,
               margins: Margins | None = None,
               values21: np.ndarray | None = None) -> np.ndarray:
         """``(len(games),)``: the smallest ``value - margin`` over what makes each game a
@@ -139,7 +140,7 @@ def no_team_values(games: int) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=1024)
-def game_rows(games: tuple[Game, ...]) -> tuple[np.ndarray, np.ndarray]:
+def game_rows(games: tuple[Match, ...]) -> tuple[np.ndarray, np.ndarray]:
     """``games`` as ``policies.lookups.decision_tables`` takes them: int64 rows
     ``(j, k, i, l)``, -1 for a second defender or attacker a game does not have; and the
     positions of the teams (made once per distinct list, read-only)."""
@@ -153,8 +154,8 @@ def game_rows(games: tuple[Game, ...]) -> tuple[np.ndarray, np.ndarray]:
     return rows, teams
 
 
-def kept_games(certified: list[Game], kept: np.ndarray, left: np.ndarray,
-               held: np.ndarray, values11: np.ndarray) -> list[Game]:
+def kept_games(certified: list[Match], kept: np.ndarray, left: np.ndarray,
+               held: np.ndarray, values11: np.ndarray) -> list[Match]:
     """The ``certified`` games still on (``kept`` and ``left`` from
     ``policies.lookups.decision_tables``), without the attackers that left, each with
     what keeps it: an open-space game stays one while ``held`` (``OpenSpace.held``),
@@ -174,7 +175,7 @@ def kept_games(certified: list[Game], kept: np.ndarray, left: np.ndarray,
             basis = Basis.OPEN if open_ and values11[attackers[0], game.defenders[0]] <= 0.0 \
                 else Basis.TUBE
         games.append(game if attackers == game.attackers and basis is game.basis
-                     else Game(game.defenders, attackers, basis))
+                     else Match(game.defenders, attackers, basis))
     return games
 
 
@@ -240,7 +241,7 @@ class OpenSpace:
                 self.clearance)
         return wins
 
-    def held(self, certified: list[Game], state: GameState, wins: np.ndarray) -> np.ndarray:
+    def held(self, certified: list[Match], state: GameState, wins: np.ndarray) -> np.ndarray:
         """``(G,)`` bool: which ``certified`` games of one defender against one active
         attacker the open-space condition holds: an open-space game at the keep margin,
         a tube game at the certify margin (``wins``, this step's table)."""
@@ -262,7 +263,7 @@ class OpenSpace:
                 self.speeds, self.keep, self.clearance)
         return held
 
-    def headings(self, games: list[Game], state: GameState,
+    def headings(self, games: list[Match], state: GameState,
                  previous: np.ndarray | None) -> np.ndarray:
         """``(G, 2)`` the parallel-navigation headings of the defenders of the 1 vs 1
         ``games``, each attacker's velocity that of its last step (from its ``previous``
@@ -276,7 +277,7 @@ class OpenSpace:
                                               velocities, self.speeds[1])
 
 
-def joined(rest: Assignment, fixed: list[Game], num_defenders: int) -> Assignment:
+def joined(rest: Assignment, fixed: list[Match], num_defenders: int) -> Assignment:
     """``rest`` (an answer of the restricted program) with the ``fixed`` games put back."""
     pairs = list(rest.pairs) + [(i, game.defenders[0]) for game in fixed
                                 if len(game.defenders) == 1 for i in game.attackers]

@@ -15,8 +15,8 @@ import numpy as np
 
 from policies.certificate import (
     Basis,
-    Game,
     Margins,
+    Match,
     OpenSpace,
     Tubes,
     game_rows,
@@ -104,7 +104,7 @@ class Roles(NamedTuple):
     singles: np.ndarray
     doubles: np.ndarray
     idle: tuple[int, ...]
-    games: tuple[Game, ...]
+    games: tuple[Match, ...]
 
 
 @functools.lru_cache(maxsize=1024)
@@ -192,13 +192,13 @@ class _Decision(NamedTuple):
 
     state: GameState
     tables: DecisionTables
-    kept: list[Game]
+    kept: list[Match]
     assignment: Assignment
     wins: np.ndarray
 
 
 @functools.lru_cache(maxsize=1024)
-def _joined(rest: Assignment, kept: tuple[Game, ...], num_defenders: int) -> Assignment:
+def _joined(rest: Assignment, kept: tuple[Match, ...], num_defenders: int) -> Assignment:
     """``policies.certificate.joined``, made once per distinct answer and kept games."""
     return joined(rest, list(kept), num_defenders)
 
@@ -249,7 +249,7 @@ class _AssignmentDefender(ABC):
         self.solver = AssignmentSolver(method)
         self._nominal_solver = AssignmentSolver(method)
         self._decision: _Decision | None = None
-        self._certified: list[Game] = []
+        self._certified: list[Match] = []
         self._nominal: int | None = None
         self._field: DistanceField | None = None
         self._open: OpenSpace | None = None
@@ -280,7 +280,7 @@ class _AssignmentDefender(ABC):
         return [(f"defender_{j}", f"attacker_{i}") for i, j in self._assignment.pairs]
 
     @property
-    def certified_games(self) -> list[Game]:
+    def certified_games(self) -> list[Match]:
         """The games of the last decision that are certified (``policies.certificate``)."""
         return list(self._certified)
 
@@ -404,7 +404,7 @@ class _AssignmentDefender(ABC):
                                              state.defender_positions))
         return self._open.wins(state, values <= self.tubes.margins.m11)
 
-    def _play_games(self, decision: _Decision, actions: np.ndarray) -> list[Game]:
+    def _play_games(self, decision: _Decision, actions: np.ndarray) -> list[Match]:
         """Write the optimal control of every defender alone in a game of the assignment
         (and of every shadowing one) into ``actions``; return the new games (not kept)
         that the certificate takes (with ``margin_cells=0``, every game: the paper's
@@ -427,7 +427,7 @@ class _AssignmentDefender(ABC):
         if len(teams):
             slack[teams] = self.tubes.slack([fresh[g] for g in teams], state,
                                             tables.values11)
-        return [game if on else Game(game.defenders, game.attackers, Basis.OPEN)
+        return [game if on else Match(game.defenders, game.attackers, Basis.OPEN)
                 for game, on, open_ in zip(fresh, (slack > 0.0).tolist(),
                                            _open_games(fresh, wins), strict=True)
                 if on or open_]
@@ -544,7 +544,7 @@ class _AssignmentDefender(ABC):
         """The 1 vs 1 and 2 vs 1 tubes as the batched lookups take them."""
         return TubeArrays.of(self.vf11), None if self.vf21 is None else TubeArrays.of(self.vf21)
 
-    def _tables(self, state: GameState, active: np.ndarray, certified: list[Game],
+    def _tables(self, state: GameState, active: np.ndarray, certified: list[Match],
                 wins: np.ndarray, held: np.ndarray | None = None) -> DecisionTables:
         """``decision_tables`` of ``state`` with the ``certified`` games of the last
         decision (the 1 vs 2 values of their teams looked up first), the open-space
@@ -576,7 +576,7 @@ class _AssignmentDefender(ABC):
         stand still); ``values11 (M, N)`` is this step's 1 vs 1 table."""
 
 
-def _open_games(games: list[Game], wins: np.ndarray) -> list[bool]:
+def _open_games(games: list[Match], wins: np.ndarray) -> list[bool]:
     """Whether each of ``games`` is one defender against one attacker that ``wins``
     ``(M, N)`` (``OpenSpace.wins``) says the defender wins."""
     return [len(game.defenders) == len(game.attackers) == 1

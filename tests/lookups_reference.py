@@ -7,16 +7,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from policies.certificate import Game, Margins, Tubes
+from policies.certificate import Margins, Match, Tubes
 from policies.defenders import control_headings
 from policies.lookups import DecisionTables
 from reachavoid_env import GameState
 from solvers.hj import ValueFunction
 
 
-def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
+def still_winning(certified: list[Match], state: GameState, values11: np.ndarray,
                   tubes: Tubes, values21: np.ndarray | None = None,
-                  held: np.ndarray | None = None) -> list[Game]:
+                  held: np.ndarray | None = None) -> list[Match]:
     """The certified games of the last decision that are still on: attackers that left
     (captured) are dropped from their game, and a game stays while its value is > 0
     (``values21`` as in ``Tubes.slack``) or the open-space certificate ``held`` it
@@ -30,13 +30,13 @@ def still_winning(certified: list[Game], state: GameState, values11: np.ndarray,
     for game, open_ in zip(certified, held, strict=True):
         left = tuple(i for i in game.attackers if active[i])
         if left:
-            games.append(Game(game.defenders, left))
+            games.append(Match(game.defenders, left))
             holds.append(open_)
     keep = tubes.slack(games, state, values11, Margins(0.0, 0.0, 0.0), values21) > 0.0
     return [game for game, on, open_ in zip(games, keep, holds, strict=True) if on or open_]
 
 
-def restrict(beats: np.ndarray, active: np.ndarray, fixed: list[Game]
+def restrict(beats: np.ndarray, active: np.ndarray, fixed: list[Match]
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The program without the ``fixed`` games' players: their attackers inactive, their
     defenders beaten by everyone (so they take nothing); returns ``beats``, ``active`` and
@@ -50,7 +50,7 @@ def restrict(beats: np.ndarray, active: np.ndarray, fixed: list[Game]
     return beats | busy, active, busy
 
 
-def decision_tables(state: GameState, certified: list[Game], tubes: Tubes,
+def decision_tables(state: GameState, certified: list[Match], tubes: Tubes,
                     wins: np.ndarray, held: np.ndarray | None = None) -> DecisionTables:
     """``lookups.decision_tables`` the step-by-step way: the 1 vs 1 table from the tube's
     ``value``, ``still_winning`` and ``restrict``, the open-space ``wins (M, N)`` counted
@@ -70,7 +70,7 @@ def decision_tables(state: GameState, certified: list[Game], tubes: Tubes,
     for g, game in enumerate(certified):
         left[g, :len(game.attackers)] = active[list(game.attackers)]
         still = tuple(i for i in game.attackers if active[i])
-        on[g] = Game(game.defenders, still) in kept
+        on[g] = Match(game.defenders, still) in kept
     beats, program_active, busy = restrict((values11 <= 0.0) & ~wins, active, kept)
     beats_2v1 = np.zeros((m, m, n), dtype=bool)
     candidates = program_active[:, None] & ~beats

@@ -15,7 +15,7 @@ from policies import (
     RandomAttacker,
     ShortestPathAttacker,
 )
-from policies.certificate import Basis, Game
+from policies.certificate import Basis, Match
 from reachavoid.rollout import run_episode
 from reachavoid_env import Box, GameMap, Scenario
 from solvers import open_space
@@ -66,9 +66,9 @@ def test_an_open_space_game_certifies_where_the_tube_margin_cannot(open_tube):
     policy.reset(env.unwrapped.scenario)
     state = env.unwrapped.game_state()
     policy.act(state)
-    assert policy.tubes.slack([Game((0,), (0,))], state, open_tube.value(
+    assert policy.tubes.slack([Match((0,), (0,))], state, open_tube.value(
         np.concatenate([state.attacker_positions, state.defender_positions], 1))[:, None]) <= 0
-    assert policy.certified_games == [Game((0,), (0,))]
+    assert policy.certified_games == [Match((0,), (0,))]
     assert policy.certified_games[0].basis is Basis.OPEN
     assert policy.guaranteed_captures == 1 == policy.nominal_captures
     # a start the defender loses by the tube but wins in the open is still a program win:

@@ -17,7 +17,7 @@ from policies import (
     RandomAttacker,
     ShortestPathAttacker,
 )
-from policies.certificate import Basis, Game, games_of
+from policies.certificate import Basis, Match, games_of
 from policies.defenders import pair_states
 from reachavoid.rollout import run_episode
 from reachavoid_env.game_state import EdgeKind
@@ -70,7 +70,7 @@ def test_worked_example_is_not_certified(coarse_tubes):
     assert overlay.lines == ("MIP: 0 guaranteed, 2 nominal",)
 
 
-def _check_certificate(policy, state, previous: list[Game]) -> int:
+def _check_certificate(policy, state, previous: list[Match]) -> int:
     """Every certified game is played, and either clears its tube's margin now or was
     certified the step before (less attackers that left) and still has a value > 0; every
     such game of the step before is still certified. An open-space game is one defender
@@ -116,7 +116,7 @@ def test_certified_games_hold_their_invariants_in_play(coarse_tubes, idle, seed)
     attackers = ShortestPathAttacker()
     attackers.reset(env.unwrapped.scenario)
     policy.reset(env.unwrapped.scenario)
-    previous: list[Game] = []
+    previous: list[Match] = []
     certified_steps = 0
     while env.agents:
         state = env.unwrapped.game_state()
