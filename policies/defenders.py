@@ -490,9 +490,9 @@ class _AssignmentDefender(ABC):
         first order, ``v_D grad_D V . u >= v_A |grad_A V|`` (a cone around the optimal
         control, narrowed by ``CONE_SLACK``), the one nearest the desired heading; the
         optimal control where the cone is empty."""
-        games = [game for game in self._certified
-                 if len(game.defenders) == 1 and len(game.attackers) == 1]
-        if not games:
+        games = [game for game in self._certified if game.basis is Basis.TUBE
+                 and len(game.defenders) == 1 and len(game.attackers) == 1]
+        if not games:  # open-space games are played by _play_open
             return
         i = np.array([game.attackers[0] for game in games])
         j = np.array([game.defenders[0] for game in games])
@@ -517,7 +517,9 @@ class _AssignmentDefender(ABC):
         edge = rim[:, None] * best + np.sqrt(1.0 - rim**2)[:, None] * across
         step = (state.attacker_speed + state.defender_speed) * self._dt
         clear = value - self.tubes.margins.m11 > step
-        clear |= self._held_one_step(state, i, j, aim)
+        close = ~clear
+        if close.any():
+            clear[close] = self._held_one_step(state, i[close], j[close], aim[close])
         heading = np.where((clear | (along >= cone))[:, None], aim, edge)
         steer = clear | (cone < 1.0) & (width > 1e-9) | (along >= cone)
         actions[j[steer]] = heading[steer]
