@@ -9,12 +9,13 @@ every certified game (their players are taken out of the next program and ``join
 puts the game back), so the certified count falls only when a game's value reaches 0.
 The check and the restriction run inside the batched lookups
 (``policies.lookups.decision_tables``; their step-by-step numpy twins are in
-``tests/lookups_reference.py``); ``game_rows`` and ``kept_games`` carry the games there
+``tests/lookups_reference.py``); ``match_arrays`` and ``kept_games`` carry the games there
 and back.
 
-A game's value is what the program reads: ``V11`` for one defender against one attacker;
-the smallest of ``V21`` and both ``V11`` for one defender against a pair (constraints c4
-and c5); ``V12`` for a team of two defenders against one attacker.
+A game's value is what the program reads (``policies.lookups.match_value``, the rule's one
+home): ``V11`` for one defender against one attacker; the smallest of ``V21`` and both
+``V11`` for one defender against a pair (constraints c4 and c5); ``V12`` for a team of two
+defenders against one attacker.
 
 **Open space** (``OpenSpace``, where ``vD > vA``). Beside the tube, a 1 vs 1 game is won
 where the grid-free condition of ``solvers.open_space.defender_certifies`` holds (the
@@ -40,7 +41,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from policies.lookups import values21_at
+from policies.lookups import Matches
 from reachavoid_env import GameMap, GameState, Scenario
 from solvers import open_space
 from solvers.assignment import Assignment
@@ -93,42 +94,6 @@ class Tubes:
     vf12: ValueFunction | None
     margins: Margins
 
-    def slack(self, games: list[Match], state: GameState, values11: np.ndarray,
-              margins: Margins | None = None,
-              values21: np.ndarray | None = None) -> np.ndarray:
-        """``(len(games),)``: the smallest ``value - margin`` over what makes each game a
-        defender win (``margins`` default: the tubes'; zeros for "still winning"); the
-        2 vs 1 values from the step's table ``values21 (M, M, N)`` where it holds them
-        (``policies.lookups.decision_tables``; the NaN ones looked up and stored), the rest
-        in one lookup per 6D tube."""
-        if not games:
-            return np.empty(0)
-        m11, m21, m12 = self.margins if margins is None else margins
-        slack = np.empty(len(games))
-        pairs, teams = [], []
-        for g, game in enumerate(games):
-            if len(game.defenders) == 2:
-                teams.append(g)
-                continue
-            slack[g] = min(values11[i, game.defenders[0]] for i in game.attackers) - m11
-            if len(game.attackers) == 2:
-                pairs.append(g)
-        attackers, defenders = state.attacker_positions, state.defender_positions
-        if pairs:
-            first, second, alone = np.array([(*games[g].attackers, games[g].defenders[0])
-                                             for g in pairs]).T
-            if values21 is None:
-                values21 = np.full((len(attackers), len(attackers), len(defenders)), np.nan)
-            values = values21_at(values21, first, second, alone, self.vf21, attackers,
-                                 defenders)
-            slack[pairs] = np.minimum(slack[pairs], values - m21)
-        if teams:
-            one, two, attacker = np.array([(*games[g].defenders, games[g].attackers[0])
-                                           for g in teams]).T
-            slack[teams] = self.vf12.value(np.concatenate([defenders[one], defenders[two],
-                                                           attackers[attacker]], axis=1)) - m12
-        return slack
-
 
 @functools.cache
 def no_team_values(games: int) -> np.ndarray:
@@ -140,18 +105,16 @@ def no_team_values(games: int) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=1024)
-def game_rows(games: tuple[Match, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """``games`` as ``policies.lookups.decision_tables`` takes them: int64 rows
-    ``(j, k, i, l)``, -1 for a second defender or attacker a game does not have; and the
-    positions of the teams (made once per distinct list, read-only)."""
-    rows = np.full((len(games), 4), -1, dtype=np.int64)
-    for g, game in enumerate(games):
-        rows[g, :len(game.defenders)] = game.defenders
-        rows[g, 2:2 + len(game.attackers)] = game.attackers
-    teams = np.flatnonzero(rows[:, 1] >= 0)
-    rows.setflags(write=False)
-    teams.setflags(write=False)
-    return rows, teams
+def match_arrays(games: tuple[Match, ...]) -> Matches:
+    """``games`` as the batched lookups take them (``policies.lookups.Matches``; made once
+    per distinct list, read-only)."""
+    defenders = np.array([(game.defenders * 2)[:2] for game in games],
+                         dtype=np.int64).reshape(-1, 2)
+    attackers = np.array([(game.attackers * 2)[:2] for game in games],
+                         dtype=np.int64).reshape(-1, 2)
+    defenders.setflags(write=False)
+    attackers.setflags(write=False)
+    return Matches(defenders, attackers)
 
 
 def kept_games(certified: list[Match], kept: np.ndarray, left: np.ndarray,

@@ -19,10 +19,10 @@ from policies.certificate import (
     Match,
     OpenSpace,
     Tubes,
-    game_rows,
     games_of,
     joined,
     kept_games,
+    match_arrays,
     no_team_values,
 )
 from policies.geodesic import DistanceField, distance_field
@@ -31,6 +31,7 @@ from policies.intercept import plan_intercepts, race_all
 from policies.lookups import (
     HEADING_FLOOR,
     DecisionTables,
+    Matches,
     TubeArrays,
     decision_controls,
     decision_tables,
@@ -418,15 +419,13 @@ class _AssignmentDefender(ABC):
                                dtype=np.int64)
             singles = np.concatenate([singles, shadows.reshape(-1, 2)])
         fresh = [game for game in roles.games if game not in kept]
-        rows, teams = game_rows(tuple(fresh) if self._certifies else ())
+        games = match_arrays(tuple(fresh) if self._certifies else ())
         slack = decision_controls(state.attacker_positions, state.defender_positions, singles,
-                                  roles.doubles, rows, self._margins, tables.values11,
-                                  tables.values21, *self._tube_arrays, actions)
+                                  roles.doubles, games, self._team_values(state, games),
+                                  self._margins, tables.values11, tables.values21,
+                                  *self._tube_arrays, actions)
         if not self._certifies:
             return fresh
-        if len(teams):
-            slack[teams] = self.tubes.slack([fresh[g] for g in teams], state,
-                                            tables.values11)
         return [game if on else Match(game.defenders, game.attackers, Basis.OPEN)
                 for game, on, open_ in zip(fresh, (slack > 0.0).tolist(),
                                            _open_games(fresh, wins), strict=True)
@@ -551,16 +550,24 @@ class _AssignmentDefender(ABC):
         """``decision_tables`` of ``state`` with the ``certified`` games of the last
         decision (the 1 vs 2 values of their teams looked up first), the open-space
         ``wins`` and the certified games it ``held`` (none held by default)."""
-        rows, teams = game_rows(tuple(certified))
-        team_values = no_team_values(len(rows))
-        if len(teams):
-            team_values = np.full(len(rows), np.nan)
-            team_values[teams] = self.vf12.value(team_states(
-                state.attacker_positions, state.defender_positions, rows[teams][:, [2, 0, 1]]))
+        games = match_arrays(tuple(certified))
         if held is None:
-            held = np.zeros(len(rows), dtype=bool)
+            held = np.zeros(len(certified), dtype=bool)
         return decision_tables(state.attacker_positions, state.defender_positions, active,
-                               rows, team_values, held, wins, *self._tube_arrays)
+                               games, self._team_values(state, games), held, wins,
+                               *self._tube_arrays)
+
+    def _team_values(self, state: GameState, games: Matches) -> np.ndarray:
+        """``(G,)``: the 1 vs 2 value of every team of ``games`` (two defenders), NaN for
+        the other games (read-only where there is no team)."""
+        teams = np.flatnonzero(games.defenders[:, 0] != games.defenders[:, 1])
+        if not len(teams):
+            return no_team_values(len(games.defenders))
+        values = np.full(len(games.defenders), np.nan)
+        values[teams] = self.vf12.value(team_states(
+            state.attacker_positions, state.defender_positions,
+            np.column_stack([games.attackers[teams, 0], games.defenders[teams]])))
+        return values
 
     @abstractmethod
     def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables

@@ -4,7 +4,9 @@ assignment program and one after it.
 ``decision_tables`` reads the whole 1 vs 1 table of a step, checks the certified games
 and builds the program's tables, reading the 2 vs 1 value of exactly the triples these
 need; ``decision_controls`` every 1 vs 1 and 2 vs 1 defender control of the step with
-its fallback heading, and the certificate slacks of the step's new games. Both evaluate
+its fallback heading, and the certificate slacks of the step's new games. The
+certificate's rule, what a game's value is, has its one home here: ``match_value``,
+read by both over games carried as ``Matches``. Both evaluate
 each point with the interpolation kernels' own per-point helpers
 (``solvers.hj.kernels``), so they return exactly (bit for bit) what
 ``ValueFunction.value`` and ``defender_control`` give point by point;
@@ -120,6 +122,49 @@ def _fill_pairs(tube21, attackers, defenders, triples, count, values21):
         values21[k, i, j] = value
 
 
+class Matches(NamedTuple):
+    """Assigned games (``policies.certificate.Match``) as the kernels read them: game ``g``
+    is defenders ``defenders[g]`` against attackers ``attackers[g]`` (int64 ``(G, 2)``); a
+    game of one defender (one attacker) names it in both columns, so the rule below reads
+    every game alike: a team is a game whose two defenders differ, a pair one whose two
+    attackers differ."""
+
+    defenders: np.ndarray
+    attackers: np.ndarray
+
+
+@njit(cache=True)
+def match_value(j, k, i, other, values11, values21, team_value, margins):
+    """The certificate's rule: the smallest ``value - margin`` over what makes defenders
+    ``j``, ``k`` win attackers ``i``, ``other`` (a ``Matches`` row). A team (``j != k``):
+    its 1 vs 2 value ``team_value`` less ``margins[2]``; else the 1 vs 1 values
+    ``values11[i, j]`` and ``values11[other, j]`` less ``margins[0]``, and for a pair
+    (``i != other``) its 2 vs 1 value ``values21[i, other, j]`` less ``margins[1]``
+    (constraints c4 and c5). ``margins (3,)`` in map units; zeros: "still winning"."""
+    if j != k:
+        return team_value - margins[2]
+    value = min(values11[i, j], values11[other, j]) - margins[0]
+    if i != other:
+        value = min(value, values21[i, other, j] - margins[1])
+    return value
+
+
+@njit(cache=True)
+def _pairs_of(games, active, tube21, attackers, defenders, values21):
+    """Look up the 2 vs 1 value of every pair of ``games`` (a ``Matches``) whose two
+    attackers are both ``active`` into ``values21`` (``_fill_pairs``)."""
+    count = games.defenders.shape[0]
+    triples = np.empty((count, 3), dtype=np.int64)
+    pairs = 0
+    for g in range(count):
+        j, k = games.defenders[g, 0], games.defenders[g, 1]
+        i, other = games.attackers[g, 0], games.attackers[g, 1]
+        if j == k and i != other and active[i] and active[other]:
+            triples[pairs, 0], triples[pairs, 1], triples[pairs, 2] = i, other, j
+            pairs += 1
+    _fill_pairs(tube21, attackers, defenders, triples, pairs, values21)
+
+
 @njit(cache=True)
 def _decision_tables(attackers, defenders, active, certified, team_values, held, wins, tube11,
                      tube21, with_pairs):
@@ -136,42 +181,28 @@ def _decision_tables(attackers, defenders, active, certified, team_values, held,
             values11[i, j] = value_at(sc.rows, sc.stored_of, row, col, sc.corners[0], sc.corners[1],
                                        weights)
     values21 = np.full((m, m, n), np.nan)
-    triples = np.empty((max(certified.shape[0], m * (m - 1) // 2 * n), 3), dtype=np.int64)
-    count = 0
-    for g in range(certified.shape[0]):
-        if certified[g, 1] < 0 and certified[g, 3] >= 0 and active[certified[g, 2]] \
-                and active[certified[g, 3]]:
-            triples[count, 0], triples[count, 1] = certified[g, 2], certified[g, 3]
-            triples[count, 2] = certified[g, 0]
-            count += 1
-    _fill_pairs(tube21, attackers, defenders, triples, count, values21)
-    left = np.zeros((certified.shape[0], 2), dtype=np.bool_)
-    kept = np.zeros(certified.shape[0], dtype=np.bool_)
+    _pairs_of(certified, active, tube21, attackers, defenders, values21)
+    games = certified.defenders.shape[0]
+    left = np.zeros((games, 2), dtype=np.bool_)
+    kept = np.zeros(games, dtype=np.bool_)
     program_active = active.copy()
     busy = np.zeros(n, dtype=np.bool_)
-    for g in range(certified.shape[0]):
-        d1, d2, a1, a2 = certified[g, 0], certified[g, 1], certified[g, 2], certified[g, 3]
-        left[g, 0] = active[a1]
-        left[g, 1] = a2 >= 0 and active[a2]
+    still = np.zeros(3, dtype=np.float64)
+    for g in range(games):
+        j, k = certified.defenders[g, 0], certified.defenders[g, 1]
+        i, other = certified.attackers[g, 0], certified.attackers[g, 1]
+        left[g, 0] = active[i]
+        left[g, 1] = other != i and active[other]
         if not (left[g, 0] or left[g, 1]):
             continue
-        if d2 >= 0:
-            value = team_values[g]
-        else:
-            value = np.inf
-            for a in range(2):
-                if left[g, a]:
-                    value = min(value, values11[certified[g, 2 + a], d1])
-            if left[g, 0] and left[g, 1]:
-                value = min(value, values21[a1, a2, d1])
+        first = i if left[g, 0] else other
+        second = other if left[g, 1] else first
+        value = match_value(j, k, first, second, values11, values21, team_values[g], still)
         if value > 0.0 or held[g]:
             kept[g] = True
-            for a in range(2):
-                if left[g, a]:
-                    program_active[certified[g, 2 + a]] = False
-            busy[d1] = True
-            if d2 >= 0:
-                busy[d2] = True
+            program_active[i] = program_active[i] and not left[g, 0]
+            program_active[other] = program_active[other] and not left[g, 1]
+            busy[j] = busy[k] = True
     beats = np.empty((m, n), dtype=np.bool_)
     for i in range(m):
         for j in range(n):
@@ -180,6 +211,7 @@ def _decision_tables(attackers, defenders, active, certified, team_values, held,
     if not with_pairs:
         return DecisionTables(values11, values21, kept, left, beats, beats_2v1, program_active,
                               busy)
+    triples = np.empty((m * (m - 1) // 2 * n, 3), dtype=np.int64)
     count = 0
     for i in range(m):
         for k in range(i + 1, m):
@@ -197,27 +229,25 @@ def _decision_tables(attackers, defenders, active, certified, team_values, held,
 
 
 def decision_tables(attackers: np.ndarray, defenders: np.ndarray, active: np.ndarray,
-                    certified: np.ndarray, team_values: np.ndarray, held: np.ndarray,
+                    certified: Matches, team_values: np.ndarray, held: np.ndarray,
                     wins: np.ndarray, tube11: TubeArrays, tube21: TubeArrays | None
                     ) -> DecisionTables:
     """Everything one decision reads of the tubes before its program, in one call.
 
     ``values11 (M, N)``: the 1 vs 1 value of every attacker (positions ``(M, 2)``,
     ``active`` ``(M,)``) against every defender (``(N, 2)``). The last decision's
-    ``certified`` games, int64 rows ``(j, k, i, l)`` (defenders ``j`` and ``k``, attackers
-    ``i < l``; -1 where a game has one), ``team_values`` their 1 vs 2 values (read for
-    teams only): ``left (G, 2)`` which of each game's attackers are still active, ``kept
-    (G,)`` the games still on (an attacker left, and the game's value over those left
-    > 0 or the game ``held`` ``(G,)`` by the open-space certificate;
-    ``lookups_reference.still_winning``). The program without the kept games' players
-    (``lookups_reference.restrict``): ``beats (M, N)`` (``values11 <= 0`` except where
-    the open-space certificate ``wins (M, N)`` says the defender wins, every attacker
-    beating a ``busy`` defender), ``active``, ``busy (N,)``, and
-    ``beats_2v1 (M, M, N)``: the 2 vs 1 table where (c5) binds, the pairs of attackers
-    that a defender beats one by one (false elsewhere). ``values21 (M, M, N)``: the
-    2 vs 1 values read for these (state order ``i < k``, both entries filled), NaN
-    elsewhere (``values21_at`` reads more). Without ``tube21`` no 2 vs 1 value is read:
-    no certified game may have two attackers."""
+    ``certified`` games (``G`` of them), ``team_values (G,)`` their 1 vs 2 values (read
+    for teams only): ``left (G, 2)`` which of each game's attackers are still active (the
+    second: false where the game has one), ``kept (G,)`` the games still on (an attacker
+    left, and ``match_value`` over those left, with zero margins, > 0, or the game
+    ``held`` ``(G,)`` by the open-space certificate). The program without the kept games'
+    players: ``beats (M, N)`` (``values11 <= 0`` except where the open-space certificate
+    ``wins (M, N)`` says the defender wins, every attacker beating a ``busy`` defender),
+    ``active``, ``busy (N,)``, and ``beats_2v1 (M, M, N)``: the 2 vs 1 table where (c5)
+    binds, the pairs of attackers that a defender beats one by one (false elsewhere).
+    ``values21 (M, M, N)``: the 2 vs 1 values read for these (state order ``i < k``, both
+    entries filled), NaN elsewhere (``values21_at`` reads more). Without ``tube21`` no
+    2 vs 1 value is read: no certified game may be a pair."""
     return _decision_tables(attackers, defenders, active, certified, team_values, held, wins,
                             tube11, tube11 if tube21 is None else tube21, tube21 is not None)
 
@@ -283,37 +313,28 @@ def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, a
 
 
 @njit(cache=True)
-def _game_slacks(attackers, defenders, games, margins, values11, values21, tube21):
-    triples = np.empty((games.shape[0], 3), dtype=np.int64)
-    count = 0
-    for g in range(games.shape[0]):
-        if games[g, 1] < 0 and games[g, 3] >= 0:
-            triples[count, 0], triples[count, 1] = games[g, 2], games[g, 3]
-            triples[count, 2] = games[g, 0]
-            count += 1
-    _fill_pairs(tube21, attackers, defenders, triples, count, values21)
-    slack = np.empty(games.shape[0], dtype=np.float64)
-    for g in range(games.shape[0]):
-        j, k, i, other = games[g, 0], games[g, 1], games[g, 2], games[g, 3]
-        if k >= 0:
-            slack[g] = np.nan
-            continue
-        second = i if other < 0 else other
-        slack[g] = min(values11[i, j], values11[second, j]) - margins[0]
-        if other >= 0:
-            slack[g] = min(slack[g], values21[i, other, j] - margins[1])
+def _game_slacks(attackers, defenders, games, team_values, margins, values11, values21, tube21):
+    _pairs_of(games, np.ones(attackers.shape[0], dtype=np.bool_), tube21, attackers, defenders,
+              values21)
+    slack = np.empty(games.defenders.shape[0], dtype=np.float64)
+    for g in range(slack.size):
+        slack[g] = match_value(games.defenders[g, 0], games.defenders[g, 1],
+                               games.attackers[g, 0], games.attackers[g, 1], values11, values21,
+                               team_values[g], margins)
     return slack
 
 
 @njit(cache=True)
-def _decision_controls(attackers, defenders, singles, doubles, games, margins, values11,
-                       values21, tube11, tube21, actions):
+def _decision_controls(attackers, defenders, singles, doubles, games, team_values, margins,
+                       values11, values21, tube11, tube21, actions):
     _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, actions)
-    return _game_slacks(attackers, defenders, games, margins, values11, values21, tube21)
+    return _game_slacks(attackers, defenders, games, team_values, margins, values11, values21,
+                        tube21)
 
 
 def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
-                      doubles: np.ndarray, games: np.ndarray, margins: np.ndarray,
+                      doubles: np.ndarray, games: Matches, team_values: np.ndarray,
+                      margins: np.ndarray,
                       values11: np.ndarray, values21: np.ndarray, tube11: TubeArrays,
                       tube21: TubeArrays | None, actions: np.ndarray) -> np.ndarray:
     """Everything one decision reads of the tubes after its program, in one call.
@@ -322,9 +343,9 @@ def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.
     ``singles`` (int64 rows ``(defender, attacker)``: its 1 vs 1 control) and ``doubles``
     (rows ``(defender, first, second)``: its 2 vs 1 control); where the control vanishes,
     the heading straight at its attacker (the nearer of the two, the first on a tie).
-    Returns the certificate slack of each of ``games`` (rows as ``decision_tables``' games,
-    ``policies.certificate.Tubes.slack``) with ``margins`` ``(3,)`` and the step's tables
-    ``values11``, ``values21`` (its missing 2 vs 1 values looked up and stored); NaN for
-    teams (the 1 vs 2 tube is not read here)."""
-    return _decision_controls(attackers, defenders, singles, doubles, games, margins, values11,
-                              values21, tube11, tube11 if tube21 is None else tube21, actions)
+    Returns the certificate slack (``match_value``) of each of ``games`` with their
+    ``team_values``, ``margins`` ``(3,)`` and the step's tables ``values11``, ``values21``
+    (its missing 2 vs 1 values looked up and stored)."""
+    return _decision_controls(attackers, defenders, singles, doubles, games, team_values,
+                              margins, values11, values21, tube11,
+                              tube11 if tube21 is None else tube21, actions)

@@ -1,7 +1,7 @@
 """Pure-numpy twins of ``policies.lookups``, for the tests: the same tables and headings
 from ``ValueFunction.value`` and ``defender_control`` called per batch of points and the
-certificate's rule written step by step (``still_winning``, ``restrict``): the defenders'
-computation before the batched kernels."""
+certificate's rule written step by step (``slack``, ``still_winning``, ``restrict``): the
+defenders' computation before the batched kernels."""
 
 from __future__ import annotations
 
@@ -9,9 +9,43 @@ import numpy as np
 
 from policies.certificate import Margins, Match, Tubes
 from policies.defenders import control_headings
-from policies.lookups import DecisionTables
+from policies.lookups import DecisionTables, Matches, values21_at
 from reachavoid_env import GameState
 from solvers.hj import ValueFunction
+
+
+def slack(tubes: Tubes, games: list[Match], state: GameState, values11: np.ndarray,
+          margins: Margins | None = None, values21: np.ndarray | None = None) -> np.ndarray:
+    """``(len(games),)``: the smallest ``value - margin`` over what makes each game a
+    defender win (``margins`` default: the tubes'; zeros for "still winning"); the 2 vs 1
+    values from the step's table ``values21 (M, M, N)`` where it holds them (the NaN ones
+    looked up and stored), the rest in one lookup per 6D tube."""
+    if not games:
+        return np.empty(0)
+    m11, m21, m12 = tubes.margins if margins is None else margins
+    slacks = np.empty(len(games))
+    pairs, teams = [], []
+    for g, game in enumerate(games):
+        if len(game.defenders) == 2:
+            teams.append(g)
+            continue
+        slacks[g] = min(values11[i, game.defenders[0]] for i in game.attackers) - m11
+        if len(game.attackers) == 2:
+            pairs.append(g)
+    attackers, defenders = state.attacker_positions, state.defender_positions
+    if pairs:
+        first, second, alone = np.array([(*games[g].attackers, games[g].defenders[0])
+                                         for g in pairs]).T
+        if values21 is None:
+            values21 = np.full((len(attackers), len(attackers), len(defenders)), np.nan)
+        values = values21_at(values21, first, second, alone, tubes.vf21, attackers, defenders)
+        slacks[pairs] = np.minimum(slacks[pairs], values - m21)
+    if teams:
+        one, two, attacker = np.array([(*games[g].defenders, games[g].attackers[0])
+                                       for g in teams]).T
+        slacks[teams] = tubes.vf12.value(np.concatenate([defenders[one], defenders[two],
+                                                         attackers[attacker]], axis=1)) - m12
+    return slacks
 
 
 def still_winning(certified: list[Match], state: GameState, values11: np.ndarray,
@@ -19,7 +53,7 @@ def still_winning(certified: list[Match], state: GameState, values11: np.ndarray
                   held: np.ndarray | None = None) -> list[Match]:
     """The certified games of the last decision that are still on: attackers that left
     (captured) are dropped from their game, and a game stays while its value is > 0
-    (``values21`` as in ``Tubes.slack``) or the open-space certificate ``held`` it
+    (``values21`` as in ``slack``) or the open-space certificate ``held`` it
     (``(G,)`` bool, one per certified game; none by default)."""
     if not certified:
         return []
@@ -32,7 +66,7 @@ def still_winning(certified: list[Match], state: GameState, values11: np.ndarray
         if left:
             games.append(Match(game.defenders, left))
             holds.append(open_)
-    keep = tubes.slack(games, state, values11, Margins(0.0, 0.0, 0.0), values21) > 0.0
+    keep = slack(tubes, games, state, values11, Margins(0.0, 0.0, 0.0), values21) > 0.0
     return [game for game, on, open_ in zip(games, keep, holds, strict=True) if on or open_]
 
 
@@ -87,25 +121,27 @@ def decision_tables(state: GameState, certified: list[Match], tubes: Tubes,
 
 
 def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
-                      doubles: np.ndarray, games: np.ndarray, margins: np.ndarray,
-                      values11: np.ndarray, values21: np.ndarray, vf11: ValueFunction,
-                      vf21: ValueFunction | None, actions: np.ndarray) -> np.ndarray:
+                      doubles: np.ndarray, games: Matches, team_values: np.ndarray,
+                      margins: np.ndarray, values11: np.ndarray, values21: np.ndarray,
+                      vf11: ValueFunction, vf21: ValueFunction | None,
+                      actions: np.ndarray) -> np.ndarray:
     """``lookups.decision_controls`` from the tubes' ``defender_control`` and ``value``."""
     _defendercontrol_headings(attackers, defenders, singles, doubles, vf11, vf21, actions)
-    slack = np.full(len(games), np.nan)
-    for g, (j, k, i, other) in enumerate(games):
-        if k >= 0:
+    slacks = np.empty(len(games.defenders))
+    for g, ((j, k), (i, other)) in enumerate(zip(games.defenders, games.attackers,
+                                                 strict=True)):
+        if j != k:
+            slacks[g] = team_values[g] - margins[2]
             continue
-        second = i if other < 0 else other
-        slack[g] = np.minimum(values11[i, j], values11[second, j]) - margins[0]
-        if other >= 0:
+        slacks[g] = np.minimum(values11[i, j], values11[other, j]) - margins[0]
+        if other != i:
             value = values21[i, other, j]
             if np.isnan(value):
                 value = vf21.value(np.concatenate([attackers[i], attackers[other],
                                                    defenders[j]]))
                 values21[i, other, j] = values21[other, i, j] = value
-            slack[g] = np.minimum(slack[g], value - margins[1])
-    return slack
+            slacks[g] = np.minimum(slacks[g], value - margins[1])
+    return slacks
 
 
 def _defendercontrol_headings(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,

@@ -89,22 +89,22 @@ def test_tables_and_headings_match_step_by_step(coarse_tubes, seed, attackers, m
         groups = [(np.stack([every, np.full(n, i)], axis=1), none2) for i in range(m)] + [
             (none1, np.stack([every, np.full(n, i), np.full(n, k)], axis=1))
             for i in range(m) for k in range(i + 1, m)]
-        games = np.concatenate(
-            [np.stack([singles[:, 0], np.full(len(singles), -1), *singles[:, 1:].T,
-                       np.full(len(singles), -1)], axis=1) for singles, _ in groups[:m]]
-            + [np.insert(doubles, 1, -1, axis=1) for _, doubles in groups[m:]]
-            + [np.array([[0, 1, 0, -1]])])        # a team: not read here (NaN)
+        one_each = [(j, j, i, i) for singles, _ in groups[:m] for j, i in singles]
+        two_each = [(j, j, i, k) for _, doubles in groups[m:] for j, i, k in doubles]
+        rows = np.array(one_each + two_each + [(0, 1, 0, 0)])     # and a team
+        games = lookups.Matches(rows[:, :2], rows[:, 2:])
+        team_values = np.where(rows[:, 0] != rows[:, 1], 0.25, np.nan)
         margins = np.array(policy.tubes.margins)
         for g, (singles, doubles) in enumerate(groups):    # each defender once per call
             mine, expected = (np.zeros((n, 2), np.float32) for _ in range(2))
             table, expected_table = ours.values21.copy(), ours.values21.copy()
-            rows = games if g == 0 else games[:0]
+            asked = games if g == 0 else lookups.Matches(*(part[:0] for part in games))
             slack = lookups.decision_controls(
-                state.attacker_positions, state.defender_positions, singles, doubles, rows,
-                margins, ours.values11, table, *tubes, mine)
+                state.attacker_positions, state.defender_positions, singles, doubles, asked,
+                team_values, margins, ours.values11, table, *tubes, mine)
             expected_slack = reference.decision_controls(
-                state.attacker_positions, state.defender_positions, singles, doubles, rows,
-                margins, ours.values11, expected_table, vf11, vf21, expected)
+                state.attacker_positions, state.defender_positions, singles, doubles, asked,
+                team_values, margins, ours.values11, expected_table, vf11, vf21, expected)
             assert np.array_equal(mine, expected), (step, singles, doubles)
             assert np.array_equal(slack, expected_slack, equal_nan=True), step
             assert np.array_equal(table, expected_table, equal_nan=True), step

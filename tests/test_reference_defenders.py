@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from lookups_reference import slack as game_slack
 from lookups_reference import still_winning
 
 import reachavoid_env
@@ -88,7 +89,7 @@ def _check_certificate(policy, state, previous: list[Match]) -> int:
     still = still_winning(previous, state, values11, tubes, held=held)
     assert set(still) <= set(certified)
     in_band = 0
-    for game, slack in zip(certified, tubes.slack(certified, state, values11), strict=True):
+    for game, slack in zip(certified, game_slack(tubes, certified, state, values11), strict=True):
         if game.basis is Basis.OPEN:
             assert len(game.defenders) == len(game.attackers) == 1, game
             (i,), (j,) = game.attackers, game.defenders
