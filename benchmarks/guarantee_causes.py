@@ -55,7 +55,7 @@ import reachavoid_env
 from policies import HJAttacker, HJDefenderPolicy, RandomAttacker, ShortestPathAttacker
 from policies.defenders import pair_states, triple_states
 from policies.tubes import tube_1v1
-from reachavoid.rollout import run_episode
+from reachavoid.rollout import CertifiesCaptures, run_episode
 from reachavoid_env import AttackerStatus, GameState, Overlay, Scenario, merged_overlay
 from solvers.assignment import Assignment
 from solvers.hj import ValueFunction, solve_2v1
@@ -128,11 +128,13 @@ class Recorder:
 
     @property
     def guaranteed_captures(self) -> int | None:
-        return getattr(self.policy, "guaranteed_captures", None)
+        certifies = isinstance(self.policy, CertifiesCaptures)
+        return self.policy.guaranteed_captures if certifies else None
 
     @property
     def nominal_captures(self) -> int | None:
-        return getattr(self.policy, "nominal_captures", None)
+        certifies = isinstance(self.policy, CertifiesCaptures)
+        return self.policy.nominal_captures if certifies else None
 
     def overlay(self) -> Overlay | None:
         return merged_overlay(self.policy)

@@ -179,7 +179,7 @@ def summarize(label: str, results: Sequence[EpisodeResult]) -> CaptureSummary:
     fractions = capture_fractions(results)
     everyone = sum(r.captured_count == attackers for r in results)
     guaranteed = [r.guarantees[0] for r in results if r.guarantees]
-    nominal = [r.nominal_guarantees[0] for r in results if r.nominal_guarantees]
+    nominal = [r.nominal_captures[0] for r in results if r.nominal_captures]
     rate = mean_interval(fractions)
     return CaptureSummary(
         label=label,

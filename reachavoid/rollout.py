@@ -54,9 +54,9 @@ class EpisodeResult:
     reach-avoid win of the defender keeps its attacker out of the target, by capture or by
     delaying it indefinitely, so an attacker still held off when the episode is truncated
     counts as stopped (``stopped_count``), not as a broken guarantee. ``guaranteed_captures``
-    is the certified count (values clear the tubes' error margin); ``nominal_guarantees``
-    holds the same sums with the paper's rule (value > 0) when the defenders report
-    ``nominal_captures``.
+    is the certified count (values clear the tubes' error margin); ``nominal_captures``
+    holds the same sums with the paper's rule (value > 0), a count and no promise, when
+    the defenders report one.
 
     ``first_lines`` / ``last_lines`` are the policies' overlay text at the first and the
     last decision: the lines on the video's first and last frames.
@@ -72,7 +72,7 @@ class EpisodeResult:
     seconds: float
     frames: int = 0
     guarantees: tuple[int, ...] = ()
-    nominal_guarantees: tuple[int, ...] = ()
+    nominal_captures: tuple[int, ...] = ()
     first_lines: tuple[str, ...] = ()
     last_lines: tuple[str, ...] = ()
 
@@ -133,8 +133,8 @@ class EpisodeResult:
               "guarantee_falls": self.guarantee_falls,
               "arrivals_beyond_promise": self.arrivals_beyond_promise} if self.guarantees
              else {}
-             ) | ({"nominal_captures_initial": self.nominal_guarantees[0]}
-                  if self.nominal_guarantees else {})
+             ) | ({"nominal_captures_initial": self.nominal_captures[0]}
+                  if self.nominal_captures else {})
 
 
 def episode_title(scenario: str, defenders: str, attackers: str, seed: int | None) -> str:
@@ -242,6 +242,6 @@ def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
         arrived=tuple(state.arrived),
         seconds=time.perf_counter() - started,
         frames=recorder.frames if recorder is not None else 0,
-        guarantees=tuple(guarantees), nominal_guarantees=tuple(nominals),
+        guarantees=tuple(guarantees), nominal_captures=tuple(nominals),
         first_lines=first_lines or (), last_lines=last_lines,
     )

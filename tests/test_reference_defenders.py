@@ -228,9 +228,9 @@ def test_guarantee_over_random_starts(coarse_tubes, record_property):
                 result = run_episode(env, make(), HJDefenderPolicy(vf11, vf21), seed=seed)
                 episodes += 1
                 violations += result.guarantee_violations > 0
-                promised += result.nominal_guarantees[0]
+                promised += result.nominal_captures[0]
                 assert result.arrivals_beyond_promise == 0, (m, n, seed)
-                assert result.guarantees[0] <= result.nominal_guarantees[0]
+                assert result.guarantees[0] <= result.nominal_captures[0]
                 assert result.captured_count + result.arrived_count <= m
     record_property("guarantee_violation_episodes", f"{violations}/{episodes}")
     print(f"guarantee violated in {violations} of {episodes} episodes at 25^4 / 13^6")
