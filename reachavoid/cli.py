@@ -50,7 +50,7 @@ from reachavoid.suite import (
 )
 from reachavoid.sweep import BACKENDS
 from reachavoid_env import PolicyMismatch, Scenario, ScenarioError, checks, load_scenario
-from reachavoid_env.files import STDOUT, atomic_write, destination, is_stream
+from reachavoid_env.files import STDOUT, atomic_write, destination, is_stream, write_json
 from reachavoid_env.maps import (
     MAX_MAPS,
     MapError,
@@ -753,8 +753,7 @@ def _print_bench(args: argparse.Namespace, result: SuiteResult, report: dict[str
         print(json.dumps(report))
         return 0
     if args.json:
-        with atomic_write(args.json) as handle:
-            json.dump(report, handle, indent=1)
+        write_json(args.json, report, indent=1)
     print(_bench_tables(result, seconds))
     for flag, path in (("per-episode rows", args.csv), ("JSON", args.json), ("plot", args.plot)):
         if path:
