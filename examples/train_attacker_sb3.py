@@ -30,8 +30,6 @@ Ctrl-C leaves no half-written file.
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -55,9 +53,9 @@ from policies.training import (
     make_attacker_env,
     reward_options,
 )
-from reachavoid.evaluation import bootstrap_interval, wilson_interval
+from reachavoid.evaluation import bootstrap_interval, wilson_interval, write_csv
 from reachavoid_env import AttackerStatus, Scenario, load_scenario
-from reachavoid_env.files import atomic_write
+from reachavoid_env.files import atomic_write, write_json
 from reachavoid_env.video import VideoWriter
 from reachavoid_env.wrappers import SingleAttackerEnv
 
@@ -287,10 +285,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
                                             "scenario": scenario.name})
         with atomic_write(args.out / "model.zip", "wb") as handle:
             model.save(handle)
-        with atomic_write(args.out / "curve.csv", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=list(progress.rows[0]))
-            writer.writeheader()
-            writer.writerows(progress.rows)
+        write_csv(args.out / "curve.csv", progress.rows)
         report.update(timesteps=model.num_timesteps,
                       training_seconds=progress.rows[-1]["seconds"])
     else:
@@ -308,8 +303,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     if not args.no_video:
         frames = record(kwargs, model, args.out / "trained.mp4", EVAL_SEED)
         report["video"] = {"path": str(args.out / "trained.mp4"), "frames": frames}
-    with atomic_write(args.out / "report.json") as handle:
-        json.dump(report, handle, indent=2)
+    write_json(args.out / "report.json", report)
     print(f"wrote into {args.out}/: " + ", ".join(
         sorted(p.name for p in args.out.iterdir() if not p.name.startswith("."))))
     return report

@@ -75,9 +75,7 @@ first evaluation start). Ctrl-C stops cleanly and leaves no half-written file.
 from __future__ import annotations
 
 import argparse
-import csv
 import functools
-import json
 import sys
 import time
 from collections.abc import Sequence
@@ -102,9 +100,9 @@ from policies.training import (
     make_attackers_parallel_env,
     reward_options,
 )
-from reachavoid.evaluation import bootstrap_interval
+from reachavoid.evaluation import bootstrap_interval, write_csv
 from reachavoid_env import AttackerStatus, Policy, Scenario
-from reachavoid_env.files import atomic_write
+from reachavoid_env.files import atomic_write, write_json
 from reachavoid_env.integrations.supersuit import sb3_vec_env
 from reachavoid_env.maps import load_library
 from reachavoid_env.video import RecordEpisode
@@ -501,13 +499,6 @@ def train(args: argparse.Namespace, maps: Maps,
     return model, curve, cloning
 
 
-def write_curve(rows: list[dict[str, float]], path: Path) -> None:
-    with atomic_write(path, newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-
-
 def plot_curve(rows: list[dict[str, float]], path: Path, title: str) -> None:
     """Arrival rate and mean return per rollout (dots) and over the last 10 (line)."""
     steps = np.array([row["timesteps"] for row in rows], dtype=np.float64)
@@ -689,7 +680,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         print("training: " + ", ".join(f"{k} {v}" for k, v in report["training"].items()),
               flush=True)
         if curve.rows:
-            write_curve(curve.rows, args.out / "curve.csv")
+            write_csv(args.out / "curve.csv", curve.rows)
             plot_curve(curve.rows, args.plot, f"{args.scenario}, shared PPO attackers vs "
                        f"{args.defenders}" + (f" {args.grid1}/{args.grid2}"
                                               if args.defenders == "hj" else ""))
@@ -716,8 +707,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         report["video"] = {"path": str(args.video), "seed": 0,
                            "frames": record(args, held_out, model, seed=0)}
     report["per_episode"] = {name: asdict(result) for name, result in results.items()}
-    with atomic_write(args.out / "report.json") as handle:
-        json.dump(report, handle, indent=2)
+    write_json(args.out / "report.json", report)
     print(f"wrote {args.out / 'report.json'}", flush=True)
     return report
 

@@ -21,7 +21,7 @@ import os
 import signal
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -50,7 +50,7 @@ from reachavoid.suite import (
 )
 from reachavoid.sweep import BACKENDS
 from reachavoid_env import PolicyMismatch, Scenario, ScenarioError, checks, load_scenario
-from reachavoid_env.files import STDOUT, atomic_write, destination, is_stream
+from reachavoid_env.files import STDOUT, atomic_write, destination, is_stream, write_json
 from reachavoid_env.maps import (
     MAX_MAPS,
     MapError,
@@ -158,22 +158,83 @@ def _seed_option(parser: argparse.ArgumentParser, help_text: str) -> None:
     parser.add_argument("--seed", type=int, default=0, help=f"{help_text} (default: %(default)s)")
 
 
+def _policy_option(parser: argparse.ArgumentParser, side: str, default: str, what: str,
+                   metavar: str = SPEC) -> None:
+    """``--attackers`` or ``--defenders`` (``side``), with the names the registry knows."""
+    parser.add_argument(f"--{side}", default=default, metavar=metavar,
+                        help=f"{what} (default: %(default)s). {names_help(side)}")
+
+
+def _plot_option(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument("--plot", metavar="OUT.png", help=what)
+
+
+COMMANDS = {
+    "play": ("play one episode and print the outcome", "Play one episode of a scenario."),
+    "solve": ("solve a 1 vs 1, 2 vs 1 or 1 vs 2 HJ reach-avoid game",
+              "Solve a scenario's 1 vs 1, 2 vs 1 or 1 vs 2 game to convergence (cached in "
+              "$REACHAVOID_CACHE_DIR)."),
+    "bench": ("compare defender methods on the same seeded starts",
+              "Play seeded starts with each defender method (built-in names, installed names, "
+              "or pkg.module:factory of your own), on one scenario's map (--config) or on "
+              "every cell of a suite (--suite), and print capture rates with 95% intervals "
+              "and each method's paired difference from the baseline."),
+    "maps": ("generate a library of random, validated maps",
+             "Write COUNT generated scenarios (obstacles of the registered shapes, a target, "
+             "every free region connected to the target, random starts) and an index.toml to "
+             "a folder; the same arguments always write the same files. Load the folder "
+             "wherever a scenario is accepted."),
+    "paper": ("reproduce the paper's table, videos and tube figure",
+              "Play the paper's games (the built-ins with a [paper] table) with the HJ + MIP "
+              "defenders and the matching baseline against shortest-path attackers "
+              "(unassigned defenders stand still, as in the paper), print the table next to "
+              "the paper's, and write the videos and the tube-slice figure."),
+    "validate": ("check scenario files without playing them",
+                 "Load each scenario (a TOML file or a built-in name) and reset an env on it; "
+                 "print one line per file. Exit status 0 when all are valid, 2 when any is not "
+                 "(its error on stderr)."),
+}
+"""Each subcommand's line in ``reachavoid --help`` and the description atop its own
+``--help``."""
+
+
+def _command(commands: Any, name: str,
+             run: Callable[[argparse.Namespace], int]) -> argparse.ArgumentParser:
+    """The subcommand ``name`` (its texts in ``COMMANDS``), carried out by ``run``."""
+    summary, description = COMMANDS[name]
+    command = commands.add_parser(name, help=summary, description=description)
+    command.set_defaults(run=run)
+    return command
+
+
 def build_parser() -> argparse.ArgumentParser:
+    """The ``reachavoid`` parser: each ``_*_command`` adds a subcommand, in this order."""
     parser = _Parser(prog="reachavoid",
                      description="Multi-agent reach-avoid games: play, record, solve.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for add in (_play_command, _solve_command, _bench_command, _maps_command, _paper_command,
+                _validate_command):
+        add(commands)
+    return parser
 
-    play = commands.add_parser("play", help="play one episode and print the outcome",
-                               description="Play one episode of a scenario.")
+
+def _play_command(commands: Any) -> None:
+    play = _command(commands, "play", _play)
     _scenario_option(play, "paper_6v2", "a built-in scenario name, a TOML scenario file, or a "
                                         "map library folder or index (the seed draws the map)")
-    play.add_argument("--attackers", default="shortest-path", metavar=SPEC,
-                      help=f"attacker policy (default: %(default)s). {names_help('attackers')}")
-    play.add_argument("--defenders", default="hj", metavar=SPEC,
-                      help=f"defender policy (default: %(default)s). {names_help('defenders')}")
+    _policy_option(play, "attackers", "shortest-path", "attacker policy")
+    _policy_option(play, "defenders", "hj", "defender policy")
     _grid_options(play)
     _margin_option(play)
     _seed_option(play, "seed of the env (random starts) and random policies")
+    _video_options(play)
+    play.add_argument("--json", action="store_true",
+                      help="print one JSON object instead of a summary")
+    _force_option(play)
+
+
+def _video_options(play: argparse.ArgumentParser) -> None:
+    """``play``'s ``--video`` and how it is made, and ``--preview``."""
     play.add_argument("--video", metavar="OUT.mp4|OUT.gif",
                       help="write the episode to an MP4 (H.264) or GIF video")
     play.add_argument("--fps", type=float, default=None,
@@ -191,15 +252,10 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--width", type=int, default=640,
                       help="video width in pixels, rounded up to a multiple of 16 "
                            "(default: %(default)s)")
-    play.add_argument("--json", action="store_true",
-                      help="print one JSON object instead of a summary")
-    _force_option(play)
-    play.set_defaults(run=_play)
 
-    solve = commands.add_parser("solve",
-                                help="solve a 1 vs 1, 2 vs 1 or 1 vs 2 HJ reach-avoid game",
-                                description="Solve a scenario's 1 vs 1, 2 vs 1 or 1 vs 2 game to "
-                                            "convergence (cached in $REACHAVOID_CACHE_DIR).")
+
+def _solve_command(commands: Any) -> None:
+    solve = _command(commands, "solve", _solve)
     solve.add_argument("--scenario", nargs="+", default=["paper_2v1"],
                        metavar="NAME|FILE.toml|DIR",
                        help="a built-in scenario name or a TOML scenario file; with "
@@ -218,18 +274,12 @@ def build_parser() -> argparse.ArgumentParser:
                      "with --defenders, concurrent solves (default: all cores; refused when "
                      "they would not fit in memory)")
     solve.add_argument("--out", metavar="DIR", help="also save the value function here")
-    solve.add_argument("--plot", metavar="OUT.png",
-                       help="draw the value's slices at the scenario's starts (paper Fig. 2)")
+    _plot_option(solve, "draw the value's slices at the scenario's starts (paper Fig. 2)")
     _force_option(solve)
-    solve.set_defaults(run=_solve)
 
-    bench = commands.add_parser(
-        "bench", help="compare defender methods on the same seeded starts",
-        description="Play seeded starts with each defender method (built-in names, installed "
-                    "names, or pkg.module:factory of your own), on one scenario's map "
-                    "(--config) or on every cell of a suite (--suite), and print capture "
-                    "rates with 95% intervals and each method's paired difference from the "
-                    "baseline.")
+
+def _bench_command(commands: Any) -> None:
+    bench = _command(commands, "bench", _bench)
     bench.add_argument("--suite", default=None, metavar="NAME|FILE.toml",
                        help=f"play a suite of cells instead of one --config (built-ins: "
                             f"{', '.join(suite_names())})")
@@ -240,12 +290,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help=f"without --suite: attackers v defenders, drawn at random each "
                             f"episode (default: {ONE_CELL['config']}; over a map library, its "
                             f"maps' own)")
-    bench.add_argument("--defenders", default="hj,matching", metavar="A,B",
-                       help=f"comma-separated defender methods, each {SPEC} (default: "
-                            f"%(default)s). {names_help('defenders')}")
-    bench.add_argument("--attackers", default=ONE_CELL["attackers"], metavar=SPEC,
-                       help="without --suite: the attacker policy (default: %(default)s). "
-                            f"{names_help('attackers')}")
+    _policy_option(bench, "defenders", "hj,matching",
+                   f"comma-separated defender methods, each {SPEC}", metavar="A,B")
+    _policy_option(bench, "attackers", ONE_CELL["attackers"],
+                   "without --suite: the attacker policy")
     bench.add_argument("--baseline", default=None, metavar="METHOD",
                        help="the method every other is compared with, seed by seed "
                             "(default: hj when chosen, else the first method)")
@@ -257,6 +305,14 @@ def build_parser() -> argparse.ArgumentParser:
     _backend_options(bench, "where episodes run (same results for the same seeds)",
                      "processes of the pool, or CPUs of a local Ray instance (default: all "
                      "cores)")
+    _bench_outputs(bench)
+    _grid_options(bench)
+    _margin_option(bench)
+    _force_option(bench)
+
+
+def _bench_outputs(bench: argparse.ArgumentParser) -> None:
+    """``bench``'s ``--csv``, ``--json`` and ``--plot``."""
     bench.add_argument("--csv", metavar="FILE.csv",
                        help="write one row per episode ('-': standard output, the tables then "
                             "go to standard error)")
@@ -264,19 +320,11 @@ def build_parser() -> argparse.ArgumentParser:
                        help="one JSON object: per cell the summaries and paired differences, "
                             "and one row per episode; printed instead of the tables, or "
                             "written to FILE.json")
-    bench.add_argument("--plot", metavar="OUT.png",
-                       help="draw the capture rate per cell and method with its interval")
-    _grid_options(bench)
-    _margin_option(bench)
-    _force_option(bench)
-    bench.set_defaults(run=_bench)
+    _plot_option(bench, "draw the capture rate per cell and method with its interval")
 
-    maps = commands.add_parser(
-        "maps", help="generate a library of random, validated maps",
-        description="Write COUNT generated scenarios (obstacles of the registered shapes, a "
-                    "target, every free region connected to the target, random starts) and "
-                    "an index.toml to a folder; the same arguments always write the same "
-                    "files. Load the folder wherever a scenario is accepted.")
+
+def _maps_command(commands: Any) -> None:
+    maps = _command(commands, "maps", _maps)
     maps.add_argument("--count", type=int, default=32, help="maps (default: %(default)s)")
     _seed_option(maps, "seed of the library; map k depends only on it and k")
     maps.add_argument("--out", required=True, metavar="DIR", help="the library folder")
@@ -285,30 +333,21 @@ def build_parser() -> argparse.ArgumentParser:
         shown = ",".join(map(str, default)) if isinstance(default, tuple) else default
         maps.add_argument(f"--{option.name.replace('_', '-')}", dest=f"map_{option.name}",
                           metavar="V", help=f"{option.metadata['help']} (default: {shown})")
-    maps.set_defaults(run=_maps)
 
-    paper = commands.add_parser(
-        "paper", help="reproduce the paper's table, videos and tube figure",
-        description="Play the paper's games (the built-ins with a [paper] table) with the HJ + "
-                    "MIP defenders and the matching baseline against shortest-path attackers "
-                    "(unassigned defenders stand still, as in the paper), print the table "
-                    "next to the paper's, and write the videos and the tube-slice figure.")
+
+def _paper_command(commands: Any) -> None:
+    paper = _command(commands, "paper", _paper)
     paper.add_argument("--out", default="paper_results", metavar="DIR",
                        help="where the videos, figure and table go (default: %(default)s)")
     paper.add_argument("--no-video", action="store_true", help="skip the videos")
     _grid_options(paper, for_policies=False)
     _force_option(paper)
-    paper.set_defaults(run=_paper)
 
-    validate = commands.add_parser(
-        "validate", help="check scenario files without playing them",
-        description="Load each scenario (a TOML file or a built-in name) and reset an env on "
-                    "it; print one line per file. Exit status 0 when all are valid, 2 when "
-                    "any is not (its error on stderr).")
+
+def _validate_command(commands: Any) -> None:
+    validate = _command(commands, "validate", _validate)
     validate.add_argument("files", nargs="+", metavar="FILE",
                           help="TOML scenario files (or built-in names)")
-    validate.set_defaults(run=_validate)
-    return parser
 
 
 # -- checks made before any work -----------------------------------------------------------
@@ -714,8 +753,7 @@ def _print_bench(args: argparse.Namespace, result: SuiteResult, report: dict[str
         print(json.dumps(report))
         return 0
     if args.json:
-        with atomic_write(args.json) as handle:
-            json.dump(report, handle, indent=1)
+        write_json(args.json, report, indent=1)
     print(_bench_tables(result, seconds))
     for flag, path in (("per-episode rows", args.csv), ("JSON", args.json), ("plot", args.plot)):
         if path:

@@ -12,7 +12,6 @@ attackers).
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -22,7 +21,7 @@ from policies.registry import make_policy, policy_specs
 from policies.tubes import tube_2v1
 from reachavoid.rollout import episode_title, run_episode
 from reachavoid_env import Scenario
-from reachavoid_env.files import atomic_write
+from reachavoid_env.files import write_json
 from solvers.hj.plot import scenario_panels, tube_figure
 
 ATTACKERS = "shortest-path"
@@ -88,7 +87,6 @@ def reproduce(out: Path, grid1: int, grid2: int, videos: bool = True,
     attackers, defenders = figure_game.attackers, figure_game.defenders
     tube_figure(scenario_panels(vf11, attackers, defenders)[:1]
                 + scenario_panels(vf21, attackers, defenders), out / "tubes.png")
-    with atomic_write(out / "table.json") as handle:
-        json.dump({row.scenario: {"reported": row.reported, **row.measured} for row in rows},
-                  handle, indent=2)
+    write_json(out / "table.json",
+               {row.scenario: {"reported": row.reported, **row.measured} for row in rows})
     return rows

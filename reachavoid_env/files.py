@@ -9,6 +9,7 @@ beside it and renamed onto it when complete, keeping an existing file's permissi
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import stat
@@ -109,6 +110,12 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "w", **open_kwargs: A
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
+
+
+def write_json(path: str | os.PathLike[str], data: Any, indent: int = 2) -> None:
+    """Write ``data`` as JSON to ``path`` (``atomic_write``: whole or not at all)."""
+    with atomic_write(path) as handle:
+        json.dump(data, handle, indent=indent)
 
 
 def _trusted(status: os.stat_result) -> bool:

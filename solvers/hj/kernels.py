@@ -401,33 +401,40 @@ def _gradient_at(values, stored_of, row, col, shape, spacing, row_stride, col_st
 
 _PARALLEL_FROM = 4096
 """Below this many query points the serial kernels are faster (no thread start-up)."""
+_RUN = 1024
+"""Points per task of the parallel kernels (a task sets up its strides and scratch once)."""
 
 
-@njit(cache=True)
-def _interpolate_serial(values, stored_of, shape, lo, spacing, points):
+@njit(cache=True, inline="always")
+def _interpolate_run(values, stored_of, shape, lo, spacing, points, start, stop, result):
+    """``result[q]``: the value at ``points[q]`` for ``q`` in ``start..stop-1``. The loop of
+    both interpolation kernels (the serial one's whole, a task of ``_RUN`` points of the
+    parallel one's), inlined: a call costs as much as a point."""
     row_stride, col_stride = row_strides(shape, values.shape[1])
     corner_rows, corner_cols = corner_offsets(row_stride, col_stride)
     lower = np.empty(shape.size, dtype=np.int64)
     weights = np.empty(1 << shape.size, dtype=np.float64)
-    result = np.empty(points.shape[0], dtype=np.float64)
-    for q in range(points.shape[0]):
+    for q in range(start, stop):
         row, col = locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
                                 weights)
         result[q] = value_at(values, stored_of, row, col, corner_rows, corner_cols, weights)
+
+
+@njit(cache=True)
+def _interpolate_serial(values, stored_of, shape, lo, spacing, points):
+    result = np.empty(points.shape[0], dtype=np.float64)
+    _interpolate_run(values, stored_of, shape, lo, spacing, points, 0, points.shape[0], result)
     return result
 
 
 @njit(cache=True, parallel=True)
 def _interpolate_parallel(values, stored_of, shape, lo, spacing, points):
-    row_stride, col_stride = row_strides(shape, values.shape[1])
-    corner_rows, corner_cols = corner_offsets(row_stride, col_stride)
-    result = np.empty(points.shape[0], dtype=np.float64)
-    for q in prange(points.shape[0]):
-        lower = np.empty(shape.size, dtype=np.int64)
-        weights = np.empty(1 << shape.size, dtype=np.float64)
-        row, col = locate_cell(points[q], shape, lo, spacing, row_stride, col_stride, lower,
-                                weights)
-        result[q] = value_at(values, stored_of, row, col, corner_rows, corner_cols, weights)
+    count = points.shape[0]
+    result = np.empty(count, dtype=np.float64)
+    chunks = (count + _RUN - 1) // _RUN
+    for chunk in prange(chunks):
+        _interpolate_run(values, stored_of, shape, lo, spacing, points, chunk * _RUN,
+                         min((chunk + 1) * _RUN, count), result)
     return result
 
 
@@ -446,37 +453,40 @@ def gradient_point(values, stored_of, shape, lo, spacing, strides, corners, poin
     return value_at(values, stored_of, row, col, corners[0], corners[1], weights)
 
 
-@njit(cache=True)
-def _gradient_serial(values, stored_of, shape, lo, spacing, points, axes, with_value):
-    row_stride, col_stride = row_strides(shape, values.shape[1])
-    corner_rows, corner_cols = corner_offsets(row_stride, col_stride)
+@njit(cache=True, inline="always")
+def _gradient_run(values, stored_of, shape, lo, spacing, points, axes, with_value, start, stop,
+                  value, gradient):
+    """``gradient[q]`` (and ``value[q]`` ``with_value``) at ``points[q]`` for ``q`` in
+    ``start..stop-1``: the loop of both gradient kernels (as ``_interpolate_run``)."""
+    strides = row_strides(shape, values.shape[1])
+    corners = corner_offsets(strides[0], strides[1])
     lower = np.empty(shape.size, dtype=np.int64)
     weights = np.empty(1 << shape.size, dtype=np.float64)
-    gradient = np.empty((points.shape[0], axes.size), dtype=np.float64)
-    value = np.empty(points.shape[0] if with_value else 0, dtype=np.float64)
-    for q in range(points.shape[0]):
-        v = gradient_point(values, stored_of, shape, lo, spacing, (row_stride, col_stride),
-                            (corner_rows, corner_cols), points[q], axes, lower, weights,
-                            gradient[q], with_value)
+    for q in range(start, stop):
+        v = gradient_point(values, stored_of, shape, lo, spacing, strides, corners, points[q],
+                           axes, lower, weights, gradient[q], with_value)
         if with_value:
             value[q] = v
+
+
+@njit(cache=True)
+def _gradient_serial(values, stored_of, shape, lo, spacing, points, axes, with_value):
+    gradient = np.empty((points.shape[0], axes.size), dtype=np.float64)
+    value = np.empty(points.shape[0] if with_value else 0, dtype=np.float64)
+    _gradient_run(values, stored_of, shape, lo, spacing, points, axes, with_value, 0,
+                  points.shape[0], value, gradient)
     return value, gradient
 
 
 @njit(cache=True, parallel=True)
 def _gradient_parallel(values, stored_of, shape, lo, spacing, points, axes, with_value):
-    row_stride, col_stride = row_strides(shape, values.shape[1])
-    corner_rows, corner_cols = corner_offsets(row_stride, col_stride)
-    gradient = np.empty((points.shape[0], axes.size), dtype=np.float64)
-    value = np.empty(points.shape[0] if with_value else 0, dtype=np.float64)
-    for q in prange(points.shape[0]):
-        lower = np.empty(shape.size, dtype=np.int64)
-        weights = np.empty(1 << shape.size, dtype=np.float64)
-        v = gradient_point(values, stored_of, shape, lo, spacing, (row_stride, col_stride),
-                            (corner_rows, corner_cols), points[q], axes, lower, weights,
-                            gradient[q], with_value)
-        if with_value:
-            value[q] = v
+    count = points.shape[0]
+    gradient = np.empty((count, axes.size), dtype=np.float64)
+    value = np.empty(count if with_value else 0, dtype=np.float64)
+    chunks = (count + _RUN - 1) // _RUN
+    for chunk in prange(chunks):
+        _gradient_run(values, stored_of, shape, lo, spacing, points, axes, with_value,
+                      chunk * _RUN, min((chunk + 1) * _RUN, count), value, gradient)
     return value, gradient
 
 
