@@ -264,7 +264,8 @@ def _solve_command(commands: Any) -> None:
     solve.add_argument("--game", choices=GAMES, default="1v1",
                        help="which game (default: %(default)s)")
     solve.add_argument("--grid", type=int, default=None, metavar="N",
-                       help="grid nodes per axis (default: 45 for 1v1, 30 for 2v1 and 1v2)")
+                       help=f"grid nodes per axis (default: {DEFAULT_GRID['1v1']} for 1v1, "
+                            f"{DEFAULT_GRID['2v1']} for 2v1 and 1v2)")
     solve.add_argument("--defenders", metavar="A,B",
                        help="instead of --game: every tube these defender methods need, on "
                             "every map of --scenario, at --grid1/--grid2; what the cache holds "
