@@ -59,11 +59,11 @@ def _once(scenario: Scenario, game: str, grid1: int, grid2: int,
 def loaded_tubes(scenario: Scenario) -> dict[TubeKey, ValueFunction]:
     """The tubes of ``scenario``'s game (map, speeds, capture radius) this process loaded
     from the current cache folder."""
-    game = (str(cache_dir()), scenario.map, scenario.attacker_speed, scenario.defender_speed,
-            scenario.capture_radius)
+    wanted = (str(cache_dir()), scenario.map, scenario.attacker_speed, scenario.defender_speed,
+              scenario.capture_radius)
     return {key: vf for key, vf in _LOADED.items()
             if (key.cache, key.map, key.attacker_speed, key.defender_speed,
-                key.capture_radius) == game}
+                key.capture_radius) == wanted}
 
 
 def tube_1v1(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,

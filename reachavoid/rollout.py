@@ -146,13 +146,13 @@ def _start(env: ParallelEnv, attackers: Policy, defenders: Policy, seed: int | N
            title: str | None) -> Scenario:
     """Reset ``env`` with ``seed`` and both policies with the scenario in play; give the
     frames their title (default: the policies' class names)."""
-    game = env.unwrapped
+    raw = env.unwrapped
     env.reset(seed=seed)
-    scenario: Scenario = game.scenario
+    scenario: Scenario = raw.scenario
     attackers.reset(scenario)
     defenders.reset(scenario)
-    game.set_caption(title or episode_title(scenario.name, type(defenders).__name__,
-                                            type(attackers).__name__, seed))
+    raw.set_caption(title or episode_title(scenario.name, type(defenders).__name__,
+                                           type(attackers).__name__, seed))
     return scenario
 
 
@@ -195,7 +195,7 @@ def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
     its window itself. ``progress`` shows a tqdm bar over steps.
     """
     checks.integer(every, "every", 1)
-    game = env.unwrapped
+    raw = env.unwrapped
     if video is not None:
         from reachavoid_env.video import RecordEpisode
     recorder = RecordEpisode(env, video, fps, every=every) if video is not None else None
@@ -206,10 +206,10 @@ def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
     nominals: list[int] = []
     first_lines: tuple[str, ...] | None = None
     last_lines: tuple[str, ...] = ()
-    bar = tqdm(total=game.max_cycles, unit="step", disable=not progress, leave=False)
+    bar = tqdm(total=raw.max_cycles, unit="step", disable=not progress, leave=False)
     try:
         scenario = _start(played, attackers, defenders, seed, title)
-        state = game.game_state()
+        state = raw.game_state()
         while played.agents:
             live = set(played.agents)
             actions, overlay = _decide(played, state, attackers, defenders)
@@ -223,7 +223,7 @@ def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
                 first_lines = last_lines
             played.step({agent: a for agent, a in actions.items() if agent in live})
             bar.update(1)
-            state = game.game_state()
+            state = raw.game_state()
         if recorder is not None:
             recorder.finish()
     except BaseException:
