@@ -4,11 +4,20 @@ from __future__ import annotations
 
 import json
 
+import lookups_reference as reference
 import numpy as np
 import pytest
+from test_decision_lookups import assert_same_tables
 
 import reachavoid_env
-from policies import HJAttacker, HJDefenderPolicy, HJPairsDefenderPolicy, ShortestPathAttacker
+from policies import (
+    HJAttacker,
+    HJDefenderPolicy,
+    HJPairsDefenderPolicy,
+    ShortestPathAttacker,
+    lookups,
+)
+from policies.certificate import match_arrays
 from policies.registry import make_policy, resolve
 from reachavoid.cli import main
 from reachavoid.rollout import run_episode
@@ -130,3 +139,43 @@ def test_solve_command_solves_the_1v2_game(tmp_path, capsys):
     assert main(["solve", "--scenario", "paper_2v1", "--game", "1v2", "--grid", "7",
                  "--plot", str(tmp_path / "x.png")]) == 2
     assert "2 defender" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("attackers", [ShortestPathAttacker(), None])
+def test_certified_teams_match_the_step_by_step_tables(equal_tubes, attackers):
+    """Before every decision of the team start's episode (a margin of 0.1 cell, so the
+    team is certified), ``decision_tables`` with the policy's certified games equals the
+    step-by-step twin (whose team values come from ``vf12.value`` and the rule written
+    out in ``lookups_reference``), and every certified team's slack, read with the tubes'
+    margins, is the twin's. Against shortest-path and HJ attackers (``None``)."""
+    vf11, vf21, vf12 = equal_tubes
+    policy = HJPairsDefenderPolicy(vf11, vf21, vf12, margin_cells=0.1)
+    a, defenders = TEAM_START
+    env = reachavoid_env.parallel_env(scenario=reachavoid_env.builtin_scenario(
+        SCENARIO).with_starts(a[None], defenders))
+    env.reset(seed=0)
+    attackers = attackers or HJAttacker(vf11)
+    attackers.reset(env.unwrapped.scenario)
+    policy.reset(env.unwrapped.scenario)
+    team_steps = 0
+    while env.agents:
+        state = env.unwrapped.game_state()
+        certified = policy.certified_games
+        none = np.zeros((len(state.attacker_positions), len(state.defender_positions)), bool)
+        ours = policy._tables(state, state.active_attackers, certified, none)
+        assert_same_tables(ours, reference.decision_tables(state, certified, policy.tubes,
+                                                           none))
+        teams = [game for game in certified if len(game.defenders) == 2]
+        if teams:
+            team_steps += 1
+            games = match_arrays(tuple(teams))
+            slack = lookups.decision_controls(
+                state.attacker_positions, state.defender_positions, np.empty((0, 2), np.int64),
+                np.empty((0, 3), np.int64), games, policy._team_values(state, games),
+                policy._margins, ours.values11, ours.values21.copy(),
+                *policy._tube_arrays, np.zeros((len(state.defender_positions), 2), np.float32))
+            assert np.array_equal(slack, reference.slack(policy.tubes, teams, state,
+                                                         ours.values11))
+        actions = {**attackers.act(state), **policy.act(state)}
+        env.step({a: actions[a] for a in env.agents})
+    assert team_steps > 0, "no certified team was ever checked"
