@@ -159,3 +159,11 @@ def _defendercontrol_headings(attackers: np.ndarray, defenders: np.ndarray, sing
         nearer = gaps[np.argmin(np.hypot(gaps[..., 0], gaps[..., 1]), axis=0),
                       np.arange(len(j))]
         actions[j] = control_headings(controls, nearer)
+
+
+def assert_same_tables(ours: DecisionTables, theirs: DecisionTables) -> None:
+    """Every table of ``ours`` equals ``theirs`` bit for bit: dtype, shape and values (NaN
+    where NaN)."""
+    for name, mine, expected in zip(ours._fields, ours, theirs, strict=True):
+        assert mine.dtype == expected.dtype and mine.shape == expected.shape, name
+        assert np.array_equal(mine, expected, equal_nan=True), name
