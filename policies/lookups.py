@@ -246,26 +246,10 @@ def decision_tables(attackers: np.ndarray, defenders: np.ndarray, active: np.nda
     ``active``, ``busy (N,)``, and ``beats_2v1 (M, M, N)``: the 2 vs 1 table where (c5)
     binds, the pairs of attackers that a defender beats one by one (false elsewhere).
     ``values21 (M, M, N)``: the 2 vs 1 values read for these (state order ``i < k``, both
-    entries filled), NaN elsewhere (``values21_at`` reads more). Without ``tube21`` no
+    entries filled), NaN elsewhere. Without ``tube21`` no
     2 vs 1 value is read: no certified game may be a pair."""
     return _decision_tables(attackers, defenders, active, certified, team_values, held, wins,
                             tube11, tube11 if tube21 is None else tube21, tube21 is not None)
-
-
-def values21_at(values21: np.ndarray, first: np.ndarray, second: np.ndarray,
-                alone: np.ndarray, vf21: ValueFunction, attackers: np.ndarray,
-                defenders: np.ndarray) -> np.ndarray:
-    """``values21[first, second, alone]`` (index arrays, ``first < second``), the entries
-    ``decision_tables`` left NaN looked up (in one batch) and stored into ``values21``."""
-    values = values21[first, second, alone]
-    missing = np.isnan(values)
-    if missing.any():
-        one, two, j = first[missing], second[missing], alone[missing]
-        values[missing] = vf21.value(np.concatenate([attackers[one], attackers[two],
-                                                     defenders[j]], axis=1))
-        values21[one, two, j] = values[missing]
-        values21[two, one, j] = values[missing]
-    return values
 
 
 @njit(cache=True, inline="always")

@@ -9,7 +9,7 @@ import numpy as np
 
 from policies.certificate import Margins, Match, Tubes
 from policies.defenders import control_headings
-from policies.lookups import DecisionTables, Matches, values21_at
+from policies.lookups import DecisionTables, Matches
 from reachavoid_env import GameState
 from solvers.hj import ValueFunction
 
@@ -38,7 +38,7 @@ def slack(tubes: Tubes, games: list[Match], state: GameState, values11: np.ndarr
                                          for g in pairs]).T
         if values21 is None:
             values21 = np.full((len(attackers), len(attackers), len(defenders)), np.nan)
-        values = values21_at(values21, first, second, alone, tubes.vf21, attackers, defenders)
+        values = _values21_at(values21, first, second, alone, tubes.vf21, attackers, defenders)
         slacks[pairs] = np.minimum(slacks[pairs], values - m21)
     if teams:
         one, two, attacker = np.array([(*games[g].defenders, games[g].attackers[0])
@@ -46,6 +46,22 @@ def slack(tubes: Tubes, games: list[Match], state: GameState, values11: np.ndarr
         slacks[teams] = tubes.vf12.value(np.concatenate([defenders[one], defenders[two],
                                                          attackers[attacker]], axis=1)) - m12
     return slacks
+
+
+def _values21_at(values21: np.ndarray, first: np.ndarray, second: np.ndarray,
+                alone: np.ndarray, vf21: ValueFunction, attackers: np.ndarray,
+                defenders: np.ndarray) -> np.ndarray:
+    """``values21[first, second, alone]`` (index arrays, ``first < second``), the entries
+    ``decision_tables`` left NaN looked up (in one batch) and stored into ``values21``."""
+    values = values21[first, second, alone]
+    missing = np.isnan(values)
+    if missing.any():
+        one, two, j = first[missing], second[missing], alone[missing]
+        values[missing] = vf21.value(np.concatenate([attackers[one], attackers[two],
+                                                     defenders[j]], axis=1))
+        values21[one, two, j] = values[missing]
+        values21[two, one, j] = values[missing]
+    return values
 
 
 def still_winning(certified: list[Match], state: GameState, values11: np.ndarray,
