@@ -106,11 +106,11 @@ def no_team_values(games: int) -> np.ndarray:
 
 @functools.lru_cache(maxsize=1024)
 def match_arrays(games: tuple[Match, ...]) -> Matches:
-    """``games`` as the batched lookups take them (``policies.lookups.Matches``; made once
-    per distinct list, read-only)."""
-    defenders = np.array([(game.defenders * 2)[:2] for game in games],
+    """``games`` as the batched lookups take them (``policies.lookups.Matches``: each game's
+    first and last player per side; made once per distinct list, read-only)."""
+    defenders = np.array([(game.defenders[0], game.defenders[-1]) for game in games],
                          dtype=np.int64).reshape(-1, 2)
-    attackers = np.array([(game.attackers * 2)[:2] for game in games],
+    attackers = np.array([(game.attackers[0], game.attackers[-1]) for game in games],
                          dtype=np.int64).reshape(-1, 2)
     defenders.setflags(write=False)
     attackers.setflags(write=False)

@@ -559,7 +559,10 @@ class _AssignmentDefender(ABC):
 
     def _team_values(self, state: GameState, games: Matches) -> np.ndarray:
         """``(G,)``: the 1 vs 2 value of every team of ``games`` (two defenders), NaN for
-        the other games (read-only where there is no team)."""
+        the other games (read-only where there is no team; a policy without a 1 vs 2 tube
+        plays none)."""
+        if self.vf12 is None:
+            return no_team_values(len(games.defenders))
         teams = np.flatnonzero(games.defenders[:, 0] != games.defenders[:, 1])
         if not len(teams):
             return no_team_values(len(games.defenders))

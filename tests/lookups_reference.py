@@ -49,8 +49,8 @@ def slack(tubes: Tubes, games: list[Match], state: GameState, values11: np.ndarr
 
 
 def _values21_at(values21: np.ndarray, first: np.ndarray, second: np.ndarray,
-                alone: np.ndarray, vf21: ValueFunction, attackers: np.ndarray,
-                defenders: np.ndarray) -> np.ndarray:
+                 alone: np.ndarray, vf21: ValueFunction, attackers: np.ndarray,
+                 defenders: np.ndarray) -> np.ndarray:
     """``values21[first, second, alone]`` (index arrays, ``first < second``), the entries
     ``decision_tables`` left NaN looked up (in one batch) and stored into ``values21``."""
     values = values21[first, second, alone]
