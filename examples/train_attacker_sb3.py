@@ -43,7 +43,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-from policies.learned import TRAINING_ATTRIBUTE
+from policies.learned import DEFAULT_OBSERVATION, TRAINING_ATTRIBUTE, training_record
 from policies.training import (
     add_defender_arguments,
     add_reward_arguments,
@@ -281,8 +281,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     }
     if args.evaluate_only is None:
         model, progress = train(args, kwargs)
-        setattr(model, TRAINING_ATTRIBUTE, {"action_repeat": args.action_repeat,
-                                            "scenario": scenario.name})
+        setattr(model, TRAINING_ATTRIBUTE, training_record(
+            DEFAULT_OBSERVATION, action_repeat=args.action_repeat, scenario=scenario.name))
         with atomic_write(args.out / "model.zip", "wb") as handle:
             model.save(handle)
         write_csv(args.out / "curve.csv", progress.rows)

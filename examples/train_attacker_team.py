@@ -90,7 +90,12 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from tqdm import tqdm
 
-from policies.learned import TRAINING_ATTRIBUTE, ObservationPolicy
+from policies.learned import (
+    DEFAULT_OBSERVATION,
+    TRAINING_ATTRIBUTE,
+    ObservationPolicy,
+    training_record,
+)
 from policies.registry import ATTACKERS, PolicySpec
 from policies.training import (
     add_defender_arguments,
@@ -660,8 +665,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         report["model"] = str(args.evaluate_only)
     elif "learned" in args.teams:
         model, curve, cloning = train(args, maps)
-        setattr(model, TRAINING_ATTRIBUTE, {"action_repeat": args.action_repeat,
-                                            "scenario": args.scenario})
+        setattr(model, TRAINING_ATTRIBUTE, training_record(
+            DEFAULT_OBSERVATION, action_repeat=args.action_repeat, scenario=args.scenario))
         with atomic_write(args.out / "model.zip", "wb") as handle:
             model.save(handle)
         game_steps = model.num_timesteps // maps[0].num_attackers * args.action_repeat

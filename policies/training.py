@@ -10,21 +10,25 @@ made from strings (on the command line, in a registry id, in a subprocess):
 Importing ``policies`` (or this module) registers, for Gymnasium (``make_attacker_env``,
 one learning attacker):
 
-- ``reachavoid/Attacker-v0`` (``scenario=`` keyword, default ``paper_2v1``; a map library
+- ``reachavoid/Attacker-v1`` (``scenario=`` keyword, default ``paper_2v1``; a map library
   folder or index trains across its maps, one drawn per reset, with the defenders built
   per map);
-- ``reachavoid/Attacker-<builtin>-v0`` for every built-in scenario, e.g.
-  ``reachavoid/Attacker-paper_2v1-v0`` (the scenario's starts);
-- ``reachavoid/Attacker-<builtin>-random-v0``: the same map and player counts with
+- ``reachavoid/Attacker-<builtin>-v1`` for every built-in scenario, e.g.
+  ``reachavoid/Attacker-paper_2v1-v1`` (the scenario's starts);
+- ``reachavoid/Attacker-<builtin>-random-v1``: the same map and player counts with
   random starts at every reset (``starts="random"``), e.g.
-  ``reachavoid/Attacker-paper_6v2-random-v0`` for 6 vs 2;
+  ``reachavoid/Attacker-paper_6v2-random-v1`` for 6 vs 2;
 
 and for PettingZoo (``pettingzoo.make("parallel", ...)``, ``make_attackers_parallel_env``,
-every attacker learning) ``reachavoid/Attackers-v0`` (``scenario=`` keyword) and
-``reachavoid/Attackers-<builtin>-v0`` / ``reachavoid/Attackers-<builtin>-random-v0``
+every attacker learning) ``reachavoid/Attackers-v1`` (``scenario=`` keyword) and
+``reachavoid/Attackers-<builtin>-v1`` / ``reachavoid/Attackers-<builtin>-random-v1``
 likewise. Every id takes ``starts="random"`` as a keyword too. Without importing anything
 first, Gymnasium's ``"module:id"`` form loads them:
-``gymnasium.make("policies:reachavoid/Attacker-paper_2v1-random-v0")``. Keyword arguments of
+``gymnasium.make("policies:reachavoid/Attacker-paper_2v1-random-v1")``.
+
+Version history: ``-v1`` observe the egocentric observation (``ReachAvoid-v1``: target,
+lidar, the others relative to the agent); the same ids ending ``-v0`` remain, with v0's
+global observation (``observation={"egocentric": False}``). Keyword arguments of
 ``gymnasium.make`` / ``make_vec`` / ``pettingzoo.make`` go to the factory.
 
 Defenders default to ``"hj"``, the paper's HJ + MIP defenders
@@ -151,29 +155,34 @@ def make_attackers_parallel_env(scenario: ScenarioSource = "paper_2v1", defender
                                scenario=scenario, **env_kwargs)
 
 
-GYM_ID = "reachavoid/Attacker-v0"
-PETTINGZOO_ID = "reachavoid/Attackers-v0"
+GYM_ID = "reachavoid/Attacker-v1"
+PETTINGZOO_ID = "reachavoid/Attackers-v1"
+_VERSIONS = {1: {}, 0: {"observation": {"egocentric": False}}}
 
 
-def gym_id(scenario: str, starts: str = "scenario") -> str:
+def gym_id(scenario: str, starts: str = "scenario", version: int = 1) -> str:
     """The Gymnasium id of the single-attacker env of built-in ``scenario`` (``starts``:
-    ``"scenario"`` or ``"random"``, as ``ReachAvoidEnv``)."""
-    return f"reachavoid/Attacker-{scenario}{_STARTS_SUFFIX[starts]}-v0"
+    ``"scenario"`` or ``"random"``, as ``ReachAvoidEnv``; ``version`` 1 or 0)."""
+    return f"reachavoid/Attacker-{scenario}{_STARTS_SUFFIX[starts]}-v{version}"
 
 
-def pettingzoo_id(scenario: str, starts: str = "scenario") -> str:
+def pettingzoo_id(scenario: str, starts: str = "scenario", version: int = 1) -> str:
     """The PettingZoo id of the attacker-only env of built-in ``scenario``."""
-    return f"reachavoid/Attackers-{scenario}{_STARTS_SUFFIX[starts]}-v0"
+    return f"reachavoid/Attackers-{scenario}{_STARTS_SUFFIX[starts]}-v{version}"
 
 
 _STARTS_SUFFIX = {"scenario": "", "random": "-random"}
 
 
-def _ids(default_id: str, id_of: Any) -> dict[str, dict[str, str]]:
-    """``default_id`` (no keywords) and ``id_of(builtin, starts)`` of every built-in and
-    starts, with their keywords."""
-    return {default_id: {}} | {id_of(name, starts): {"scenario": name, "starts": starts}
-                               for name in builtin_names() for starts in _STARTS_SUFFIX}
+def _ids(default_id: str, id_of: Any) -> dict[str, dict[str, Any]]:
+    """``default_id`` (no keywords) and ``id_of(builtin, starts, version)`` of every
+    built-in, starts and version, with their keywords."""
+    ids: dict[str, dict[str, Any]] = {}
+    for version, kwargs in _VERSIONS.items():
+        ids[default_id.replace("-v1", f"-v{version}")] = kwargs
+        ids |= {id_of(name, starts, version): {"scenario": name, "starts": starts, **kwargs}
+                for name in builtin_names() for starts in _STARTS_SUFFIX}
+    return ids
 
 
 def register_envs() -> None:

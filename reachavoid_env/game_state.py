@@ -44,6 +44,9 @@ class GameState:
     Positions are map units, ``(x, y)`` per row, float64, for every player of the scenario
     in name order (``attacker_0..M-1``, ``defender_0..N-1``); a captured or arrived attacker
     keeps the position where it left the game. ``time`` is seconds since reset.
+    ``velocities`` (optional, ``(M + N, 2)`` map units per second, attackers then
+    defenders) is each player's displacement over the last step divided by ``dt`` (zero
+    at reset and for players out of the game), as the egocentric observations carry it.
     The arrays are read-only copies.
     """
 
@@ -55,9 +58,12 @@ class GameState:
     attacker_speed: float
     defender_speed: float
     capture_radius: float
+    velocities: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        for name in ("attacker_positions", "defender_positions"):
+        for name in ("attacker_positions", "defender_positions", "velocities"):
+            if getattr(self, name) is None:
+                continue
             array = np.array(getattr(self, name), dtype=np.float64)
             array.setflags(write=False)
             object.__setattr__(self, name, array)
@@ -164,6 +170,37 @@ class Policy(Protocol):
     def reset(self, scenario: Scenario) -> None: ...
 
     def act(self, state: GameState) -> dict[str, np.ndarray]: ...
+
+
+class BatchState(NamedTuple):
+    """``K`` copies of one game at once (axis 0: the copy), as the vector env holds them.
+
+    Positions ``(K, M, 2)`` / ``(K, N, 2)`` and ``velocities`` ``(K, M + N, 2)`` (or
+    ``None``) in map units and map units per second; ``time`` ``(K,)`` seconds; ``step``
+    ``(K,)``; ``attacker_status`` ``(K, M)`` ``AttackerStatus.code``.
+    """
+
+    time: np.ndarray
+    step: np.ndarray
+    attacker_positions: np.ndarray
+    defender_positions: np.ndarray
+    attacker_status: np.ndarray
+    attacker_speed: float
+    defender_speed: float
+    capture_radius: float
+    velocities: np.ndarray | None = None
+
+    def game_state(self, k: int) -> GameState:
+        """Copy ``k`` as a ``GameState``: what the single env gives for the same game."""
+        statuses = tuple(AttackerStatus)
+        return GameState(time=float(self.time[k]), step=int(self.step[k]),
+                         attacker_positions=self.attacker_positions[k],
+                         defender_positions=self.defender_positions[k],
+                         attacker_status=tuple(statuses[s] for s in self.attacker_status[k]),
+                         attacker_speed=self.attacker_speed,
+                         defender_speed=self.defender_speed,
+                         capture_radius=self.capture_radius,
+                         velocities=None if self.velocities is None else self.velocities[k])
 
 
 def merged_overlay(*policies: Policy) -> Overlay | None:
