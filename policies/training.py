@@ -46,8 +46,12 @@ import gymnasium
 import pettingzoo
 
 from policies.registry import DEFENDERS, PolicySpec
+from reachavoid_env import checks
+from reachavoid_env.game_state import BatchPolicy, PerCopy
 from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.scenario import builtin_names
+from reachavoid_env.vector import ReachAvoidVectorEnv
+from reachavoid_env.vector_views import LearnerVectorEnv
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 from solvers.hj.settings import TRAINING_GRIDS
 
@@ -153,6 +157,62 @@ def make_attackers_parallel_env(scenario: ScenarioSource = "paper_2v1", defender
     ``render_width``, ``info_format`` (``AttackerParallelEnv``)."""
     return AttackerParallelEnv(_source(defenders, defender_options, "defenders", "defender"),
                                scenario=scenario, **env_kwargs)
+
+
+def batch_policy(source: Any, options: Mapping[str, Any] | None, side: str,
+                 field: str) -> BatchPolicy:
+    """A ``BatchPolicy`` for the vector env's scripted ``side``: a ``BatchPolicy`` as it is;
+    a name, a factory ``scenario -> policy`` (``_source``) asked copy by copy
+    (``PerCopy``)."""
+    if isinstance(source, BatchPolicy):
+        return source
+    built = _source(source, options, side, field)
+    if not callable(built) or isinstance(built, type):
+        raise TypeError(f"{field}s: the vector env needs a name, a factory scenario -> policy "
+                        f"or a BatchPolicy, got {type(source).__name__}")
+    return PerCopy(built, side)
+
+
+def make_attackers_vector_env(scenario: ScenarioSource = "paper_2v1", defenders: Any = "hj",
+                              num_envs: int = 16,
+                              defender_options: Mapping[str, Any] | None = None,
+                              action_repeat: int = 1, timeout_reward: float = 0.0,
+                              **env_kwargs: Any) -> LearnerVectorEnv:
+    """Every attacker of ``num_envs`` copies learns (``LearnerVectorEnv``, arrays
+    ``(K, M, ...)``); ``defenders`` (a name, a factory or a ``BatchPolicy``) move the
+    defenders of every copy. ``env_kwargs``: ``starts`` (``"random"`` by default),
+    ``max_cycles``, ``shaping``, ``observation`` (``ReachAvoidVectorEnv``)."""
+    vec = ReachAvoidVectorEnv(scenario, num_envs=num_envs, autoreset=False, **env_kwargs)
+    base = vec.base_scenario
+    return LearnerVectorEnv(
+        vec, base.attacker_names,
+        [(batch_policy(defenders, defender_options, "defenders", "defender"),
+          base.defender_names)], action_repeat=action_repeat, timeout_reward=timeout_reward)
+
+
+def make_attacker_vector_env(scenario: ScenarioSource = "paper_2v1", defenders: Any = "hj",
+                             teammates: Any = "shortest-path", num_envs: int = 16,
+                             attacker: int = 0,
+                             defender_options: Mapping[str, Any] | None = None,
+                             teammate_options: Mapping[str, Any] | None = None,
+                             action_repeat: int = 1, timeout_reward: float = 0.0,
+                             **env_kwargs: Any) -> LearnerVectorEnv:
+    """One learning attacker (``attacker_{attacker}``) in each of ``num_envs`` copies, as
+    ``make_attacker_env`` has it (its episode ends when it leaves), against scripted
+    defenders and teammates (names, factories or ``BatchPolicy`` objects). Wrap it in
+    ``integrations.vector.GymVectorEnv`` for Gymnasium's vector API."""
+    vec = ReachAvoidVectorEnv(scenario, num_envs=num_envs, autoreset=False, **env_kwargs)
+    base = vec.base_scenario
+    checks.integer(attacker, "attacker", 0, base.num_attackers - 1)
+    learner = base.attacker_names[attacker]
+    scripted = [(batch_policy(defenders, defender_options, "defenders", "defender"),
+                 base.defender_names)]
+    others = [name for name in base.attacker_names if name != learner]
+    if others:
+        scripted.append((batch_policy(teammates, teammate_options, "attackers", "teammate"),
+                         others))
+    return LearnerVectorEnv(vec, [learner], scripted, action_repeat=action_repeat,
+                            timeout_reward=timeout_reward)
 
 
 GYM_ID = "reachavoid/Attacker-v1"

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 from enum import Enum
 from typing import TYPE_CHECKING, NamedTuple, Protocol, runtime_checkable
 
@@ -201,6 +202,62 @@ class BatchState(NamedTuple):
                          defender_speed=self.defender_speed,
                          capture_radius=self.capture_radius,
                          velocities=None if self.velocities is None else self.velocities[k])
+
+
+@runtime_checkable
+class BatchPolicy(Protocol):
+    """Controls one side of ``K`` copies of a game at once (the vector env's scripted side).
+
+    ``reset_copies(copies, scenarios)``: a new episode starts in each copy of ``copies``
+    (int array) with ``scenarios[i]`` (starts included) for ``copies[i]``; called for every
+    copy after the vector env's reset and for the copies that reset after a step.
+    ``act_batch(states)``: ``(K, n, 2)`` controls in ``[-1, 1]`` for the ``n`` players of
+    the side, rows in agent order (rows of players out of the game are ignored). A batched
+    policy gives, for every copy, exactly the actions its single-game policy gives for that
+    copy's ``states.game_state(k)``.
+    """
+
+    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None: ...
+
+    def act_batch(self, states: BatchState) -> np.ndarray: ...
+
+
+class PerCopy:
+    """A ``BatchPolicy`` from a single-game policy: ``factory(scenario)`` builds one
+    ``Policy`` per copy (per map of a library, kept), and ``act_batch`` asks each copy's
+    policy in turn. The fallback for policies with no batched form, and their reference.
+
+    Args:
+        factory: ``scenario -> Policy``.
+        side: ``"attackers"`` or ``"defenders"``, the players it drives.
+    """
+
+    def __init__(self, factory: Callable[[Scenario], Policy], side: str) -> None:
+        if side not in ("attackers", "defenders"):
+            raise ValueError(f"side: expected 'attackers' or 'defenders', got {side!r}")
+        self.factory, self.side = factory, side
+        self.current: dict[int, Policy] = {}
+        self._built: dict[int, dict[Scenario, Policy]] = {}
+
+    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
+        for copy, scenario in zip(np.asarray(copies).tolist(), scenarios, strict=True):
+            key = replace(scenario, attackers=None, defenders=None)
+            built = self._built.setdefault(copy, {})
+            if key not in built:
+                built[key] = self.factory(key)
+            self.current[copy] = built[key]
+            built[key].reset(scenario)
+
+    def act_batch(self, states: BatchState) -> np.ndarray:
+        count = (states.attacker_positions if self.side == "attackers"
+                 else states.defender_positions).shape[1]
+        prefix = "attacker_" if self.side == "attackers" else "defender_"
+        out = np.zeros((len(states.step), count, 2))
+        for k in range(len(states.step)):
+            for name, action in self.current[k].act(states.game_state(k)).items():
+                if name.startswith(prefix):
+                    out[k, int(name[len(prefix):])] = action
+        return out
 
 
 def merged_overlay(*policies: Policy) -> Overlay | None:

@@ -26,6 +26,10 @@ marks those copies, ``final_observation {agent: (K, D)}`` holds their last obser
 -1) and ``captured`` / ``arrived`` ``(K,)`` (the episode's counts) describe the game at the
 end of the step, before any reset; ``active`` ``(K, M + N)`` describes the returned
 observation (every player of a copy that was reset is active).
+
+With ``autoreset=False`` a copy whose game ended stands still (no player moves, no reward,
+no event) until ``reset_copies`` starts its next episode; the training views use this to
+hold a learner's action over several steps without running into the next episode.
 """
 
 from __future__ import annotations
@@ -66,7 +70,9 @@ class ReachAvoidVectorEnv:
 
     def __init__(self, scenario: ScenarioSource = "paper_2v1", num_envs: int = 1,
                  starts: str = "random", max_cycles: int | None = None, shaping: float = 0.0,
-                 observation: ObservationConfig | Mapping[str, Any] | None = None) -> None:
+                 observation: ObservationConfig | Mapping[str, Any] | None = None,
+                 autoreset: bool = True) -> None:
+        self.autoreset = bool(autoreset)
         self.num_envs = checks.integer(num_envs, "num_envs", 1, MAX_COPIES)
         if starts not in STARTS:
             raise ValueError(f"starts: {starts!r} is not one of {STARTS}")
@@ -113,13 +119,16 @@ class ReachAvoidVectorEnv:
         self._map_of = np.zeros(k, dtype=np.intp)
         self.episode_scenarios: list[Scenario] = [self.base_scenario] * k
         self._worlds, self._observers = {}, {}
-        self._reset_copies(np.arange(k))
+        self._running = np.zeros(k, dtype=bool)
+        self.reset_copies(np.arange(k))
         infos = self._infos(np.full((k, self._m), -1), np.zeros(k, dtype=bool))
         return self._observations(), infos
 
-    def _reset_copies(self, copies: np.ndarray) -> None:
-        """New episodes in ``copies``: each draws its map and starts from its generator,
-        as ``ReachAvoidEnv.reset`` does."""
+    def reset_copies(self, copies: np.ndarray) -> np.ndarray:
+        """New episodes in ``copies`` (an int array): each draws its map and starts from
+        its generator, as ``ReachAvoidEnv.reset`` does. Returns their first observations
+        ``(len(copies), M + N, D)``."""
+        copies = np.asarray(copies, dtype=np.intp)
         for c in copies.tolist():
             drawn, index = draw_scenario(self.scenarios, self._generators[c])
             attackers, defenders = drawn.starts(self._generators[c])
@@ -131,7 +140,9 @@ class ReachAvoidVectorEnv:
         self._status[copies] = 0
         self._steps[copies] = 0
         self._counts[copies] = 0
+        self._running[copies] = True
         self._place(copies)
+        return self._observations(copies)
 
     def _place(self, copies: np.ndarray) -> None:
         """Fresh bodies for ``copies`` in their maps' worlds (a map's world and observer
@@ -159,12 +170,12 @@ class ReachAvoidVectorEnv:
         outputs, then the reset of the copies whose game ended (module docstring)."""
         if not self._generators:
             raise RuntimeError("step: call reset() first")
-        live = self._active.copy()
+        live = self._active & self._running[:, None]
         velocities = self._controls(actions)
         old, new = self._move(velocities)
         events = self._resolve_events(old, new)
         rewards = self._rewards(events, old, new)
-        self._steps += 1
+        self._steps += self._running
         return self._outputs(live, events, rewards)
 
     def _controls(self, actions: Mapping[str, Any]) -> np.ndarray:
@@ -182,7 +193,7 @@ class ReachAvoidVectorEnv:
                 raise ValueError(f"action for {name}: expected finite numbers of shape "
                                  f"({self.num_envs}, 2), got shape {array.shape}")
             stacked[:, i] = array
-        stacked[~self._active] = 0.0
+        stacked[~(self._active & self._running[:, None])] = 0.0
         return rules.bounded_controls(stacked) * self._speeds
 
     def _move(self, velocities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -195,7 +206,8 @@ class ReachAvoidVectorEnv:
                 velocities = np.where(here[:, None, None], velocities, 0.0)
             moved = world.step(velocities.reshape(-1, 2)).reshape(k, p, 2)
             new[here] = moved[here]
-        new[~self._active] = old[~self._active]
+        still = ~(self._active & self._running[:, None])
+        new[still] = old[still]
         return old, new
 
     def _resolve_events(self, old: np.ndarray, new: np.ndarray) -> rules.StepEvents:
@@ -204,7 +216,8 @@ class ReachAvoidVectorEnv:
         m = self._m
         maps = [self.scenarios[i].map for i in range(len(self.scenarios))]
         events = rules.resolve_batch(maps, self._map_of, self.base_scenario.capture_radius,
-                                     self._active[:, :m], old[:, :m], new[:, :m],
+                                     self._active[:, :m] & self._running[:, None],
+                                     old[:, :m], new[:, :m],
                                      old[:, m:], new[:, m:])
         left = events.left
         if left.any():
@@ -218,7 +231,7 @@ class ReachAvoidVectorEnv:
             self._active[~self._active[:, :m].any(axis=1), m:] = False
         self._positions = new
         self._velocities = (new - old) / self.base_scenario.dt
-        self._velocities[~self._active] = 0.0
+        self._velocities[~(self._active & self._running[:, None])] = 0.0
         return events
 
     def _rewards(self, events: rules.StepEvents, old: np.ndarray,
@@ -245,16 +258,16 @@ class ReachAvoidVectorEnv:
         truncate = self._steps >= self.max_cycles
         ended = live & ~self._active
         truncated = live & self._active & truncate[:, None]
-        over = ~self._active[:, :self._m].any(axis=1) | truncate
+        over = self._running & (~self._active[:, :self._m].any(axis=1) | truncate)
         rewards = np.where(live, rewards, 0.0)
         observations = self._observations()
         infos = self._infos(events.captor, over)
-        if over.any():
+        self._running &= ~over
+        if over.any() and self.autoreset:
             copies = np.flatnonzero(over)
             infos["final_observation"] = {name: table.copy()
                                           for name, table in observations.items()}
-            self._reset_copies(copies)
-            fresh = self._observations(copies)
+            fresh = self.reset_copies(copies)
             for i, name in enumerate(self.possible_agents):
                 observations[name][copies] = fresh[:, i]
             infos["active"] = self._active.copy()
@@ -288,6 +301,15 @@ class ReachAvoidVectorEnv:
                 "captured_by": np.where(captor >= 0, captor, -1),
                 "captured": self._counts[:, 0].copy(), "arrived": self._counts[:, 1].copy(),
                 "episode_over": over.copy()}
+
+    def end_copies(self, copies: np.ndarray) -> None:
+        """End the episodes of ``copies`` now: they stand still until ``reset_copies``."""
+        self._running[np.asarray(copies, dtype=np.intp)] = False
+
+    @property
+    def active(self) -> np.ndarray:
+        """``(K, M + N)`` bool: who is in the game in each copy now (a copy)."""
+        return self._active.copy()
 
     def batch_state(self) -> BatchState:
         """Every copy's state (``BatchState``; read-only copies of the arrays)."""
