@@ -184,7 +184,7 @@ def test_train_attacker_example_beats_random(tmp_path):
     from stable_baselines3 import PPO
 
     train = example("train_attacker_sb3")
-    report = train.main(["--defenders", "idle", "--timesteps", "4096", "--envs", "2",
+    report = train.main(["--defenders", "idle", "--timesteps", "8192", "--envs", "2",
                          "--timeout-reward", "0", "--episodes", "20", "--seed", "0",
                          "--out", str(tmp_path)])
     assert report["trained"]["arrived_rate"] > report["random"]["arrived_rate"]

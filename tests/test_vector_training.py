@@ -7,8 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from policies.training import make_attacker_env, make_attacker_vector_env, \
-    make_attackers_vector_env
+from policies.training import make_attacker_env, make_attacker_vector_env, make_attackers_vector_env
 from reachavoid_env.integrations.vector import GymVectorEnv, sb3_vec_env
 
 
