@@ -66,6 +66,7 @@ class LearnerVectorEnv:
         if covered != list(range(len(names))):
             raise ValueError("scripted: every agent must be a learner or moved by exactly one "
                              "scripted policy")
+        self.render_mode = None
         self.single_observation_space = vec.single_observation_space
         self.single_action_space = vec.single_action_space
 
