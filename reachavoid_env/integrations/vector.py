@@ -5,7 +5,8 @@ Stable-Baselines3's ``VecEnv`` and Gymnasium's ``VectorEnv``.
   (parameter sharing), so ``PPO("MlpPolicy", SB3VecEnv(view))`` trains the shared attacker
   directly. A slot's episode is its learner's part of a game, to the end of the game (as
   SuperSuit's ``black_death_v3`` chain has it, ``integrations.supersuit``): a learner that
-  has left gets a zero observation and reward 0 until its copy's episode ends; then every
+  has left gets a zero observation and reward 0 until its copy's episode ends (the step it
+  leaves carries ``info["status"]``, ``AttackerStatus.code``); then every
   slot of the copy is ``done``, with ``info["terminal_observation"]`` (zero for a learner
   that had left), ``info["TimeLimit.truncated"]`` (time ran out with the learner in play, so
   PPO bootstraps) and ``info["is_success"]`` (the learner arrived). ``seed(s)`` seeds the
@@ -23,7 +24,10 @@ import gymnasium
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 
+from reachavoid_env.game_state import AttackerStatus
 from reachavoid_env.vector_views import LearnerVectorEnv
+
+_ARRIVED, _CAPTURED = AttackerStatus.ARRIVED.code, AttackerStatus.CAPTURED.code
 
 
 def _sb3_vec_env_class() -> type:
@@ -61,6 +65,9 @@ def _sb3_vec_env_class() -> type:
             table = np.where(self._alive[..., None], table, 0.0)
             dones = np.repeat(over, self._learners)
             slot_infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+            for copy, j in zip(*np.nonzero(terminated & ~over[:, None]), strict=True):
+                slot_infos[copy * self._learners + j] = {"status": int(
+                    _ARRIVED if infos["arrived"][copy, j] else _CAPTURED)}
             if over.any():
                 final = np.where(alive_before[..., None], infos["final_observation"], 0.0)
                 for copy in np.flatnonzero(over).tolist():
