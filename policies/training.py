@@ -177,17 +177,20 @@ def make_attackers_vector_env(scenario: ScenarioSource = "paper_2v1", defenders:
                               num_envs: int = 16,
                               defender_options: Mapping[str, Any] | None = None,
                               action_repeat: int = 1, timeout_reward: float = 0.0,
-                              **env_kwargs: Any) -> LearnerVectorEnv:
+                              autoreset: bool = True, **env_kwargs: Any) -> LearnerVectorEnv:
     """Every attacker of ``num_envs`` copies learns (``LearnerVectorEnv``, arrays
     ``(K, M, ...)``); ``defenders`` (a name, a factory or a ``BatchPolicy``) move the
-    defenders of every copy. ``env_kwargs``: ``starts`` (``"random"`` by default),
-    ``max_cycles``, ``shaping``, ``observation`` (``ReachAvoidVectorEnv``)."""
+    defenders of every copy. ``autoreset=False`` for TorchRL
+    (``integrations.torchrl.VectorAttackersEnv``). ``env_kwargs``: ``starts``
+    (``"random"`` by default), ``max_cycles``, ``shaping``, ``observation``
+    (``ReachAvoidVectorEnv``)."""
     vec = ReachAvoidVectorEnv(scenario, num_envs=num_envs, autoreset=False, **env_kwargs)
     base = vec.base_scenario
     return LearnerVectorEnv(
         vec, base.attacker_names,
         [(batch_policy(defenders, defender_options, "defenders", "defender"),
-          base.defender_names)], action_repeat=action_repeat, timeout_reward=timeout_reward)
+          base.defender_names)], action_repeat=action_repeat, timeout_reward=timeout_reward,
+        autoreset=autoreset)
 
 
 def make_attacker_vector_env(scenario: ScenarioSource = "paper_2v1", defenders: Any = "hj",

@@ -9,7 +9,8 @@ learners' actions for ``k`` env steps and sums their rewards; a copy whose episo
 within the held steps stands still for the rest of them (it does not run into its next
 episode). An episode of the view ends in a copy when its game ends or when none of its
 learners is left (teammates that are scripted do not play on alone); that copy is reset at
-once (Gymnasium's same-step autoreset): the returned observation is the new episode's,
+once (Gymnasium's same-step autoreset; with ``autoreset=False`` it stands still until
+``reset_copies``, as TorchRL resets envs): the returned observation is the new episode's,
 and ``infos["final_observation"]`` ``(K, L, D)`` holds the ended one's last (rows of other
 copies are the current ones), ``infos["episode_over"]`` ``(K,)`` marks those copies.
 
@@ -42,11 +43,13 @@ class LearnerVectorEnv:
 
     def __init__(self, vec: ReachAvoidVectorEnv, learners: Sequence[str],
                  scripted: Sequence[tuple[BatchPolicy, Sequence[str]]],
-                 action_repeat: int = 1, timeout_reward: float = 0.0) -> None:
+                 action_repeat: int = 1, timeout_reward: float = 0.0,
+                 autoreset: bool = True) -> None:
         if vec.autoreset:
             raise ValueError("vec: the training views reset copies themselves; make the "
                              "vector env with autoreset=False")
         self.vec = vec
+        self.autoreset = bool(autoreset)
         self.num_envs = vec.num_envs
         self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
         self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
@@ -121,15 +124,22 @@ class LearnerVectorEnv:
         totals += self.timeout_reward * truncated
         infos_out: dict[str, Any] = {"episode_over": over, "arrived": arrived}
         if over.any():
-            copies = np.flatnonzero(over)
             infos_out["final_observation"] = np.where(over[:, None, None], final, table)
-            fresh = vec.reset_copies(copies)
-            scenarios = [vec.episode_scenarios[c] for c in copies]
-            for policy, *_ in self._scripted:
-                policy.reset_copies(copies, scenarios)
-            table[copies] = fresh[:, rows]
+            if self.autoreset:
+                copies = np.flatnonzero(over)
+                table[copies] = self.reset_copies(copies)
         infos_out["active"] = vec.active[:, rows]
         return table, totals, terminated, truncated, infos_out
+
+    def reset_copies(self, copies: np.ndarray) -> np.ndarray:
+        """New episodes in ``copies`` (their scripted policies reset too); returns the
+        learners' first observations ``(len(copies), L, D)``."""
+        vec = self.vec
+        fresh = vec.reset_copies(copies)
+        scenarios = [vec.episode_scenarios[c] for c in np.asarray(copies).tolist()]
+        for policy, *_ in self._scripted:
+            policy.reset_copies(copies, scenarios)
+        return fresh[:, self._learner_rows]
 
     def close(self) -> None:
         self.vec.close()
