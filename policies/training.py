@@ -181,7 +181,7 @@ def make_attackers_vector_env(scenario: ScenarioSource = "paper_2v1", defenders:
     """Every attacker of ``num_envs`` copies learns (``LearnerVectorEnv``, arrays
     ``(K, M, ...)``); ``defenders`` (a name, a factory or a ``BatchPolicy``) move the
     defenders of every copy. ``autoreset=False`` for TorchRL
-    (``integrations.torchrl.VectorAttackersEnv``). ``env_kwargs``: ``starts``
+    (``integrations.torchrl.VectorGroupEnv``). ``env_kwargs``: ``starts``
     (``"random"`` by default), ``max_cycles``, ``shaping``, ``observation``
     (``ReachAvoidVectorEnv``)."""
     vec = ReachAvoidVectorEnv(scenario, num_envs=num_envs, autoreset=False, **env_kwargs)
@@ -191,6 +191,22 @@ def make_attackers_vector_env(scenario: ScenarioSource = "paper_2v1", defenders:
         [(batch_policy(defenders, defender_options, "defenders", "defender"),
           base.defender_names)], action_repeat=action_repeat, timeout_reward=timeout_reward,
         autoreset=autoreset)
+
+
+def make_defenders_vector_env(scenario: ScenarioSource = "paper_2v1",
+                              attackers: Any = "shortest-path", num_envs: int = 16,
+                              attacker_options: Mapping[str, Any] | None = None,
+                              action_repeat: int = 1, autoreset: bool = True,
+                              **env_kwargs: Any) -> LearnerVectorEnv:
+    """Every defender of ``num_envs`` copies learns (arrays ``(K, N, ...)``); ``attackers``
+    (a name, a factory or a ``BatchPolicy``) move the attackers of every copy: the view a
+    learned defender trains on. ``env_kwargs`` as ``make_attackers_vector_env``."""
+    vec = ReachAvoidVectorEnv(scenario, num_envs=num_envs, autoreset=False, **env_kwargs)
+    base = vec.base_scenario
+    return LearnerVectorEnv(
+        vec, base.defender_names,
+        [(batch_policy(attackers, attacker_options, "attackers", "attacker"),
+          base.attacker_names)], action_repeat=action_repeat, autoreset=autoreset)
 
 
 def make_attacker_vector_env(scenario: ScenarioSource = "paper_2v1", defenders: Any = "hj",

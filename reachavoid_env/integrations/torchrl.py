@@ -16,9 +16,9 @@ is done rather than at the first capture. Agents are grouped by role, ``"attacke
 shared by its agents. The infos become tensors under ``(group, "info")``: they must be the
 env's numeric infos (``info_format="numeric"``, the default).
 
-``VectorAttackersEnv(view)`` is the batched form over the vector env's training view: the
-attackers of ``K`` copies as one TorchRL env of batch size ``(K,)``, the scripted defenders
-acting inside it (below).
+``VectorGroupEnv(view)`` is the batched form over the vector env's training view: the
+learners of ``K`` copies (the attackers, or the defenders) as one TorchRL env of batch size
+``(K,)``, the scripted side acting inside it (below).
 """
 
 from __future__ import annotations
@@ -105,11 +105,12 @@ def torchrl_env(env: ParallelEnv | AECEnv, *, seed: int | None = None, device: A
     return PettingZooWrapper(env, seed=seed, device=device, **(options | kwargs))
 
 
-class VectorAttackersEnv(EnvBase):
+class VectorGroupEnv(EnvBase):
     """The learners of a vector training view (``vector_views.LearnerVectorEnv`` made with
     ``autoreset=False``; ``policies.training.make_attackers_vector_env(...,
-    autoreset=False)``) as a batched TorchRL env: batch size ``(K,)``, one group
-    ``"attacker"`` with ``observation`` ``(K, L, D)``, ``action`` ``(K, L, 2)``, ``reward``
+    autoreset=False)``) as a batched TorchRL env: batch size ``(K,)``, one group (``group``:
+    ``"attacker"`` or ``"defender"``, the learners' side) with ``observation``
+    ``(K, L, D)``, ``action`` ``(K, L, 2)``, ``reward``
     ``(K, L, 1)``, per-learner ``done`` / ``terminated`` / ``truncated`` and ``mask``
     (``False`` for a learner that has left: its observation is then zero), and the copy's
     ``done`` / ``terminated`` / ``truncated`` ``(K, 1)`` at the root. A copy whose episode
@@ -124,20 +125,21 @@ class VectorAttackersEnv(EnvBase):
         size = view.single_observation_space.shape[0]
         super().__init__(batch_size=torch.Size([k]), device="cpu")
         self.view = view
+        self.group = "attacker" if view.learners[0].startswith("attacker") else "defender"
         group = (k, learners)
         flags = {name: Categorical(2, (*group, 1), dtype=torch.bool)
                  for name in ("done", "terminated", "truncated")}
-        self.observation_spec = Composite(attacker=Composite(
+        self.observation_spec = Composite({self.group: Composite(
             observation=Bounded(-1.0, 1.0, (*group, size), dtype=torch.float32),
-            mask=Categorical(2, group, dtype=torch.bool), shape=group), shape=(k,))
-        self.action_spec = Composite(attacker=Composite(
-            action=Bounded(-1.0, 1.0, (*group, 2), dtype=torch.float32), shape=group),
+            mask=Categorical(2, group, dtype=torch.bool), shape=group)}, shape=(k,))
+        self.action_spec = Composite({self.group: Composite(
+            action=Bounded(-1.0, 1.0, (*group, 2), dtype=torch.float32), shape=group)},
             shape=(k,))
-        self.reward_spec = Composite(attacker=Composite(
-            reward=Unbounded((*group, 1), dtype=torch.float32), shape=group), shape=(k,))
+        self.reward_spec = Composite({self.group: Composite(
+            reward=Unbounded((*group, 1), dtype=torch.float32), shape=group)}, shape=(k,))
         self.done_spec = Composite(
-            attacker=Composite(**flags, shape=group),
-            **{name: Categorical(2, (k, 1), dtype=torch.bool) for name in flags}, shape=(k,))
+            {self.group: Composite(**flags, shape=group),
+             **{name: Categorical(2, (k, 1), dtype=torch.bool) for name in flags}}, shape=(k,))
         self._seed: int | None = None
         self._alive = np.ones(group, dtype=bool)
         self._left = np.zeros(group, dtype=bool)
@@ -165,7 +167,7 @@ class VectorAttackersEnv(EnvBase):
     _started = False
 
     def _step(self, tensordict: TensorDictBase) -> TensorDict:
-        actions = tensordict["attacker", "action"].detach().cpu().numpy()
+        actions = tensordict[self.group, "action"].detach().cpu().numpy()
         table, rewards, terminated, truncated, infos = self.view.step(actions)
         self._left |= terminated
         self._alive = infos["active"].copy()
@@ -188,5 +190,5 @@ class VectorAttackersEnv(EnvBase):
         root = {"done": torch.from_numpy(over[:, None].copy()),
                 "terminated": torch.from_numpy((over[:, None] & ~copy_truncated).copy()),
                 "truncated": torch.from_numpy((over[:, None] & copy_truncated).copy())}
-        return TensorDict({"attacker": TensorDict(group, batch_size=(k, learners)), **root},
+        return TensorDict({self.group: TensorDict(group, batch_size=(k, learners)), **root},
                           batch_size=(k,))
