@@ -1,4 +1,4 @@
-"""Benchmark: how often Algorithm 1's guarantee breaks (BENCHMARKS.md "Guarantee").
+"""Benchmark: how often Algorithm 1's guarantee breaks (BENCHMARKS.md, "The guarantee").
 
 Seeded random starts of 4v2, 6v2 and 8v4 on the paper map and of 6v4 on the equal-speed
 scenario (``paper_6v4_equal``), against shortest-path, random and HJ attackers; the

@@ -1,6 +1,6 @@
 """Study: why Algorithm 1's certified guarantee breaks, and what margin would make it hold.
 
-Two parts (BENCHMARKS.md, "Guarantee: causes"; the certificate rule itself now lives in
+Two parts (BENCHMARKS.md, "The guarantee"; the certificate rule itself now lives in
 the policy, ``policies/certificate.py``, and ``benchmarks/guarantee.py --margin-cells C``
 measures it):
 

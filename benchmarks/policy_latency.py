@@ -1,4 +1,4 @@
-"""Benchmark: per-step decision latency of the defender policies (BENCHMARKS.md, "Policies").
+"""Benchmark: per-step decision latency of the defenders (BENCHMARKS.md, "Decision latency").
 
 One decision is ``defenders.act(state)``: the 1 vs 1 and 2 vs 1 (and, with teams, 1 vs 2)
 tube lookups at the current positions, the assignment (CP-SAT MIP or matching, reused when
