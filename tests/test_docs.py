@@ -187,7 +187,7 @@ def test_python_blocks_run(page, tmp_path, monkeypatch):
     namespace: dict = {"__name__": "__docs__"}
     for line, code in python_blocks(page):
         try:
-            exec(compile(code, f"{page.name}:{line}", "exec"), namespace)  # noqa: S102
+            exec(compile(code, f"{page.name}:{line}", "exec"), namespace)
         except ModuleNotFoundError as err:
             if (err.name or "").split(".")[0] not in PINNED:
                 raise
