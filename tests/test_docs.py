@@ -206,3 +206,13 @@ def test_readme_runs_the_tests_as_ci_does():
     for install in re.findall(r"pip install -e '\.\[[\w,]+\]'", ci):
         assert install in readme, f"README does not say that .ci/run runs {install}"
     assert "mkdocs build --strict" in ci and "mkdocs build --strict" in readme
+
+
+@pytest.mark.parametrize("package", ["reachavoid_env", "solvers", "policies", "reachavoid"])
+def test_every_module_is_in_the_api_reference(package):
+    page = (ROOT / "docs" / "api" / f"{package}.md").read_text()
+    for path in sorted((ROOT / package).rglob("*.py")):
+        parts = path.relative_to(ROOT).with_suffix("").parts
+        dotted = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        if parts[-1] != "__main__":
+            assert f"::: {dotted}\n" in page, f"add '::: {dotted}' to docs/api/{package}.md"
