@@ -17,6 +17,10 @@ the best is the least disturbed). ``--profile`` prints where an env step spends 
 processes alternate between the two trees, ``--repeats`` rounds.
 
     SDL_VIDEODRIVER=dummy .venv/bin/python benchmarks/env_throughput.py [--steps 5000]
+
+``--json PATH`` writes the figures as a result record (``benchmarks/result_file.py``):
+``steps_per_s.*`` and ``ratio`` (best runs), or with ``--against`` this tree's
+``steps_per_cpu_s.best`` / ``.median`` (the other tree's under ``steps_per_cpu_s_before``).
 """
 
 from __future__ import annotations
@@ -147,8 +151,9 @@ def step_rate(steps: int) -> float:
     return max(steps / run_steps(env, actions, steps, time.process_time) for _ in range(3))
 
 
-def against(other: Path, steps: int, rounds: int) -> None:
-    """Step-only rates of this tree and of ``other``, in alternating fresh processes."""
+def against(other: Path, steps: int, rounds: int) -> dict[str, float]:
+    """Step-only rates of this tree and of ``other``, in alternating fresh processes; the
+    figures of the result record."""
     trees = {"this tree": Path(__file__).resolve().parents[1], str(other): other.resolve()}
     rates: dict[str, list[float]] = {name: [] for name in trees}
     for _ in range(rounds):
@@ -162,6 +167,10 @@ def against(other: Path, steps: int, rounds: int) -> None:
               f"median {statistics.median(values):>9,.0f}/s")
     base, ours = (statistics.median(v) for v in reversed(rates.values()))
     print(f"this tree / {other}: {ours / base:.3f} (median of {rounds} rounds)")
+    (ours_rates, base_rates) = rates.values()
+    return {"steps_per_cpu_s.best": max(ours_rates), "steps_per_cpu_s.median": ours,
+            "steps_per_cpu_s_before.best": max(base_rates),
+            "steps_per_cpu_s_before.median": base, "ratio": ours / base}
 
 
 def main() -> None:
@@ -174,6 +183,7 @@ def main() -> None:
     parser.add_argument("--against", type=Path, metavar="DIR",
                         help="compare the step rate with another checkout, side by side")
     parser.add_argument("--only-steps", type=int, metavar="N", help=argparse.SUPPRESS)
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
     if args.only_steps:
         print(step_rate(args.only_steps))
@@ -182,8 +192,16 @@ def main() -> None:
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}; load average "
           f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    # imported here: ``--only-steps`` runs this file under another tree's PYTHONPATH
+    from result_file import write_result
+
     if args.against is not None:
-        against(args.against, args.steps, args.repeats)
+        figures = against(args.against, args.steps, args.repeats)
+        if args.json:
+            write_result(args.json, "env_throughput", figures, {
+                "steps_per_cpu_s": "paper_8v4 parallel env steps per CPU second, random "
+                                   "actions drawn beforehand, this tree (_before: the other)",
+                "ratio": "this tree over the other, medians"})
         return
     ours, mpe = make_reachavoid(), make_mpe()
     ours_actions = random_actions(ours, args.steps, seed=0)
@@ -199,6 +217,13 @@ def main() -> None:
          lambda: run_steps(mpe, None, args.mpe_steps), args.mpe_steps, r)
     print(f"ratio (step only): best {ours_step['best'] / mpe_step['best']:.1f}x, "
           f"median {ours_step['median'] / mpe_step['median']:.1f}x  (goal: 20x)")
+    if args.json:
+        write_result(args.json, "env_throughput", {
+            "steps_per_s.reachavoid_8v4": ours_step["best"],
+            "steps_per_s.mpe_simple_tag": mpe_step["best"],
+            "ratio": ours_step["best"] / mpe_step["best"]}, {
+            "steps_per_s": "best of --repeats runs, 12 agents, actions drawn beforehand",
+            "ratio": "reach-avoid over MPE simple_tag"})
     work, frames = render_fps(args.frames)
     rate("render rgb_array paper_8v4 (frames)", work, args.frames, r)
     print(f"  frame size {frames[0].shape[1]}x{frames[0].shape[0]}")
