@@ -480,3 +480,41 @@ def test_actions_are_refused_clearly():
             env.step(actions)
     with pytest.raises(ValueError, match="complex"):
         env.step({agent: np.array([1 + 1j, 0.0]) for agent in env.agents})
+
+
+# numba's cache of compiled (pickled) code is a folder of ours, or refused
+
+def test_a_numba_cache_others_can_write_is_refused(tmp_path, cache_in_tmp, monkeypatch, capsys):
+    shared = tmp_path / "numba"
+    shared.mkdir()
+    shared.chmod(0o777)
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(shared))
+    fails_cleanly(capsys, ["solve", "--scenario", "paper_2v1", "--grid", "9"],
+                  "$NUMBA_CACHE_DIR")
+    assert list(shared.iterdir()) == []
+
+
+def test_a_numba_cache_another_user_owns_is_refused(tmp_path):
+    needs_root()
+    shared = tmp_path / "nc"
+    shared.mkdir(mode=0o700)
+    os.chown(shared, 65534, 65534)
+    result = subprocess.run(
+        [sys.executable, "-m", "reachavoid", "solve", "--scenario", "paper_2v1", "--grid", "9"],
+        capture_output=True, text=True, timeout=300, cwd=tmp_path,
+        env=dict(ENV, NUMBA_CACHE_DIR=str(shared), PYTHONPATH=str(ROOT),
+                 REACHAVOID_CACHE_DIR=str(tmp_path / "cache")))
+    assert result.returncode == 2 and "$NUMBA_CACHE_DIR" in result.stderr, result.stderr
+    assert result.stderr.count("\n") == 1 and list(shared.iterdir()) == []
+
+
+def test_a_numba_config_file_cannot_point_the_cache_elsewhere(tmp_path):
+    shared = tmp_path / "numba"
+    shared.mkdir()
+    shared.chmod(0o777)
+    (tmp_path / ".numba_config.yaml").write_text(f"cache_dir: {shared}\n")
+    result = subprocess.run([sys.executable, "-c", "import policies.lookups"],
+                            capture_output=True, text=True, timeout=300, cwd=tmp_path,
+                            env=dict(ENV, PYTHONPATH=str(ROOT)))
+    assert result.returncode != 0 and "CacheLocationError" in result.stderr
+    assert list(shared.iterdir()) == []

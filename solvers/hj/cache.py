@@ -10,7 +10,10 @@ one line saying why. A cache that cannot be written is read, and new solves are 
 Storing an entry removes the temporaries (``.NAME.PID.RANDOM.tmp`` / ``.old``) whose
 owner's lock (``value.owned_temporaries``) can be taken: their process is gone, whichever
 machine or PID namespace it ran in. The generated kernels live in ``kernels/``
-(``codegen.kernel_dir``).
+(``codegen.kernel_dir``). Numba's own cache of compiled code (pickled, so loading it runs
+code) goes where ``$NUMBA_CACHE_DIR`` (or a ``.numba_config.yaml``) says only when that is a
+folder of this user's that nobody else can write (``check_numba_cache``), checked before
+any compiled function can be loaded.
 """
 
 from __future__ import annotations
@@ -53,10 +56,41 @@ def cache_dir() -> Path:
     return Path(configured) if configured else Path.home() / ".cache" / "reachavoid"
 
 
+def _numba_cache_error(folder: str, err: Exception) -> CacheLocationError:
+    reason = f"{err.filename}: {err.strerror}" if isinstance(err, OSError) else str(err)
+    return CacheLocationError(f"cache: $NUMBA_CACHE_DIR {folder!r} is not a safe folder for "
+                              f"compiled code ({reason}); unset it or set it to a folder of "
+                              "yours that only you can write")
+
+
+def check_numba_cache(folder: str | None = None) -> None:
+    """Refuse a numba cache folder (``folder``, default ``$NUMBA_CACHE_DIR``; nothing when
+    unset) that is not a folder of this user's closed to others (``private_folder``;
+    created, mode 0700, where missing): numba loads pickled code from it.
+    ``CacheLocationError`` naming ``$NUMBA_CACHE_DIR``."""
+    folder = os.environ.get("NUMBA_CACHE_DIR") if folder is None else folder
+    if not folder:
+        return
+    try:
+        private_folder(folder)
+    except (OSError, UnsafeFolderError) as err:
+        raise _numba_cache_error(folder, err) from None
+
+
+def check_numba_config() -> None:
+    """``check_numba_cache`` of the folder numba itself reads (its environment or a
+    ``.numba_config.yaml``): called by each module of cached numba functions as it loads,
+    before any of them can be compiled or loaded."""
+    from numba.core import config
+
+    check_numba_cache(config.CACHE_DIR)
+
+
 def check_cache() -> bool:
     """Make the cache folder ready before any work: created (mode 0700) where missing.
     Returns whether solves can be stored there; ``CacheLocationError`` naming it and
     ``$REACHAVOID_CACHE_DIR`` when it cannot be a folder of this user's."""
+    check_numba_cache()
     folder = cache_dir()
     if folder.exists() and not folder.is_dir():
         raise CacheLocationError(f"cache: {str(folder)!r} ($REACHAVOID_CACHE_DIR) is not a "
