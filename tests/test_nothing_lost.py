@@ -518,3 +518,54 @@ def test_a_numba_config_file_cannot_point_the_cache_elsewhere(tmp_path):
                             env=dict(ENV, PYTHONPATH=str(ROOT)))
     assert result.returncode != 0 and "CacheLocationError" in result.stderr
     assert list(shared.iterdir()) == []
+
+
+# the overwrite rule holds until the end: what appears meanwhile is kept
+
+@pytest.mark.parametrize("flag", ["--csv", "--json", "--plot"])
+def test_a_bench_output_that_appears_while_running_is_kept(tmp_path, monkeypatch, capsys,
+                                                           flag):
+    import reachavoid.cli as cli
+
+    path = tmp_path / ("out.png" if flag == "--plot" else "out.txt")
+
+    def meanwhile(*args, **kwargs):
+        path.write_text("written by hand meanwhile")
+        return run_suite(*args, **kwargs)
+
+    run_suite = cli.run_suite
+    monkeypatch.setattr(cli, "run_suite", meanwhile)
+    err = fails_cleanly(capsys, [*BENCH, flag, str(path)], "appeared", status=1)
+    assert str(path) in err and path.read_text() == "written by hand meanwhile"
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]
+
+
+@pytest.mark.parametrize("flag", ["--video", "--preview"])
+def test_a_play_output_that_appears_while_running_is_kept(tmp_path, monkeypatch, capsys, flag):
+    import reachavoid.cli as cli
+
+    path = tmp_path / ("out.png" if flag == "--preview" else "out.gif")
+    name = "first_frame" if flag == "--preview" else "run_episode"
+    original = getattr(cli, name)
+
+    def meanwhile(*args, **kwargs):
+        path.write_text("written by hand meanwhile")
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(cli, name, meanwhile)
+    fails_cleanly(capsys, ["play", *SIMPLE, flag, str(path)], "appeared", status=1)
+    assert path.read_text() == "written by hand meanwhile"
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]
+    path.unlink()
+    monkeypatch.undo()
+    assert main(["play", *SIMPLE, flag, str(path)]) == 0 and path.stat().st_size > 100
+
+
+@pytest.mark.parametrize("outputs", [("--csv", "same.out", "--json", "same.out"),
+                                     ("--plot", "s.png", "--json", "s.png"),
+                                     ("--csv", "-", "--json")])
+def test_two_outputs_on_one_path_are_refused_before_work(tmp_path, monkeypatch, capsys,
+                                                         outputs):
+    monkeypatch.chdir(tmp_path)
+    fails_cleanly(capsys, [*BENCH, *outputs], "give each output its own file")
+    assert list(tmp_path.iterdir()) == []
