@@ -435,9 +435,23 @@ def library_files(options: MapOptions, seed: int, count: int) -> dict[str, bytes
     index_data = {"generator": {"version": GENERATOR_VERSION, "seed": seed, "count": count,
                                 "options": options.to_dict()},
                   "maps": entries}
-    files[INDEX] = (b"# A map library written by `reachavoid maps`; load it with "
-                    b"reachavoid_env.maps.load_library.\n" + _toml_bytes(index_data))
+    files[INDEX] = _sealed(b"# A map library written by `reachavoid maps`; load it with "
+                           b"reachavoid_env.maps.load_library.\n" + _toml_bytes(index_data))
     return files
+
+
+SEAL = b"# sha256 of the lines above: "
+"""The index's last line: the hash of what precedes it, so an edit shows."""
+
+
+def _sealed(text: bytes) -> bytes:
+    return text + SEAL + hashlib.sha256(text).hexdigest().encode() + b"\n"
+
+
+def unedited_index(data: bytes) -> bool:
+    """Whether ``data`` is an ``index.toml`` as ``write_library`` wrote it (its seal holds)."""
+    body, seal, digest = data.rpartition(SEAL)
+    return bool(seal) and digest == hashlib.sha256(body).hexdigest().encode() + b"\n"
 
 
 def read_index(path: Path) -> list[LibraryFile]:
@@ -469,8 +483,9 @@ def write_library(folder: str | os.PathLike[str], options: MapOptions, seed: int
     and return the paths written.
 
     Refuses (``MapError`` naming ``out``), before writing anything, to replace a file that
-    an earlier call did not write, or that changed since: an existing file of the same name
-    is replaced only when the folder's index lists it with its current content. Every file
+    an earlier call did not write, or that changed since: an existing map file is replaced
+    only when the folder's index lists it with its current content, an existing index only
+    when its last line (``SEAL``) still hashes what precedes it. Every file
     is written atomically; the same call always writes the same bytes.
     """
     folder = Path(folder)
@@ -483,8 +498,9 @@ def write_library(folder: str | os.PathLike[str], options: MapOptions, seed: int
         if not path.is_file():
             raise MapError(f"out: {path} exists and is not a file")
         current = path.read_bytes()
-        if current != data and name != INDEX and \
-                ours.get(name) != hashlib.sha256(current).hexdigest():
+        ours_unchanged = (unedited_index(current) if name == INDEX
+                          else ours.get(name) == hashlib.sha256(current).hexdigest())
+        if current != data and not ours_unchanged:
             raise MapError(f"out: {path} exists and was not written by `reachavoid maps` (or "
                            f"was changed since); choose another folder")
     folder.mkdir(parents=True, exist_ok=True)
