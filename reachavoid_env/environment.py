@@ -195,6 +195,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         self._all_active = True
         self._no_rewards = np.zeros(len(positions))
         self._status = np.zeros(m, dtype=np.int8)
+        self._longest_move = (1.0 + 1e-9) * max(sc.attacker_speed, sc.defender_speed) * sc.dt
         self._speeds = np.concatenate([np.full(m, sc.attacker_speed),
                                        np.full(self._n, sc.defender_speed)])[:, None]
         self._normaliser = Normaliser.of(sc.map)
@@ -253,7 +254,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             self._index[name] for name in live]
         velocities = self._controls(live, rows, actions)
         old, new = self._move(velocities)
-        events = self._resolve_events(old, new)
+        events = self._resolve_events(old, new, velocities)
         rewards = self._rewards(events, old, new)
         self._steps += 1
         return self._outputs(live, rows, events, rewards)
@@ -278,17 +279,22 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             new[~self._active] = old[~self._active]
         return old, new
 
-    def _resolve_events(self, old: np.ndarray, new: np.ndarray) -> rules.StepEvents:
-        """Phase 3: captures and arrivals along the step's segments (``rules``); attackers
+    def _resolve_events(self, old: np.ndarray, new: np.ndarray,
+                        velocities: np.ndarray) -> rules.StepEvents:
+        """Phase 3: captures and arrivals along the paths the world moved the players along
+        (``rules``: straight segments, sub-step polylines for players that slid); attackers
         that left stop where their event happened, and the defenders leave with the last."""
         m = self._m
+        world = self._world
+        moves = rules.Moves(velocities, self.scenario.dt,
+                            lambda players: world.replay(old[players], velocities[players]),
+                            self._longest_move)
         events = rules.resolve_events(self.scenario.map, self.scenario.capture_radius,
                                       self._active[:m].copy(), old[:m], new[:m], old[m:],
-                                      new[m:], self._target_bounds)
+                                      new[m:], self._target_bounds, moves)
         left = events.left
         if left.any():
-            t = events.times[left][:, None]
-            new[:m][left] = old[:m][left] + t * (new[:m][left] - old[:m][left])
+            new[:m][left] = events.stops[left]
             self._status[events.captured] = _CAPTURED
             self._status[events.arrived] = _ARRIVED
             self._captured_count += int(events.captured.sum())

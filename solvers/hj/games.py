@@ -54,7 +54,7 @@ from collections.abc import Sequence
 from reachavoid_env import GameMap
 from solvers.hj.game import Game, Player, attacker, defender, distance, maximum, minimum, table
 from solvers.hj.grid import Grid
-from solvers.hj.reach_avoid import check_memory
+from solvers.hj.reach_avoid import check_memory, check_target_seen
 from solvers.hj.settings import PAPER_GRIDS, SolverSettings
 from solvers.hj.solve import solve_declared
 from solvers.hj.value import ValueFunction
@@ -123,7 +123,8 @@ def check_tubes_memory(game_map: GameMap, speeds: tuple[float, float], capture_r
                        settings: SolverSettings | None = None) -> None:
     """Raise ``InsufficientMemoryError`` before any solve when the 1 vs 1 game on ``grid1``
     nodes per axis, or (with ``grid2``) the 2 vs 1 or 1 vs 2 game on ``grid2``, would not
-    fit in memory: a command checks every tube it may solve before solving any."""
+    fit in memory, and ``ValueError`` when its grid has no free node in the target
+    (``check_target_seen``): a command checks every tube it may solve before solving any."""
     speeds = _checked_speeds(speeds, capture_radius)
     settings = settings or SolverSettings()
     games = [(game_1v1(speeds, capture_radius), 2, grid1)]
@@ -131,6 +132,7 @@ def check_tubes_memory(game_map: GameMap, speeds: tuple[float, float], capture_r
         games += [(game_2v1(speeds, capture_radius), 3, grid2),
                   (game_1v2(speeds, capture_radius), 3, grid2)]
     for game, players, points in games:
+        check_target_seen(game_map, Grid.for_players(game_map.domain, 1, points), game.name)
         check_memory(game, Grid.for_players(game_map.domain, players, points), settings,
                      f"{game.name} HJ solve")
 
