@@ -41,6 +41,9 @@ MAX_DT = 1.0
 """Longest step (seconds)."""
 MAX_STEPS = 10_000_000
 """Most steps in an episode."""
+MAX_PLAYERS = 1024
+"""Most attackers, and most defenders, in a scenario: the env's per-step tables grow with
+attackers times defenders, and every observation with all players."""
 MAX_SUBSTEPS = 10_000
 """Most physics sub-steps per step (``substeps_for``): a smaller ``player_radius`` or a
 longer ``dt`` would make every step crawl."""
@@ -98,6 +101,9 @@ class Scenario:
     paper_captures: tuple[tuple[str, int], ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
+        if not self.name or not self.name.isprintable():
+            raise ScenarioError(f"name: expected printable text (no control characters such "
+                                f"as NUL or a line break), got {self.name[:60]!r}")
         size = min(self.map.size)
         for name, high in (("attacker_speed", MAX_SPEED), ("defender_speed", MAX_SPEED),
                            ("capture_radius", size), ("dt", MAX_DT),
@@ -121,6 +127,8 @@ class Scenario:
         for role, count in (("attackers", self.num_attackers), ("defenders", self.num_defenders)):
             if count < 1:
                 raise ScenarioError(f"players.{role}: need at least one, got {count}")
+            if count > MAX_PLAYERS:
+                raise ScenarioError(f"players.{role}: at most {MAX_PLAYERS}, got {count}")
             starts = getattr(self, role)
             if starts is not None and len(starts) != count:
                 raise ScenarioError(f"players.{role}: {len(starts)} starts for {count} players")
