@@ -593,6 +593,7 @@ def _validate(args: argparse.Namespace) -> int:
         try:
             scenario = load_scenario(source)
             reachavoid_env.parallel_env(scenario=scenario).reset(seed=0)
+            _playable(scenario)
         except (ScenarioError, ValueError, OSError) as err:
             bad += 1
             words = getattr(err, "strerror", None) or str(err)
@@ -604,6 +605,16 @@ def _validate(args: argparse.Namespace) -> int:
         print(f"{source}: ok ({scenario.name}: {scenario.num_attackers} attackers, "
               f"{scenario.num_defenders} defenders, {starts})")
     return EXIT_USAGE if bad else 0
+
+
+def _playable(scenario: Scenario) -> None:
+    """What ``play`` with its default policies would find wrong with ``scenario`` before
+    playing: the shortest-path field's grid and the tubes' grids must see the target."""
+    from policies.geodesic import distance_field
+    from solvers.hj.games import check_tube_grids
+
+    distance_field(scenario.map, scenario.player_radius)
+    check_tube_grids(scenario.map, DEFAULT_GRID["1v1"], DEFAULT_GRID["2v1"])
 
 
 def _json_report(result: EpisodeResult, args: argparse.Namespace) -> dict[str, object]:
@@ -702,7 +713,7 @@ def _solve_library(args: argparse.Namespace) -> int:
             raise UsageError(f"{flag}: not with --defenders (a library goes to the cache)")
     methods = _methods(args.defenders)
     _check_backend_options(args)
-    scenarios = [sc for source in args.scenario for sc in _library(source)]
+    scenarios = _library(args.scenario)
     try:
         rows = solve_library(scenarios, methods, args.grid1, args.grid2, backend=args.backend,
                              workers=args.workers, address=args.address,
@@ -728,11 +739,12 @@ def _methods(text: str) -> list[str]:
     return methods
 
 
-def _library(source: str) -> tuple[Scenario, ...]:
+def _library(source: str | list[str]) -> tuple[Scenario, ...]:
     try:
         return load_library(source)
     except OSError as err:
-        raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}") from None
+        raise UsageError(f"scenario: cannot read {err.filename or source!r}: "
+                         f"{err.strerror}") from None
 
 
 def _bench(args: argparse.Namespace) -> int:

@@ -306,17 +306,24 @@ def builtin_map(name: str = "paper") -> GameMap:
     return builtin_scenario(matches[0]).map
 
 
-def _parse(data: bytes, name: str, source: str) -> Scenario:
+def read_toml(data: bytes, source: str,
+              error: type[ValueError] = ScenarioError) -> dict[str, Any]:
+    """The table of the TOML text ``data`` (UTF-8, a byte-order mark allowed): what every
+    input file of the project (scenario, suite, library index) is read with; ``error``
+    naming ``source`` when it is not UTF-8, not TOML, or nested too deeply to read."""
     try:
-        parsed = tomllib.loads(data.decode("utf-8-sig"))   # a byte-order mark is allowed
+        return tomllib.loads(data.decode("utf-8-sig"))
     except UnicodeDecodeError as err:
-        raise ScenarioError(f"{source}: not UTF-8 text (byte {err.start}); TOML files are "
-                            f"UTF-8") from None
+        raise error(f"{source}: not UTF-8 text (byte {err.start}); TOML files are "
+                    f"UTF-8") from None
     except tomllib.TOMLDecodeError as err:
-        raise ScenarioError(f"{source}: malformed TOML: {err}") from None
+        raise error(f"{source}: malformed TOML: {err}") from None
     except RecursionError:
-        raise ScenarioError(f"{source}: arrays or tables nested too deeply") from None
-    return Scenario.from_dict(parsed, name=name)
+        raise error(f"{source}: arrays or tables nested too deeply") from None
+
+
+def _parse(data: bytes, name: str, source: str) -> Scenario:
+    return Scenario.from_dict(read_toml(data, source), name=name)
 
 
 def load_scenario(source: str | os.PathLike[str]) -> Scenario:

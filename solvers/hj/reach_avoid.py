@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 from tqdm.auto import tqdm
 
-from reachavoid_env import GameMap
+from reachavoid_env import GameMap, ScenarioError
 from solvers.hj import geometry
 from solvers.hj.codegen import TableSpec, compile_kernel
 from solvers.hj.game import PLANAR_TABLES, Coordinate, Expr, Game, Op, Table, evaluate
@@ -98,13 +98,13 @@ class Problem:
 
 
 def check_target_seen(game_map: GameMap, plane: Grid, label: str) -> None:
-    """``ValueError`` unless a free node of the planar grid ``plane`` lies in the target of
-    ``game_map``: a grid that cannot see the target solves a tube in which nobody ever
-    arrives (the defender "wins" everywhere)."""
+    """``ScenarioError`` (a ``ValueError``) unless a free node of the planar grid ``plane``
+    lies in the target of ``game_map``: a grid that cannot see the target solves a tube in
+    which nobody ever arrives (the defender "wins" everywhere)."""
     inside = geometry.target_distance(game_map, plane) <= 0
     if not np.any(inside & (geometry.free_distance(game_map, plane) > 0)):
         spacing = ", ".join(f"{h:.3g}" for h in plane.spacing)
-        raise ValueError(f"map.target: no free grid node lies in the target on the {label} "
+        raise ScenarioError(f"map.target: no free grid node lies in the target on the {label} "
                          f"grid ({'x'.join(map(str, plane.shape))} nodes, spacing {spacing}); "
                          "use a finer grid or a larger target")
 
