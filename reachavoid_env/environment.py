@@ -350,10 +350,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         for name in live:
             if name not in actions:
                 raise KeyError(f"step: no action for live agent {name!r}")
-            if isinstance(actions[name], complex) or getattr(
-                    getattr(actions[name], "dtype", None), "kind", "") == "c":
-                raise ValueError(f"action for {name}: expected real numbers, got complex "
-                                 f"{actions[name]!r}")
+            if getattr(getattr(actions[name], "dtype", None), "kind", "") not in _REAL_KINDS:
+                _checked_action(name, actions[name])   # a list, or not real numbers: refused
         try:
             stacked = np.array([actions[name] for name in live], dtype=np.float64)
         except (TypeError, ValueError):
@@ -458,9 +456,29 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             self._renderer = None
 
 
+_REAL_KINDS = ("i", "u", "f")
+"""numpy dtype kinds of real numbers (not bool, complex, strings or objects)."""
+
+
+def _real_number(value: Any) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) \
+        and not isinstance(value, (bool, np.bool_))
+
+
 def _checked_action(agent: str, action: Any) -> np.ndarray:
     """``action`` as a float64 ``(2,)`` array; ``ValueError`` naming ``agent`` if it is not
-    a finite 2-vector."""
+    a finite 2-vector of real numbers (an array of a real dtype, or a sequence of ints and
+    floats: not strings, booleans or complex numbers, which numpy would convert)."""
+    kind = getattr(getattr(action, "dtype", None), "kind", None)
+    if kind == "c" or isinstance(action, complex):
+        raise ValueError(f"action for {agent}: expected real numbers, got complex {action!r}")
+    if kind is None:
+        real = not isinstance(action, (str, bytes)) and all(map(_real_number, _items(action)))
+    else:
+        real = kind in _REAL_KINDS
+    if not real:
+        raise ValueError(f"action for {agent}: expected a 2-vector of real numbers, "
+                         f"got {action!r}")
     try:
         array = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError):
@@ -471,6 +489,14 @@ def _checked_action(agent: str, action: Any) -> np.ndarray:
     if not np.isfinite(array).all():
         raise ValueError(f"action for {agent}: must be finite, got {array.tolist()}")
     return array
+
+
+def _items(action: Any) -> list[Any]:
+    """The elements of a sequence ``action`` (``[action]`` for anything else)."""
+    try:
+        return list(action)
+    except TypeError:
+        return [action]
 
 
 def check_agent_names(actions: dict[str, Any], agents: Sequence[str]) -> None:

@@ -135,8 +135,11 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "w", **open_kwargs: A
         sys.stdout.flush()
         return
     if is_stream(path):
-        with open(path, mode, **open_kwargs) as handle:
-            yield handle
+        try:
+            with open(path, mode, **open_kwargs) as handle:
+                yield handle
+        except OSError as err:
+            raise _named(err, path) from None
         return
     target = destination(path)
     if target.is_dir():
@@ -152,12 +155,17 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "w", **open_kwargs: A
         install(temporary, target)
     except OSError as err:
         temporary.unlink(missing_ok=True)
-        if err.filename is None:   # a full disk: name the destination, not nothing
-            raise OSError(err.errno, err.strerror or str(err), str(path)) from None
-        raise
+        raise _named(err, path) from None
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
+
+
+def _named(err: OSError, path: str | os.PathLike[str]) -> OSError:
+    """``err`` naming ``path`` where it names no file (a full disk or device)."""
+    if err.filename is not None:
+        return err
+    return OSError(err.errno, err.strerror or str(err), str(path))
 
 
 def write_json(path: str | os.PathLike[str], data: Any, indent: int = 2) -> None:

@@ -569,3 +569,24 @@ def test_two_outputs_on_one_path_are_refused_before_work(tmp_path, monkeypatch, 
     monkeypatch.chdir(tmp_path)
     fails_cleanly(capsys, [*BENCH, *outputs], "give each output its own file")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_failed_write_to_a_device_names_it(capsys):
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full here")
+    err = fails_cleanly(capsys, [*BENCH, "--csv", "/dev/full"], "No space left", status=1)
+    assert "/dev/full" in err
+
+
+@pytest.mark.parametrize("action", [["0.5", "0"], [True, False], np.array([True, False]),
+                                    np.array(["0.5", "0"]), "05", [1, "0"]])
+def test_actions_are_real_two_vectors_only(action):
+    env = reachavoid_env.parallel_env(scenario="paper_2v1")
+    env.reset(seed=0)
+    actions = {agent: np.zeros(2) for agent in env.agents}
+    actions["attacker_0"] = action
+    with pytest.raises(ValueError, match="action for attacker_0: expected a 2-vector of real"):
+        env.step(actions)
+    for fine in ([0.5, 0], (1, 0.0), np.array([0.5, 0], dtype=np.float32), [np.float32(1), 0]):
+        actions["attacker_0"] = fine
+        env.step(actions)
