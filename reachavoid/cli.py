@@ -5,9 +5,10 @@ seeded starts of a suite (``suite``, ``evaluation``), ``maps`` a map library
 (``reachavoid_env.maps``), ``paper`` the paper's table (``paper``). Every argument, output
 path and the cache are checked before any work starts. Bad arguments or input files end
 with a one-line message and exit status 2; a failed write with one line naming the path and
-status 1; Ctrl-C (130), SIGTERM (143) and SIGHUP (129) stop the work and leave no partial
-file; a closed standard output (``| head``) ends quietly (141). Outputs follow one rule
-(README "Files and failures"): an existing file is replaced only with ``--force``.
+status 1, as a worker that died; Ctrl-C (130), SIGTERM (143) and SIGHUP (129) stop the work
+and leave no partial file; a closed standard output (``| head``) ends quietly (141).
+Outputs follow one rule (README "Files and failures"): an existing file is replaced only
+with ``--force``, and a file that appears meanwhile is kept.
 """
 
 from __future__ import annotations

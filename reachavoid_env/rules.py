@@ -281,6 +281,6 @@ def _judge_slides(game_map: GameMap, capture_radius: float, moves: Moves, near: 
     if pairs.any():
         rows = np.flatnonzero(pairs.any(axis=1))
         bent_times = path_capture_times(path[:, rows], path[:, m:], capture_radius)
-        pair_times = np.full(meeting.shape, np.inf) if pair_times is None else pair_times.copy()
+        pair_times = pair_times.copy()   # computed: some pair may meet
         pair_times[rows] = np.where(pairs[rows], bent_times, pair_times[rows])
     return _Slides(pair_times, arrival, bent, path[:, bent])

@@ -15,7 +15,7 @@ pytest.importorskip("supersuit")
 
 from checks import example  # noqa: E402
 
-TINY = ["--grid1", "11", "--grid2", "7", "--timesteps", "192", "--copies", "1",
+TINY = ["--grid1", "11", "--grid2", "8", "--timesteps", "192", "--copies", "1",
         "--n-steps", "16", "--batch-size", "48", "--episodes", "3", "--video-every", "20"]
 
 
