@@ -60,7 +60,7 @@ def _numba_cache_error(folder: str, err: Exception) -> CacheLocationError:
     reason = f"{err.filename}: {err.strerror}" if isinstance(err, OSError) else str(err)
     return CacheLocationError(f"cache: $NUMBA_CACHE_DIR {folder!r} is not a safe folder for "
                               f"compiled code ({reason}); unset it or set it to a folder of "
-                              "yours that only you can write")
+                              "yours with mode 700")
 
 
 def check_numba_cache(folder: str | None = None) -> None:
