@@ -134,7 +134,7 @@ def test_solve_command_solves_the_1v2_game(tmp_path, capsys):
     assert main(["solve", "--scenario", SCENARIO, "--game", "1v2", "--grid", "8",
                  "--plot", str(plot)]) == 0
     printed = capsys.readouterr().out
-    assert printed.startswith("1v2 value 7x7x7x7x7x7") and plot.stat().st_size > 0
+    assert printed.startswith("1v2 value 8x8x8x8x8x8") and plot.stat().st_size > 0
     assert main(["solve", "--scenario", "paper_2v1", "--game", "1v2", "--grid", "8",
                  "--plot", str(tmp_path / "x.png")]) == 2
     assert "2 defender" in capsys.readouterr().err

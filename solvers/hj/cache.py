@@ -12,7 +12,7 @@ owner's lock (``value.owned_temporaries``) can be taken: their process is gone, 
 machine or PID namespace it ran in. The generated kernels live in ``kernels/``
 (``codegen.kernel_dir``). Numba's own cache of compiled code (pickled, so loading it runs
 code) goes where ``$NUMBA_CACHE_DIR`` (or a ``.numba_config.yaml``) says only when that is a
-folder of this user's that nobody else can write (``check_numba_cache``), checked before
+folder of this user's that nobody else can write (``jit_cache.check_numba_cache``), checked before
 any compiled function can be loaded.
 """
 
@@ -31,6 +31,7 @@ from typing import Any
 
 from reachavoid_env import GameMap
 from reachavoid_env.files import UnsafeFolderError, private_folder
+from solvers.hj.jit_cache import CacheLocationError, check_numba_cache, location_error
 from solvers.hj.value import ValueFunction, ValueFunctionError, abandoned, load_value_function
 
 _TEMPORARY = re.compile(r"^(?P<stem>\..+\.vf\.\d+\.[^.]+)\.(tmp|old|lock)$")
@@ -39,51 +40,10 @@ UNLOCKED_AGE = 7 * 24 * 3600.0
 removed: far above any solve."""
 
 
-class CacheLocationError(ValueError):
-    """The cache folder cannot be a folder of this user's (reported in one line, exit 2)."""
-
-
-def location_error(what: str, folder: Path, err: Exception) -> CacheLocationError:
-    """``CacheLocationError``: ``what`` went wrong at ``folder`` because of ``err``."""
-    reason = f"{err.filename}: {err.strerror}" if isinstance(err, OSError) else str(err)
-    return CacheLocationError(f"cache: {what} {str(folder)!r} ({reason}); set "
-                              "$REACHAVOID_CACHE_DIR to a folder of yours")
-
-
 def cache_dir() -> Path:
     """The cache directory (not created here)."""
     configured = os.environ.get("REACHAVOID_CACHE_DIR")
     return Path(configured) if configured else Path.home() / ".cache" / "reachavoid"
-
-
-def _numba_cache_error(folder: str, err: Exception) -> CacheLocationError:
-    reason = f"{err.filename}: {err.strerror}" if isinstance(err, OSError) else str(err)
-    return CacheLocationError(f"cache: $NUMBA_CACHE_DIR {folder!r} is not a safe folder for "
-                              f"compiled code ({reason}); unset it or set it to a folder of "
-                              "yours with mode 700")
-
-
-def check_numba_cache(folder: str | None = None) -> None:
-    """Refuse a numba cache folder (``folder``, default ``$NUMBA_CACHE_DIR``; nothing when
-    unset) that is not a folder of this user's closed to others (``private_folder``;
-    created, mode 0700, where missing): numba loads pickled code from it.
-    ``CacheLocationError`` naming ``$NUMBA_CACHE_DIR``."""
-    folder = os.environ.get("NUMBA_CACHE_DIR") if folder is None else folder
-    if not folder:
-        return
-    try:
-        private_folder(folder)
-    except (OSError, UnsafeFolderError) as err:
-        raise _numba_cache_error(folder, err) from None
-
-
-def check_numba_config() -> None:
-    """``check_numba_cache`` of the folder numba itself reads (its environment or a
-    ``.numba_config.yaml``): called by each module of cached numba functions as it loads,
-    before any of them can be compiled or loaded."""
-    from numba.core import config
-
-    check_numba_cache(config.CACHE_DIR)
 
 
 def check_cache() -> bool:
