@@ -15,8 +15,8 @@ there. On one machine the workers share the page cache. A multi-machine Ray clus
 the cache folder on a shared filesystem (the same path on every node; it is passed to the
 workers in ``runtime_env``), or a cache filled on each node beforehand.
 
-Ray workers import from the driver's ``sys.path`` less its working folder and any folder
-another user can write (``worker_path``); Ray's own "add the driver's working folder" is
+Ray workers import from the driver's ``sys.path`` less its working folder (unless
+``$PYTHONPATH`` names it) and any folder another user can write (``worker_path``); Ray's own "add the driver's working folder" is
 pointed at an empty private folder. A worker that dies (killed, out of memory, ``os._exit``
 in a policy) ends the sweep with ``WorkerDied`` saying how many tasks had finished; the
 command's signal handlers stay in place while Ray runs.
@@ -241,11 +241,14 @@ def _closed(entry: str) -> bool:
 
 def worker_path() -> list[str]:
     """The driver's ``sys.path`` for Ray's workers: without its working folder (``''`` or
-    its path: a module planted where the command runs must not shadow a library) and
-    without any folder another user can write (``_closed``)."""
+    its path: a module planted where the command runs must not shadow a library), unless
+    ``$PYTHONPATH`` names it, and without any folder another user can write
+    (``_closed``)."""
     here = os.path.realpath(os.getcwd())
+    named = {os.path.realpath(entry)
+             for entry in os.environ.get("PYTHONPATH", "").split(os.pathsep) if entry}
     return [entry for entry in dict.fromkeys(sys.path)
-            if entry and os.path.realpath(entry) != here and _closed(entry)]
+            if entry and (os.path.realpath(entry) != here or here in named) and _closed(entry)]
 
 
 def ray_runtime_env() -> dict[str, Any]:

@@ -44,9 +44,12 @@ def test_worker_path_leaves_out_the_working_folder_and_open_folders(tmp_path, mo
         folder.mkdir()
         folder.chmod(mode)
     monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("PYTHONPATH", raising=False)
     monkeypatch.setattr(sys, "path", ["", str(tmp_path), str(ours), str(open_), str(sticky),
                                       str(tmp_path / "missing"), str(ours)])
     assert sweep.worker_path() == [str(ours)]
+    monkeypatch.setenv("PYTHONPATH", str(tmp_path))   # named on purpose: kept
+    assert sweep.worker_path() == [str(tmp_path), str(ours)]
 
 
 class _Crashed(Exception):
@@ -90,6 +93,7 @@ def _twice(x: int) -> int:
 
 
 def test_ray_starts_away_from_the_working_folder_and_keeps_our_handlers(tmp_path, monkeypatch):
+    monkeypatch.delenv("PYTHONPATH", raising=False)
     record: dict = {}
     monkeypatch.setitem(sys.modules, "ray", _fake_ray(record))
     monkeypatch.chdir(tmp_path)
