@@ -16,10 +16,11 @@ the cache folder on a shared filesystem (the same path on every node; it is pass
 workers in ``runtime_env``), or a cache filled on each node beforehand.
 
 Ray workers import from the driver's ``sys.path`` less its working folder (unless
-``$PYTHONPATH`` names it) and any folder another user can write (``worker_path``); Ray's own "add the driver's working folder" is
-pointed at an empty private folder. A worker that dies (killed, out of memory, ``os._exit``
-in a policy) ends the sweep with ``WorkerDied`` saying how many tasks had finished; the
-command's signal handlers stay in place while Ray runs.
+``$PYTHONPATH`` names it) and any folder another user can write (``worker_path``); Ray's
+own "add the driver's working folder" is pointed at an empty private folder. A worker
+that dies (killed, out of memory, ``os._exit`` in a policy) ends the sweep with
+``WorkerDied`` saying how many tasks had finished; the command's signal handlers stay in
+place while Ray runs.
 """
 
 from __future__ import annotations

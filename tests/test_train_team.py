@@ -23,7 +23,7 @@ def test_recipe_trains_evaluates_and_records(tmp_path):
     recipe = example("train_attacker_team")
     report = recipe.main([*TINY, "--out", str(tmp_path)])
 
-    assert report["defenders"] == "hj" and report["grids"] == [11, 7]
+    assert report["defenders"] == "hj" and report["grids"] == [11, 8]
     assert report["training"]["agent_steps"] >= 192
     assert report["training"]["game_steps"] == (
         report["training"]["agent_steps"] // 6 * report["action_repeat"])

@@ -171,7 +171,7 @@ def test_train_attacker_example_runs_against_hj_defenders(tmp_path):
     train = example("train_attacker_sb3")
     report = train.main(["--grid1", "11", "--grid2", "8", "--timesteps", "256", "--envs", "1",
                          "--episodes", "2", "--no-video", "--out", str(tmp_path)])
-    assert report["defenders"] == "hj" and report["grids"] == [11, 7]
+    assert report["defenders"] == "hj" and report["grids"] == [11, 8]
     for attacker in ("trained", "random", "shortest-path"):
         rates = [report[attacker][f"{outcome}_rate"] for outcome in train.OUTCOMES]
         assert sum(rates) == pytest.approx(1.0)
