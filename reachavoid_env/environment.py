@@ -381,7 +381,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         for name in live:
             if name not in actions:
                 raise KeyError(f"step: no action for live agent {name!r}")
-            if getattr(getattr(actions[name], "dtype", None), "kind", "") not in _REAL_KINDS:
+            if getattr(getattr(actions[name], "dtype", None), "kind", "") not in REAL_KINDS:
                 _checked_action(name, actions[name])   # a list, or not real numbers: refused
         try:
             stacked = np.array([actions[name] for name in live], dtype=np.float64)
@@ -492,7 +492,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             self._renderer = None
 
 
-_REAL_KINDS = ("i", "u", "f")
+REAL_KINDS = ("i", "u", "f")
 """numpy dtype kinds of real numbers (not bool, complex, strings or objects)."""
 
 
@@ -511,7 +511,7 @@ def _checked_action(agent: str, action: Any) -> np.ndarray:
     if kind is None:
         real = not isinstance(action, (str, bytes)) and all(map(_real_number, _items(action)))
     else:
-        real = kind in _REAL_KINDS
+        real = kind in REAL_KINDS
     if not real:
         raise ValueError(f"action for {agent}: expected a 2-vector of real numbers, "
                          f"got {action!r}")

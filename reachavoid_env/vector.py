@@ -43,6 +43,7 @@ from gymnasium.utils import seeding
 
 from reachavoid_env import checks, rules
 from reachavoid_env.environment import (
+    REAL_KINDS,
     STARTS,
     check_agent_names,
     draw_scenario,
@@ -189,10 +190,12 @@ class ReachAvoidVectorEnv:
         for i, name in enumerate(self.possible_agents):
             if name not in actions:
                 raise KeyError(f"step: no action for agent {name!r}")
-            array = np.asarray(actions[name], dtype=np.float64)
-            if array.shape != (self.num_envs, 2) or not np.isfinite(array).all():
-                raise ValueError(f"action for {name}: expected finite numbers of shape "
-                                 f"({self.num_envs}, 2), got shape {array.shape}")
+            array = np.asarray(actions[name])
+            if array.dtype.kind not in REAL_KINDS or array.shape != (self.num_envs, 2) \
+                    or not np.isfinite(array).all():
+                raise ValueError(f"action for {name}: expected finite real numbers of shape "
+                                 f"({self.num_envs}, 2), got {array.dtype} of shape "
+                                 f"{array.shape}")
             stacked[:, i] = array
         stacked[~(self._active & self._running[:, None])] = 0.0
         return rules.bounded_controls(stacked) * self._speeds
