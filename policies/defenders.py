@@ -109,7 +109,7 @@ class Roles(NamedTuple):
 
 
 @functools.lru_cache(maxsize=1024)
-def _roles(assignment: Assignment) -> Roles:
+def roles_of(assignment: Assignment) -> Roles:
     """``Roles`` of ``assignment``, made once per distinct assignment: answers recur step
     after step."""
     in_team = {d for _, j, k in assignment.shared for d in (j, k)}
@@ -199,7 +199,7 @@ class _Decision(NamedTuple):
 
 
 @functools.lru_cache(maxsize=1024)
-def _joined(rest: Assignment, kept: tuple[Match, ...], num_defenders: int) -> Assignment:
+def joined_once(rest: Assignment, kept: tuple[Match, ...], num_defenders: int) -> Assignment:
     """``policies.certificate.joined``, made once per distinct answer and kept games."""
     return joined(rest, list(kept), num_defenders)
 
@@ -257,7 +257,7 @@ class _AssignmentDefender(ABC):
         self._previous: np.ndarray | None = None
 
     def reset(self, scenario: Scenario) -> None:
-        _check_tube(self.vf11, scenario, "vf11")
+        check_tube(self.vf11, scenario, "vf11")
         self.solver.reset()
         self._nominal_solver.reset()
         self._decision = self._nominal = None
@@ -391,7 +391,7 @@ class _AssignmentDefender(ABC):
         kept = kept_games(certified, tables.kept, tables.left, held, tables.values11)
         assignment = self._solve(self.solver, state, tables)
         if kept:
-            assignment = _joined(assignment, tuple(kept), len(state.defender_positions))
+            assignment = joined_once(assignment, tuple(kept), len(state.defender_positions))
         return _Decision(state, tables, kept, assignment, wins)
 
     def _open_wins(self, state: GameState) -> np.ndarray:
@@ -412,7 +412,7 @@ class _AssignmentDefender(ABC):
         rule); a 1 vs 1 game the tube does not certify is an open-space game where
         ``decision.wins`` says the defender wins it."""
         state, tables, kept, assignment, wins = decision
-        roles = _roles(assignment)
+        roles = roles_of(assignment)
         singles = roles.singles
         if roles.idle and self.free == "assignment":
             shadows = np.array(self._idle_targets(state, list(roles.idle), tables.values11),
@@ -428,7 +428,7 @@ class _AssignmentDefender(ABC):
             return fresh
         return [game if on else Match(game.defenders, game.attackers, Basis.OPEN)
                 for game, on, open_ in zip(fresh, (slack > 0.0).tolist(),
-                                           _open_games(fresh, wins), strict=True)
+                                           open_games(fresh, wins), strict=True)
                 if on or open_]
 
     def _play_open(self, state: GameState, actions: np.ndarray) -> None:
@@ -588,14 +588,14 @@ class _AssignmentDefender(ABC):
         stand still); ``values11 (M, N)`` is this step's 1 vs 1 table."""
 
 
-def _open_games(games: list[Match], wins: np.ndarray) -> list[bool]:
+def open_games(games: list[Match], wins: np.ndarray) -> list[bool]:
     """Whether each of ``games`` is one defender against one attacker that ``wins``
     ``(M, N)`` (``OpenSpace.wins``) says the defender wins."""
     return [len(game.defenders) == len(game.attackers) == 1
             and bool(wins[game.attackers[0], game.defenders[0]]) for game in games]
 
 
-def _check_tube(vf: ValueFunction, scenario: Scenario, name: str) -> None:
+def check_tube(vf: ValueFunction, scenario: Scenario, name: str) -> None:
     """Refuse a tube solved for another map, other speeds or another capture radius."""
     mismatches = [
         field for field, ours, theirs in (
@@ -673,7 +673,7 @@ class HJDefenderPolicy(_AssignmentDefender):
     def reset(self, scenario: Scenario) -> None:
         super().reset(scenario)
         if self.vf21 is not None:
-            _check_tube(self.vf21, scenario, "vf21")
+            check_tube(self.vf21, scenario, "vf21")
         elif scenario.num_attackers > 1:
             raise ValueError(f"vf21: {scenario.name!r} has {scenario.num_attackers} "
                              f"attackers; these defenders were built without the 2 vs 1 tube")
@@ -726,7 +726,7 @@ class HJPairsDefenderPolicy(HJDefenderPolicy):
 
     def reset(self, scenario: Scenario) -> None:
         super().reset(scenario)
-        _check_tube(self.vf12, scenario, "vf12")
+        check_tube(self.vf12, scenario, "vf12")
 
     def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
                ) -> Assignment:

@@ -21,8 +21,11 @@ if TYPE_CHECKING:
     from reachavoid_env.game_map import GameMap
     from reachavoid_env.game_state import (
         AttackerStatus,
+        BatchPolicy,
+        BatchState,
         GameState,
         Overlay,
+        PerCopy,
         Policy,
         PolicyMismatch,
         merged_overlay,
@@ -41,11 +44,14 @@ if TYPE_CHECKING:
 
 __all__ = [
     "AttackerStatus",
+    "BatchPolicy",
+    "BatchState",
     "Box",
     "Circle",
     "GameMap",
     "GameState",
     "Overlay",
+    "PerCopy",
     "Policy",
     "PolicyMismatch",
     "Polygon",
@@ -68,8 +74,8 @@ ENV_ID = "reachavoid/ReachAvoid-v0"
 
 __getattr__, __dir__ = lazy.attributes(__name__, {
     "GameMap": "reachavoid_env.game_map",
-    **dict.fromkeys(["AttackerStatus", "GameState", "Overlay", "Policy", "PolicyMismatch",
-                     "merged_overlay"],
+    **dict.fromkeys(["AttackerStatus", "BatchPolicy", "BatchState", "GameState", "Overlay",
+                     "PerCopy", "Policy", "PolicyMismatch", "merged_overlay"],
                     "reachavoid_env.game_state"),
     **dict.fromkeys(["Scenario", "ScenarioError", "builtin_map", "builtin_names",
                      "builtin_scenario", "load_scenario", "save_scenario"],
