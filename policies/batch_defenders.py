@@ -357,19 +357,13 @@ class _Batch:
 def _races(field_: DistanceField, game: _Batch) -> tuple[np.ndarray, ...]:
     """``policies.intercept.race_all`` of every live copy: ``wins``, ``aims``, ``times``
     ``(L, M, N[, 2])`` and ``threat (L, M)``, the paths of every copy's active attackers
-    traced in one call (an inactive attacker's rows never won, at infinite times)."""
+    traced in one call and raced in one (an inactive attacker's rows never won, at
+    infinite times)."""
     c, i = np.nonzero(game.active)
     points, counts = trace_paths(field_, game.attackers[c, i])
-    steps = np.arange(points.shape[1])
-    attacker_time = steps * PATH_STEP / game.attacker_speed
-    gaps = points[:, None, :, :] - game.defenders[c][:, :, None, :]
-    defender_time = np.maximum(np.hypot(gaps[..., 0], gaps[..., 1]) - game.capture_radius,
-                               0.0) / game.defender_speed
-    slack = defender_time - attacker_time
-    slack[np.broadcast_to(steps[None, None, :] >= counts[:, None, None], slack.shape)] = np.inf
-    wins_at = slack <= 0.0
-    won = wins_at.any(axis=2)
-    best = np.where(won, np.argmax(wins_at, axis=2), np.argmin(slack, axis=2))
+    attacker_time = np.arange(points.shape[1]) * PATH_STEP / game.attacker_speed
+    won, best = _race_kernel(points, counts, game.defenders, c, game.defender_speed,
+                             game.capture_radius, attacker_time)
     copies, m = game.active.shape
     n = game.defenders.shape[1]
     wins = np.zeros((copies, m, n), dtype=bool)
@@ -381,6 +375,33 @@ def _races(field_: DistanceField, game: _Batch) -> tuple[np.ndarray, ...]:
     times[c, i] = attacker_time[best]
     threat[c, i] = attacker_time[np.maximum(counts - 1, 0)]
     return wins, aims, times, threat
+
+
+@njit(cache=True)
+def _race_kernel(points, counts, defenders, copy_of, defender_speed, capture_radius,
+                 attacker_time):
+    """``policies.intercept.races``' slack, point by point: for each traced path ``t``
+    (of copy ``copy_of[t]``) and defender ``j``, whether some point's slack is <= 0
+    (``won``) and ``best``, the first such point, else the first of least slack."""
+    paths, n = points.shape[0], defenders.shape[1]
+    won = np.zeros((paths, n), dtype=np.bool_)
+    best = np.zeros((paths, n), dtype=np.int64)
+    for t in range(paths):
+        c = copy_of[t]
+        for j in range(n):
+            least, at = np.inf, 0
+            for k in range(counts[t]):
+                gap = np.hypot(points[t, k, 0] - defenders[c, j, 0],
+                               points[t, k, 1] - defenders[c, j, 1])
+                slack = max(gap - capture_radius, 0.0) / defender_speed - attacker_time[k]
+                if slack <= 0.0:
+                    won[t, j] = True
+                    at = k
+                    break
+                if slack < least:
+                    least, at = slack, k
+            best[t, j] = at
+    return won, best
 
 
 def _plan(race: tuple[np.ndarray, ...], active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

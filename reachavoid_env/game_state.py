@@ -187,6 +187,7 @@ def merged_overlay(*policies: Policy) -> Overlay | None:
 
 _STATUSES = tuple(AttackerStatus)
 """The statuses by ``code``."""
+_CODES = {status: code for code, status in enumerate(_STATUSES)}
 
 
 class BatchState(NamedTuple):
@@ -213,7 +214,7 @@ class BatchState(NamedTuple):
         return cls(np.array([s.time for s in states]), np.array([s.step for s in states]),
                    np.stack([s.attacker_positions for s in states]),
                    np.stack([s.defender_positions for s in states]),
-                   np.array([[a.code for a in s.attacker_status] for s in states],
+                   np.array([[_CODES[a] for a in s.attacker_status] for s in states],
                             dtype=np.int8).reshape(len(states), -1),
                    first.attacker_speed, first.defender_speed, first.capture_radius)
 
