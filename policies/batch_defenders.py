@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from policies.certificate import Basis, Match, OpenSpace, kept_games, match_arrays, no_team_values
+from policies.certificate import Basis, Match, OpenSpace, kept_games, match_arrays
 from policies.defenders import (
     ATTACKER_MOVES,
     CERTIFICATE_CELLS,
@@ -42,7 +42,13 @@ from policies.defenders import (
 )
 from policies.geodesic import DistanceField, distance_field
 from policies.intercept import PATH_STEP, trace_paths
-from policies.lookups import HEADING_FLOOR, TubeArrays, decision_controls, decision_tables
+from policies.lookups import (
+    HEADING_FLOOR,
+    Ragged,
+    TubeArrays,
+    batch_decision_controls,
+    batch_decision_tables,
+)
 from policies.tubes import tube_1v1, tube_2v1
 from reachavoid_env import BatchState, Scenario
 from reachavoid_env.rules import unit_vectors
@@ -232,34 +238,53 @@ class BatchHJDefenders:
 
     def _decide_and_play(self, game: _Batch, wins: np.ndarray, held: list[np.ndarray],
                          actions: np.ndarray) -> None:
-        """Per copy, as ``_AssignmentDefender._decide`` and ``_play_games``: the tables,
-        the kept games, the program (its solver's cache first), every game's optimal
-        control into ``actions`` (``(L, N, 2)``) and the copy's new certified games."""
+        """As ``_AssignmentDefender._decide`` and ``_play_games`` in every copy: the
+        tables of all copies in one call, then per copy the kept games and the program
+        (its solver's cache first), then every copy's optimal controls into ``actions``
+        (``(L, N, 2)``) and new games' slacks in one call, and each copy's new certified
+        games."""
         n = game.defenders.shape[1]
+        certified = [copy.certified if self._certifies else [] for copy in game.copies]
+        before = [match_arrays(tuple(games)) for games in certified]
+        tables = batch_decision_tables(
+            game.attackers, game.defenders, game.active,
+            (Ragged.of([g.defenders for g in before]), Ragged.of([g.attackers for g in before])),
+            np.full(sum(len(g) for g in certified), np.nan), np.concatenate(held), wins,
+            *self._tubes)
+        offsets = np.cumsum([0] + [len(games) for games in certified]).tolist()
+        fresh, singles, doubles = [], [], []
         for c, copy in enumerate(game.copies):
-            attackers, defenders, active = game.attackers[c], game.defenders[c], game.active[c]
-            certified = copy.certified if self._certifies else []
-            games = match_arrays(tuple(certified))
-            tables = decision_tables(attackers, defenders, active, games,
-                                     no_team_values(len(games.defenders)), held[c], wins[c],
-                                     *self._tubes)
-            kept = kept_games(certified, tables.kept, tables.left, held[c], tables.values11)
-            assignment = copy.solver.solve(tables.beats, tables.beats_2v1, tables.active)
+            lo, hi = offsets[c], offsets[c + 1]
+            kept = kept_games(certified[c], tables.kept[lo:hi], tables.left[lo:hi], held[c],
+                              tables.values11[c])
+            assignment = copy.solver.solve(tables.beats[c], tables.beats_2v1[c],
+                                           tables.active[c])
             if kept:
                 assignment = joined_once(assignment, tuple(kept), n)
             roles = roles_of(assignment)
-            fresh = [match for match in roles.games if match not in kept]
-            new = match_arrays(tuple(fresh) if self._certifies else ())
-            slack = decision_controls(attackers, defenders, roles.singles, roles.doubles, new,
-                                      no_team_values(len(new.defenders)), self.margins,
-                                      tables.values11, tables.values21, *self._tubes,
-                                      actions[c])
+            fresh.append([match for match in roles.games if match not in kept])
+            singles.append(roles.singles)
+            doubles.append(roles.doubles)
+            copy.certified = kept
+        new = [match_arrays(tuple(games) if self._certifies else ()) for games in fresh]
+        slack = batch_decision_controls(
+            game.attackers, game.defenders, Ragged.of(singles), Ragged.of(doubles),
+            (Ragged.of([g.defenders for g in new]), Ragged.of([g.attackers for g in new])),
+            np.full(sum(len(g.defenders) for g in new), np.nan), self.margins,
+            tables.values11, tables.values21, *self._tubes, actions)
+        lo = 0
+        for c, copy in enumerate(game.copies):
+            games = fresh[c]
             if self._certifies:
-                fresh = [match if on else Match(match.defenders, match.attackers, Basis.OPEN)
-                         for match, on, open_ in zip(fresh, (slack > 0.0).tolist(),
-                                                     open_games(fresh, wins[c]), strict=True)
-                         if on or open_]
-            copy.certified = kept + fresh
+                on = (slack[lo:lo + len(games)] > 0.0).tolist()
+                lo += len(games)
+                games = [match if certain else Match(match.defenders, match.attackers,
+                                                      Basis.OPEN)
+                         for match, certain, open_ in zip(games, on,
+                                                          open_games(games, wins[c]),
+                                                          strict=True)
+                         if certain or open_]
+            copy.certified = copy.certified + games
 
     def _play_plan(self, game: _Batch, actions: np.ndarray) -> None:
         """``_AssignmentDefender._play_plan`` of every live copy: the races and the
