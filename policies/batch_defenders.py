@@ -41,7 +41,7 @@ from policies.defenders import (
     roles_of,
 )
 from policies.geodesic import DistanceField, distance_field
-from policies.intercept import PATH_STEP, trace_paths
+from policies.intercept import PATH_STEP, traced_points
 from policies.lookups import (
     HEADING_FLOOR,
     Ragged,
@@ -385,7 +385,7 @@ def _races(field_: DistanceField, game: _Batch) -> tuple[np.ndarray, ...]:
     traced in one call and raced in one (an inactive attacker's rows never won, at
     infinite times)."""
     c, i = np.nonzero(game.active)
-    points, counts = trace_paths(field_, game.attackers[c, i])
+    points, counts = traced_points(field_, game.attackers[c, i])
     attacker_time = np.arange(points.shape[1]) * PATH_STEP / game.attacker_speed
     won, best = _race_kernel(points, counts, game.defenders, c, game.defender_speed,
                              game.capture_radius, attacker_time)

@@ -89,16 +89,24 @@ def trace_paths(field: DistanceField, starts: np.ndarray, step: float = PATH_STE
         ``Paths``: the first point is the start; a path ends at its first point inside
         the target (or where the field is flat, or after ``max_points``).
     """
+    points, counts = traced_points(field, starts, step, max_points)
+    last = np.maximum(counts - 1, 0)
+    beyond = np.arange(max_points)[None, :] >= counts[:, None]
+    points = np.where(beyond[..., None], points[np.arange(len(starts)), last][:, None, :],
+                      points)
+    return Paths(points, counts)
+
+
+def traced_points(field: DistanceField, starts: np.ndarray, step: float = PATH_STEP,
+                  max_points: int = MAX_POINTS) -> Paths:
+    """``trace_paths`` without the padding: row ``i`` of ``points`` is valid up to
+    ``counts[i]`` only (what lies beyond is undefined)."""
     starts = np.ascontiguousarray(starts, dtype=np.float64).reshape(-1, 2)
     points = np.empty((len(starts), max_points, 2))
     counts = np.zeros(len(starts), dtype=np.int64)
     hx, hy = field.spacing
     _trace(field.values, float(field.xs[0]), float(field.ys[0]), hx, hy, starts, step,
            max_points, points, counts)
-    last = np.maximum(counts - 1, 0)
-    beyond = np.arange(max_points)[None, :] >= counts[:, None]
-    points = np.where(beyond[..., None], points[np.arange(len(starts)), last][:, None, :],
-                      points)
     return Paths(points, counts)
 
 
