@@ -76,14 +76,18 @@ def play_side_by_side(scenario, count, steps, reference, batched, watch=None):
     return copies
 
 
-@pytest.mark.parametrize(("name", "count", "steps", "kinds"), [
-    ("paper_8v4", 16, 300, {(Basis.TUBE, 1), (Basis.OPEN, 1), "solved", "pair"}),
-    ("paper_6v2", 8, 300, {(Basis.TUBE, 1), "solved", "pair"}),
+@pytest.mark.parametrize(("name", "count", "steps", "margin", "kinds"), [
+    ("paper_8v4", 16, 300, 1.0, {(Basis.TUBE, 1), (Basis.OPEN, 1), "solved", "pair"}),
+    ("paper_6v2", 8, 300, 1.0, {(Basis.TUBE, 1), "solved", "pair"}),
+    ("paper_8v4", 64, 100, 1.0, {(Basis.TUBE, 1), (Basis.OPEN, 1), "solved", "pair"}),
+    # no certificate: every game of the program is played, none kept
+    ("paper_8v4", 8, 300, 0.0, {(Basis.TUBE, 1), (Basis.TUBE, 2), "solved", "pair"}),
 ])
-def test_batched_hj_plays_as_one_policy_per_copy(coarse_tubes, name, count, steps, kinds):
+def test_batched_hj_plays_as_one_policy_per_copy(coarse_tubes, name, count, steps, margin,
+                                                 kinds):
     vf11, vf21 = coarse_tubes
     scenario = reachavoid_env.builtin_scenario(name)
-    reference = PerCopy(lambda _: HJDefenderPolicy(vf11, vf21))
+    reference = PerCopy(lambda _: HJDefenderPolicy(vf11, vf21, margin_cells=margin))
     seen = set()
 
     def watch(per_copy):  # the test reaches every kind of game the batch plays
@@ -96,7 +100,7 @@ def test_batched_hj_plays_as_one_policy_per_copy(coarse_tubes, name, count, step
                 seen.add("pair")
 
     copies = play_side_by_side(scenario, count, steps, reference,
-                               BatchHJDefenders(vf11, vf21), watch)
+                               BatchHJDefenders(vf11, vf21, margin_cells=margin), watch)
     assert copies.games > count  # copies restarted mid-run
     assert kinds <= seen
 
