@@ -167,7 +167,7 @@ class BatchHJDefenders:
         attackers = np.asarray(states.attacker_positions, dtype=np.float64)
         defenders = np.asarray(states.defender_positions, dtype=np.float64)
         active = np.asarray(states.attacker_status) == ACTIVE
-        count, _, n = (*attackers.shape[:2], defenders.shape[1])
+        count, n = attackers.shape[0], defenders.shape[1]
         if len(self._copies) < count or any(c is None for c in self._copies[:count]):
             raise RuntimeError("act_batch: call reset_copies for every copy first")
         actions = np.zeros((count, n, 2), dtype=np.float32)
@@ -289,7 +289,7 @@ class BatchHJDefenders:
     def _play_plan(self, game: _Batch, actions: np.ndarray) -> None:
         """``_AssignmentDefender._play_plan`` of every live copy: the races and the
         intercept plan of all copies at once, then the certified defenders' steering."""
-        aims, targets = _plan(_races(self._field, game), game.active)
+        aims, targets = _plan(*_races(self._field, game), game.active)
         desired = _headings(targets, aims, game.defenders, game.attackers)
         free = np.ones(actions.shape[:2], dtype=bool)
         for c, copy in enumerate(game.copies):
@@ -379,13 +379,13 @@ class _Batch:
     copies: list[_Copy]
 
 
-def _races(field_: DistanceField, game: _Batch) -> tuple[np.ndarray, ...]:
+def _races(paths: DistanceField, game: _Batch) -> tuple[np.ndarray, ...]:
     """``policies.intercept.race_all`` of every live copy: ``wins``, ``aims``, ``times``
     ``(L, M, N[, 2])`` and ``threat (L, M)``, the paths of every copy's active attackers
     traced in one call and raced in one (an inactive attacker's rows never won, at
     infinite times)."""
     c, i = np.nonzero(game.active)
-    points, counts = traced_points(field_, game.attackers[c, i])
+    points, counts = traced_points(paths, game.attackers[c, i])
     attacker_time = np.arange(points.shape[1]) * PATH_STEP / game.attacker_speed
     won, best = _race_kernel(points, counts, game.defenders, c, game.defender_speed,
                              game.capture_radius, attacker_time)
@@ -429,15 +429,12 @@ def _race_kernel(points, counts, defenders, copy_of, defender_speed, capture_rad
     return won, best
 
 
-def _plan(race: tuple[np.ndarray, ...], active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``policies.intercept.plan_intercepts`` of every copy (every defender free, the
-    active attackers open): ``aims (L, N, 2)`` and ``targets (L, N)``."""
-    wins, aims, times, threat = race
-    return _plan_kernel(wins, aims, times, threat, active)
-
-
 @njit(cache=True)
-def _plan_kernel(wins, aims, times, threat, active):
+def _plan(wins, aims, times, threat, active):
+    """``policies.intercept.plan_intercepts`` of every copy (``_races``' tables; every
+    defender free, the active attackers ``(L, M)`` open): ``aims (L, N, 2)`` and
+    ``targets (L, N)``, ties broken as there (the stable threat order, the first
+    defender, the first attacker in that order)."""
     copies, m, n = wins.shape
     targets = np.full((copies, n), -1, dtype=np.int64)
     planned = np.zeros((copies, n, 2))
