@@ -190,28 +190,45 @@ class BatchHJDefenders:
         actions[live] = out
         return actions
 
-    def _open_wins(self, game: _Batch) -> np.ndarray:
-        """``(L, M, N)``: ``HJDefenderPolicy``'s open-space wins of every live copy, the
-        certificate asked once for all copies' pairs."""
+    def _open_wins(self, game: _Batch) -> _OpenWins:
+        """``HJDefenderPolicy``'s open-space wins of every live copy, asked at once for
+        every copy's pairs that the program's tables read (1 vs 1 value <= 0); its other
+        pairs (value up to the margin) are asked when a game needs them (``_ask``)."""
         shape = game.active.shape + (game.defenders.shape[1],)
-        wins = np.zeros(shape, dtype=bool)
+        wins = _OpenWins(np.zeros(shape, dtype=bool), np.zeros(shape, dtype=bool))
         if self._open is None:
             return wins
         states = np.empty(shape + (4,))
         states[..., :2] = game.attackers[:, :, None, :]
         states[..., 2:] = game.defenders[:, None, :, :]
-        asked = (self.vf11.value(states) <= self.margins[0]) & game.active[:, :, None]
-        c, i, j = np.nonzero(asked)
-        if c.size:
-            o = self._open
-            wins[c, i, j] = open_space.defender_certifies(
-                o.game_map, game.attackers[c, i], game.defenders[c, j], o.speeds, o.certify,
-                o.clearance)
+        values = self.vf11.value(states)
+        wins.unasked[...] = (values <= self.margins[0]) & game.active[:, :, None]
+        self._ask(game, wins, values <= 0.0)
         return wins
 
-    def _held(self, game: _Batch, wins: np.ndarray) -> list[np.ndarray]:
+    def _ask(self, game: _Batch, wins: _OpenWins, needed: np.ndarray) -> None:
+        """Ask the open-space certificate for the pairs of ``needed`` ``(L, M, N)`` that
+        ``HJDefenderPolicy`` asks and that are not asked yet, all copies at once."""
+        c, i, j = np.nonzero(needed & wins.unasked)
+        if c.size:
+            o = self._open
+            wins.table[c, i, j] = open_space.defender_certifies(
+                o.game_map, game.attackers[c, i], game.defenders[c, j], o.speeds, o.certify,
+                o.clearance)
+            wins.unasked[c, i, j] = False
+
+    def _ask_games(self, game: _Batch, wins: _OpenWins, rows: list[tuple[int, ...]]) -> None:
+        """``_ask`` for the pairs ``rows``, each ``(copy, attacker, defender)``."""
+        if rows and self._open is not None:
+            needed = np.zeros_like(wins.unasked)
+            needed[tuple(np.array(rows).T)] = True
+            self._ask(game, wins, needed)
+
+    def _held(self, game: _Batch, wins: _OpenWins) -> list[np.ndarray]:
         """Each copy's ``OpenSpace.held`` of its certified games, the open-space games'
-        certificate asked once for all copies."""
+        certificate asked once for all copies. A tube game's entry (``wins`` at its pair)
+        is read only where its 1 vs 1 value is <= 0 (``decision_tables`` keeps it while
+        the value is > 0; ``kept_games`` reads it at value <= 0), where it is asked."""
         held = [np.zeros(len(copy.certified) if self._certifies else 0, dtype=bool)
                 for copy in game.copies]
         if self._open is None:
@@ -225,7 +242,7 @@ class BatchHJDefenders:
                 if match.basis is Basis.OPEN:
                     opened.append((c, g, left[0], match.defenders[0]))
                 else:
-                    held[c][g] = wins[c, left[0], match.defenders[0]]
+                    held[c][g] = wins.table[c, left[0], match.defenders[0]]
         if opened:
             c, g, i, j = np.array(opened).T
             o = self._open
@@ -236,7 +253,7 @@ class BatchHJDefenders:
                 held[copy][g_] = keep[row]
         return held
 
-    def _decide_and_play(self, game: _Batch, wins: np.ndarray, held: list[np.ndarray],
+    def _decide_and_play(self, game: _Batch, wins: _OpenWins, held: list[np.ndarray],
                          actions: np.ndarray) -> None:
         """As ``_AssignmentDefender._decide`` and ``_play_games`` in every copy: the
         tables of all copies in one call, then per copy the kept games and the program
@@ -249,7 +266,7 @@ class BatchHJDefenders:
         tables = batch_decision_tables(
             game.attackers, game.defenders, game.active,
             (Ragged.of([g.defenders for g in before]), Ragged.of([g.attackers for g in before])),
-            np.full(sum(len(g) for g in certified), np.nan), np.concatenate(held), wins,
+            np.full(sum(len(g) for g in certified), np.nan), np.concatenate(held), wins.table,
             *self._tubes)
         offsets = np.cumsum([0] + [len(games) for games in certified]).tolist()
         fresh, singles, doubles = [], [], []
@@ -266,6 +283,9 @@ class BatchHJDefenders:
             singles.append(roles.singles)
             doubles.append(roles.doubles)
             copy.certified = kept
+        self._ask_games(game, wins, [(c, m.attackers[0], m.defenders[0])
+                                     for c, games in enumerate(fresh) for m in games
+                                     if len(m.defenders) == len(m.attackers) == 1])
         new = [match_arrays(tuple(games) if self._certifies else ()) for games in fresh]
         slack = batch_decision_controls(
             game.attackers, game.defenders, Ragged.of(singles), Ragged.of(doubles),
@@ -281,7 +301,7 @@ class BatchHJDefenders:
                 games = [match if certain else Match(match.defenders, match.attackers,
                                                       Basis.OPEN)
                          for match, certain, open_ in zip(games, on,
-                                                          open_games(games, wins[c]),
+                                                          open_games(games, wins.table[c]),
                                                           strict=True)
                          if certain or open_]
             copy.certified = copy.certified + games
@@ -362,6 +382,19 @@ class BatchHJDefenders:
                 velocities[row] = (attackers[row] - previous[i[row]]) / self._dt
         actions[c, j] = open_space.parallel_navigation(attackers, game.defenders[c, j],
                                                        velocities, self._open.speeds[1])
+
+
+@dataclass(frozen=True)
+class _OpenWins:
+    """A step's open-space wins ``table`` ``(L, M, N)`` as far as asked, and the pairs
+    ``HJDefenderPolicy`` asks (active attacker, 1 vs 1 value up to the margin) that are
+    ``unasked`` yet. The certificate is row by row, so a pair asked only where it is
+    read gets the single policy's answer; it is read at value <= 0 (the program's
+    table, the held tube games) and for the step's new 1 vs 1 games (``_ask_games``),
+    and an unasked pair (false) is read nowhere else."""
+
+    table: np.ndarray
+    unasked: np.ndarray
 
 
 @dataclass(frozen=True)
