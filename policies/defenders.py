@@ -395,15 +395,31 @@ class _AssignmentDefender(ABC):
         return _Decision(state, tables, kept, assignment, wins)
 
     def _open_wins(self, state: GameState) -> np.ndarray:
-        """``OpenSpace.wins`` (all false without it), asked only where it can change
-        something: where the 1 vs 1 value does not clear its margin (elsewhere the tube
-        already certifies the game and the program counts the win)."""
+        """``OpenSpace.wins`` (all false without it), asked where a reader before the
+        program reads it: where the 1 vs 1 value is <= 0 (the program's table; a certified
+        tube game's ``held``, read only there). Where the value lies in (0, margin] it can
+        change something only for a new 1 vs 1 game, and is asked then
+        (``_ask_new_games``); above the margin the tube certifies the game."""
         shape = len(state.attacker_positions), len(state.defender_positions)
         if self._open is None:
             return np.zeros(shape, dtype=bool)
         values = self.vf11.value(pair_states(state.attacker_positions,
                                              state.defender_positions))
-        return self._open.wins(state, values <= self.tubes.margins.m11)
+        return self._open.wins(state, values <= 0.0)
+
+    def _ask_new_games(self, decision: _Decision, games: list[Match]) -> None:
+        """``OpenSpace.wins`` of the 1 vs 1 ``games`` whose 1 vs 1 value lies in (0,
+        margin] (not asked by ``_open_wins``), into ``decision.wins``."""
+        if self._open is None:
+            return
+        values = decision.tables.values11
+        asked = np.zeros(values.shape, dtype=bool)
+        for game in games:
+            if len(game.defenders) == len(game.attackers) == 1:
+                asked[game.attackers[0], game.defenders[0]] = True
+        asked &= (values > 0.0) & (values <= self.tubes.margins.m11)
+        if asked.any():
+            decision.wins[asked] = self._open.wins(decision.state, asked)[asked]
 
     def _play_games(self, decision: _Decision, actions: np.ndarray) -> list[Match]:
         """Write the optimal control of every defender alone in a game of the assignment
@@ -426,6 +442,7 @@ class _AssignmentDefender(ABC):
                                   *self._tube_arrays, actions)
         if not self._certifies:
             return fresh
+        self._ask_new_games(decision, fresh)
         return [game if on else Match(game.defenders, game.attackers, Basis.OPEN)
                 for game, on, open_ in zip(fresh, (slack > 0.0).tolist(),
                                            open_games(fresh, wins), strict=True)
