@@ -2,6 +2,8 @@
 (reachavoid_env.PerCopy): the same actions, bit for bit, over hundreds of steps of K
 random-start games played forward with those actions."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -149,3 +151,16 @@ def test_registry_builds_the_batched_class_where_there_is_one():
     fallback = make_batch_policy("defenders", "intercept", scenario)
     assert isinstance(fallback, PerCopy) and fallback.side == "defenders"
     assert isinstance(make_batch_policy("attackers", "shortest-path", scenario), PerCopy)
+
+
+def test_batched_hj_refuses_copies_of_another_game(coarse_tubes):
+    vf11, vf21 = coarse_tubes
+    policy = BatchHJDefenders(vf11, vf21)
+    paper = reachavoid_env.builtin_scenario("paper_8v4")
+    env = reachavoid_env.parallel_env(scenario=paper, starts="random")
+    env.reset(seed=0)
+    with pytest.raises(RuntimeError, match="reset_copies"):
+        policy.act_batch(BatchState.of([env.game_state()]))
+    policy.reset_copies(np.array([0]), [env.scenario])
+    with pytest.raises(ValueError, match="scenarios"):  # another step: another game
+        policy.reset_copies(np.array([1]), [dataclasses.replace(paper, dt=paper.dt / 2)])
