@@ -41,7 +41,7 @@ from policies.defenders import (
     roles_of,
 )
 from policies.geodesic import DistanceField, distance_field
-from policies.intercept import PATH_STEP, traced_points
+from policies.intercept import PATH_STEP, race_points, traced_points
 from policies.lookups import (
     HEADING_FLOOR,
     Ragged,
@@ -420,8 +420,8 @@ def _races(paths: DistanceField, game: _Batch) -> tuple[np.ndarray, ...]:
     c, i = np.nonzero(game.active)
     points, counts = traced_points(paths, game.attackers[c, i])
     attacker_time = np.arange(points.shape[1]) * PATH_STEP / game.attacker_speed
-    won, best = _race_kernel(points, counts, game.defenders, c, game.defender_speed,
-                             game.capture_radius, attacker_time)
+    won, best = race_points(points, counts, game.defenders, c, game.defender_speed,
+                            game.capture_radius, attacker_time)
     copies, m = game.active.shape
     n = game.defenders.shape[1]
     wins = np.zeros((copies, m, n), dtype=bool)
@@ -433,33 +433,6 @@ def _races(paths: DistanceField, game: _Batch) -> tuple[np.ndarray, ...]:
     times[c, i] = attacker_time[best]
     threat[c, i] = attacker_time[np.maximum(counts - 1, 0)]
     return wins, aims, times, threat
-
-
-@njit(cache=True)
-def _race_kernel(points, counts, defenders, copy_of, defender_speed, capture_radius,
-                 attacker_time):
-    """``policies.intercept.races``' slack, point by point: for each traced path ``t``
-    (of copy ``copy_of[t]``) and defender ``j``, whether some point's slack is <= 0
-    (``won``) and ``best``, the first such point, else the first of least slack."""
-    paths, n = points.shape[0], defenders.shape[1]
-    won = np.zeros((paths, n), dtype=np.bool_)
-    best = np.zeros((paths, n), dtype=np.int64)
-    for t in range(paths):
-        c = copy_of[t]
-        for j in range(n):
-            least, at = np.inf, 0
-            for k in range(counts[t]):
-                gap = np.hypot(points[t, k, 0] - defenders[c, j, 0],
-                               points[t, k, 1] - defenders[c, j, 1])
-                slack = max(gap - capture_radius, 0.0) / defender_speed - attacker_time[k]
-                if slack <= 0.0:
-                    won[t, j] = True
-                    at = k
-                    break
-                if slack < least:
-                    least, at = slack, k
-            best[t, j] = at
-    return won, best
 
 
 @njit(cache=True)
