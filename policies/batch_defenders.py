@@ -7,14 +7,17 @@ actions its single-game policy gives for that copy's ``GameState``:
 - ``BatchGreedyDefenders``: ``policies.defenders.GreedyDefender``, in numpy over the batch;
 - ``BatchHJDefenders``: ``policies.defenders.HJDefenderPolicy`` (``idle="intercept"``, the
   registry's ``hj``). What reads many points runs over every copy's players at once: the
-  1 vs 1 lookups and the open-space certificate of the step's open wins, the certificate
-  check of the open-space games held, the attackers' shortest paths and races, the intercept
-  plan (one numba call), the certified defenders' steering and parallel navigation. What
-  each copy decides alone stays per copy, in the single policy's own functions: the
-  decision tables and controls (one numba call each, as in the single policy), the kept
-  certified games, and the assignment program, solved on CP-SAT only where its inputs
+  1 vs 1 lookups and the open-space certificate of the step's open wins (asked, as the
+  single policy asks, only where read), the certificate check of the open-space games
+  held, the attackers' shortest paths and races (``policies.intercept.race_points``), the
+  intercept plan (one numba call), the certified defenders' steering and parallel
+  navigation; the decision tables before the program and the controls after it, one numba
+  call each for all copies (``policies.lookups.batch_decision_tables`` /
+  ``batch_decision_controls``, each copy through the single policy's kernel). What each
+  copy decides alone stays per copy, in the single policy's own functions: the kept
+  certified games and the assignment program, solved on CP-SAT only where its inputs
   changed (each copy has its ``AssignmentSolver``, whose cache answers an unchanged
-  program).
+  program). No overlay and no ``nominal_captures``: the batch is for training.
 
 Every batched computation applies the single policy's arithmetic to each row alone
 (elementwise numpy, per-point lookups, reductions along the same axes), which is what
