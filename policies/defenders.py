@@ -109,7 +109,7 @@ class Roles(NamedTuple):
 
 
 @functools.lru_cache(maxsize=1024)
-def _roles(assignment: Assignment) -> Roles:
+def roles_of(assignment: Assignment) -> Roles:
     """``Roles`` of ``assignment``, made once per distinct assignment: answers recur step
     after step."""
     in_team = {d for _, j, k in assignment.shared for d in (j, k)}
@@ -199,7 +199,7 @@ class _Decision(NamedTuple):
 
 
 @functools.lru_cache(maxsize=1024)
-def _joined(rest: Assignment, kept: tuple[Match, ...], num_defenders: int) -> Assignment:
+def joined_once(rest: Assignment, kept: tuple[Match, ...], num_defenders: int) -> Assignment:
     """``policies.certificate.joined``, made once per distinct answer and kept games."""
     return joined(rest, list(kept), num_defenders)
 
@@ -257,7 +257,7 @@ class _AssignmentDefender(ABC):
         self._previous: np.ndarray | None = None
 
     def reset(self, scenario: Scenario) -> None:
-        _check_tube(self.vf11, scenario, "vf11")
+        check_tube(self.vf11, scenario, "vf11")
         self.solver.reset()
         self._nominal_solver.reset()
         self._decision = self._nominal = None
@@ -391,19 +391,35 @@ class _AssignmentDefender(ABC):
         kept = kept_games(certified, tables.kept, tables.left, held, tables.values11)
         assignment = self._solve(self.solver, state, tables)
         if kept:
-            assignment = _joined(assignment, tuple(kept), len(state.defender_positions))
+            assignment = joined_once(assignment, tuple(kept), len(state.defender_positions))
         return _Decision(state, tables, kept, assignment, wins)
 
     def _open_wins(self, state: GameState) -> np.ndarray:
-        """``OpenSpace.wins`` (all false without it), asked only where it can change
-        something: where the 1 vs 1 value does not clear its margin (elsewhere the tube
-        already certifies the game and the program counts the win)."""
+        """``OpenSpace.wins`` (all false without it), asked where a reader before the
+        program reads it: where the 1 vs 1 value is <= 0 (the program's table; a certified
+        tube game's ``held``, read only there). Where the value lies in (0, margin] it can
+        change something only for a new 1 vs 1 game, and is asked then
+        (``_ask_new_games``); above the margin the tube certifies the game."""
         shape = len(state.attacker_positions), len(state.defender_positions)
         if self._open is None:
             return np.zeros(shape, dtype=bool)
         values = self.vf11.value(pair_states(state.attacker_positions,
                                              state.defender_positions))
-        return self._open.wins(state, values <= self.tubes.margins.m11)
+        return self._open.wins(state, values <= 0.0)
+
+    def _ask_new_games(self, decision: _Decision, games: list[Match]) -> None:
+        """``OpenSpace.wins`` of the 1 vs 1 ``games`` whose 1 vs 1 value lies in (0,
+        margin] (not asked by ``_open_wins``), into ``decision.wins``."""
+        if self._open is None:
+            return
+        values = decision.tables.values11
+        asked = np.zeros(values.shape, dtype=bool)
+        for game in games:
+            if len(game.defenders) == len(game.attackers) == 1:
+                asked[game.attackers[0], game.defenders[0]] = True
+        asked &= (values > 0.0) & (values <= self.tubes.margins.m11)
+        if asked.any():
+            decision.wins[asked] = self._open.wins(decision.state, asked)[asked]
 
     def _play_games(self, decision: _Decision, actions: np.ndarray) -> list[Match]:
         """Write the optimal control of every defender alone in a game of the assignment
@@ -412,7 +428,7 @@ class _AssignmentDefender(ABC):
         rule); a 1 vs 1 game the tube does not certify is an open-space game where
         ``decision.wins`` says the defender wins it."""
         state, tables, kept, assignment, wins = decision
-        roles = _roles(assignment)
+        roles = roles_of(assignment)
         singles = roles.singles
         if roles.idle and self.free == "assignment":
             shadows = np.array(self._idle_targets(state, list(roles.idle), tables.values11),
@@ -426,9 +442,10 @@ class _AssignmentDefender(ABC):
                                   *self._tube_arrays, actions)
         if not self._certifies:
             return fresh
+        self._ask_new_games(decision, fresh)
         return [game if on else Match(game.defenders, game.attackers, Basis.OPEN)
                 for game, on, open_ in zip(fresh, (slack > 0.0).tolist(),
-                                           _open_games(fresh, wins), strict=True)
+                                           open_games(fresh, wins), strict=True)
                 if on or open_]
 
     def _play_open(self, state: GameState, actions: np.ndarray) -> None:
@@ -588,14 +605,14 @@ class _AssignmentDefender(ABC):
         stand still); ``values11 (M, N)`` is this step's 1 vs 1 table."""
 
 
-def _open_games(games: list[Match], wins: np.ndarray) -> list[bool]:
+def open_games(games: list[Match], wins: np.ndarray) -> list[bool]:
     """Whether each of ``games`` is one defender against one attacker that ``wins``
     ``(M, N)`` (``OpenSpace.wins``) says the defender wins."""
     return [len(game.defenders) == len(game.attackers) == 1
             and bool(wins[game.attackers[0], game.defenders[0]]) for game in games]
 
 
-def _check_tube(vf: ValueFunction, scenario: Scenario, name: str) -> None:
+def check_tube(vf: ValueFunction, scenario: Scenario, name: str) -> None:
     """Refuse a tube solved for another map, other speeds or another capture radius."""
     mismatches = [
         field for field, ours, theirs in (
@@ -673,7 +690,7 @@ class HJDefenderPolicy(_AssignmentDefender):
     def reset(self, scenario: Scenario) -> None:
         super().reset(scenario)
         if self.vf21 is not None:
-            _check_tube(self.vf21, scenario, "vf21")
+            check_tube(self.vf21, scenario, "vf21")
         elif scenario.num_attackers > 1:
             raise ValueError(f"vf21: {scenario.name!r} has {scenario.num_attackers} "
                              f"attackers; these defenders were built without the 2 vs 1 tube")
@@ -726,7 +743,7 @@ class HJPairsDefenderPolicy(HJDefenderPolicy):
 
     def reset(self, scenario: Scenario) -> None:
         super().reset(scenario)
-        _check_tube(self.vf12, scenario, "vf12")
+        check_tube(self.vf12, scenario, "vf12")
 
     def _solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables
                ) -> Assignment:

@@ -92,16 +92,24 @@ def trace_paths(field: DistanceField, starts: np.ndarray, step: float = PATH_STE
         ``Paths``: the first point is the start; a path ends at its first point inside
         the target (or where the field is flat, or after ``max_points``).
     """
+    points, counts = traced_points(field, starts, step, max_points)
+    last = np.maximum(counts - 1, 0)
+    beyond = np.arange(max_points)[None, :] >= counts[:, None]
+    points = np.where(beyond[..., None], points[np.arange(len(starts)), last][:, None, :],
+                      points)
+    return Paths(points, counts)
+
+
+def traced_points(field: DistanceField, starts: np.ndarray, step: float = PATH_STEP,
+                  max_points: int = MAX_POINTS) -> Paths:
+    """``trace_paths`` without the padding: row ``i`` of ``points`` is valid up to
+    ``counts[i]`` only (what lies beyond is undefined)."""
     starts = np.ascontiguousarray(starts, dtype=np.float64).reshape(-1, 2)
     points = np.empty((len(starts), max_points, 2))
     counts = np.zeros(len(starts), dtype=np.int64)
     hx, hy = field.spacing
     _trace(field.values, float(field.xs[0]), float(field.ys[0]), hx, hy, starts, step,
            max_points, points, counts)
-    last = np.maximum(counts - 1, 0)
-    beyond = np.arange(max_points)[None, :] >= counts[:, None]
-    points = np.where(beyond[..., None], points[np.arange(len(starts)), last][:, None, :],
-                      points)
     return Paths(points, counts)
 
 
@@ -126,20 +134,43 @@ def races(paths: Paths, defenders: np.ndarray, attacker_speed: float,
     """Race every defender ``(N, 2)`` against every traced attacker path (map units,
     speeds in map units per second)."""
     points, counts = paths
-    k = np.arange(points.shape[1])
-    attacker_time = k * step / attacker_speed                                    # (K,)
-    gaps = points[:, None, :, :] - defenders[None, :, None, :]                   # (M, N, K, 2)
-    defender_time = np.maximum(np.hypot(gaps[..., 0], gaps[..., 1]) - capture_radius,
-                               0.0) / defender_speed
-    slack = defender_time - attacker_time                                        # (M, N, K)
-    slack[np.broadcast_to(k[None, None, :] >= counts[:, None, None], slack.shape)] = np.inf
-    wins_at = slack <= 0.0
-    wins = wins_at.any(axis=2)
-    best = np.where(wins, np.argmax(wins_at, axis=2), np.argmin(slack, axis=2))
-    m, n = best.shape
-    aims = points[np.arange(m)[:, None], best]
+    attacker_time = np.arange(points.shape[1]) * step / attacker_speed
+    wins, best = race_points(points, counts, defenders[None], np.zeros(len(points), np.int64),
+                             defender_speed, capture_radius, attacker_time)
+    aims = points[np.arange(len(points))[:, None], best]
     return Races(wins, aims, attacker_time[best],
                  attacker_time[np.maximum(counts - 1, 0)])
+
+
+@njit(cache=True)
+def race_points(points, counts, defenders, copy_of, defender_speed, capture_radius,
+                attacker_time):
+    """The races of traced paths, point by point: path ``t`` (``points (T, K, 2)``, valid
+    up to ``counts[t]``) against every defender of ``defenders[copy_of[t]]`` (``(C, N,
+    2)``: the paths of several games at once). A point's slack is the defender's time to
+    come within ``capture_radius`` of it (straight line at ``defender_speed``) less the
+    attacker's ``attacker_time`` (seconds, by point index). Returns ``won (T, N)``, some
+    point's slack <= 0, and ``best (T, N)``: the first such point, else the first of
+    least slack."""
+    paths, n = points.shape[0], defenders.shape[1]
+    won = np.zeros((paths, n), dtype=np.bool_)
+    best = np.zeros((paths, n), dtype=np.int64)
+    for t in range(paths):
+        c = copy_of[t]
+        for j in range(n):
+            least, at = np.inf, 0
+            for k in range(counts[t]):
+                gap = np.hypot(points[t, k, 0] - defenders[c, j, 0],
+                               points[t, k, 1] - defenders[c, j, 1])
+                slack = max(gap - capture_radius, 0.0) / defender_speed - attacker_time[k]
+                if slack <= 0.0:
+                    won[t, j] = True
+                    at = k
+                    break
+                if slack < least:
+                    least, at = slack, k
+            best[t, j] = at
+    return won, best
 
 
 class Plan(NamedTuple):

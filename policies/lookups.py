@@ -333,3 +333,93 @@ def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.
     return _decision_controls(attackers, defenders, singles, doubles, games, team_values,
                               margins, values11, values21, tube11,
                               tube11 if tube21 is None else tube21, actions)
+
+
+class Ragged(NamedTuple):
+    """Rows of several copies in one array: copy ``c``'s are ``rows[offsets[c]:offsets[c + 1]]``."""
+
+    rows: np.ndarray
+    offsets: np.ndarray
+
+    @classmethod
+    def of(cls, parts: list[np.ndarray]) -> Ragged:
+        """``parts`` (one array per copy, at least one, of one dtype) joined on axis 0."""
+        offsets = np.zeros(len(parts) + 1, dtype=np.int64)
+        offsets[1:] = np.cumsum([len(part) for part in parts])
+        return cls(np.concatenate(parts), offsets)
+
+
+@njit(cache=True)
+def _batch_tables(attackers, defenders, active, game_defenders, game_attackers, offsets,
+                  team_values, held, wins, tube11, tube21, with_pairs):
+    copies, m = active.shape
+    n = defenders.shape[1]
+    games = game_defenders.shape[0]
+    values11 = np.empty((copies, m, n))
+    values21 = np.empty((copies, m, m, n))
+    kept = np.zeros(games, dtype=np.bool_)
+    left = np.zeros((games, 2), dtype=np.bool_)
+    beats = np.empty((copies, m, n), dtype=np.bool_)
+    beats_2v1 = np.empty((copies, m, m, n), dtype=np.bool_)
+    program_active = np.empty((copies, m), dtype=np.bool_)
+    busy = np.empty((copies, n), dtype=np.bool_)
+    for c in range(copies):
+        lo, hi = offsets[c], offsets[c + 1]
+        tables = _decision_tables(attackers[c], defenders[c], active[c],
+                                  Matches(game_defenders[lo:hi], game_attackers[lo:hi]),
+                                  team_values[lo:hi], held[lo:hi], wins[c], tube11, tube21,
+                                  with_pairs)
+        values11[c], values21[c] = tables.values11, tables.values21
+        kept[lo:hi], left[lo:hi] = tables.kept, tables.left
+        beats[c], beats_2v1[c] = tables.beats, tables.beats_2v1
+        program_active[c], busy[c] = tables.active, tables.busy
+    return DecisionTables(values11, values21, kept, left, beats, beats_2v1, program_active,
+                          busy)
+
+
+def batch_decision_tables(attackers: np.ndarray, defenders: np.ndarray, active: np.ndarray,
+                          certified: tuple[Ragged, Ragged], team_values: np.ndarray,
+                          held: np.ndarray, wins: np.ndarray, tube11: TubeArrays,
+                          tube21: TubeArrays | None) -> DecisionTables:
+    """``decision_tables`` of ``L`` copies of a game in one call, each copy's exactly the
+    single call's: positions ``(L, M, 2)``, ``(L, N, 2)``, ``active (L, M)``, ``wins (L,
+    M, N)``; each copy's certified games as the ``Matches`` columns ``certified``
+    (``(defenders, attackers)``, ragged over the copies, same offsets), with their
+    ``team_values`` and ``held`` (ragged alike, rows only). Returns the tables with a
+    leading copy axis, ``kept`` and ``left`` ragged as the games."""
+    games_d, games_a = certified
+    return _batch_tables(attackers, defenders, active, games_d.rows, games_a.rows,
+                         games_d.offsets, team_values, held, wins, tube11,
+                         tube11 if tube21 is None else tube21, tube21 is not None)
+
+
+@njit(cache=True)
+def _batch_controls(attackers, defenders, singles, single_offsets, doubles, double_offsets,
+                    game_defenders, game_attackers, game_offsets, team_values, margins,
+                    values11, values21, tube11, tube21, actions):
+    slack = np.empty(game_defenders.shape[0])
+    for c in range(attackers.shape[0]):
+        lo, hi = game_offsets[c], game_offsets[c + 1]
+        slack[lo:hi] = _decision_controls(
+            attackers[c], defenders[c], singles[single_offsets[c]:single_offsets[c + 1]],
+            doubles[double_offsets[c]:double_offsets[c + 1]],
+            Matches(game_defenders[lo:hi], game_attackers[lo:hi]), team_values[lo:hi],
+            margins, values11[c], values21[c], tube11, tube21, actions[c])
+    return slack
+
+
+def batch_decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: Ragged,
+                            doubles: Ragged, games: tuple[Ragged, Ragged],
+                            team_values: np.ndarray, margins: np.ndarray,
+                            values11: np.ndarray, values21: np.ndarray, tube11: TubeArrays,
+                            tube21: TubeArrays | None, actions: np.ndarray) -> np.ndarray:
+    """``decision_controls`` of ``L`` copies in one call, each copy's exactly the single
+    call's: ``singles``, ``doubles`` and the ``games`` columns ragged over the copies,
+    ``team_values`` ragged as ``games``; ``values11``, ``values21``, ``actions`` with a
+    leading copy axis (``values21`` and ``actions`` written as the single call writes
+    them). Returns the games' slacks, ragged as ``games``."""
+    games_d, games_a = games
+    return _batch_controls(attackers, defenders, singles.rows, singles.offsets, doubles.rows,
+                           doubles.offsets, games_d.rows, games_a.rows, games_d.offsets,
+                           team_values, margins, values11, values21, tube11,
+                           tube11 if tube21 is None else tube21, actions)

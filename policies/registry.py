@@ -20,6 +20,10 @@ program passes them (an episode's seed, progress bars) to the factories that tak
 
     from policies.registry import make_policy
     defenders = make_policy("defenders", "hj", scenario, grid1=31, grid2=15)
+
+``make_batch_policy`` builds the same choice for K copies of a game
+(``reachavoid_env.BatchPolicy``): the batched class of ``BATCHED`` where the name has one
+and it takes every option given, else ``reachavoid_env.PerCopy`` of the policy.
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ from importlib import metadata
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from reachavoid_env import Policy, Scenario
+    from reachavoid_env import BatchPolicy, Policy, Scenario
 
 Factory = Callable[..., "Policy"]
 """``factory(scenario, **options) -> Policy``."""
@@ -288,6 +292,33 @@ def make_policy(side: str, source: str | Factory, scenario: Scenario, **options:
     """Build the policy ``source`` (a spec or a factory) for ``scenario``; an option it does
     not take is an error."""
     return PolicySpec.of(side, source, **options)(scenario)
+
+
+BATCHED: dict[str, dict[str, NamedPolicy]] = {
+    "defenders": {
+        "hj": NamedPolicy("hj on K copies in one call",
+                          "policies.batch_defenders:BatchHJDefenders.for_scenario"),
+        "greedy": NamedPolicy("greedy on K copies in one call",
+                              "policies.batch_defenders:BatchGreedyDefenders", scenario=False),
+    },
+    "attackers": {},
+}
+"""Names with a batched class (``reachavoid_env.BatchPolicy``), acting on every copy as
+the single policy of that name does, bit for bit."""
+
+
+def make_batch_policy(side: str, source: str | Factory, scenario: Scenario,
+                      **options: Any) -> BatchPolicy:
+    """The policy ``source`` (as ``make_policy``) for K copies of ``scenario``'s game: its
+    ``BATCHED`` class where it has one that takes every option given, else a
+    ``reachavoid_env.PerCopy`` of the single policy (built per copy and map)."""
+    spec = PolicySpec.of(side, source, **options)
+    batched = BATCHED[side].get(source) if isinstance(source, str) else None
+    if batched is not None and all(batched.takes(option) for option in options):
+        return batched.build(scenario, **options)
+    from reachavoid_env import PerCopy
+
+    return PerCopy(spec, side)
 
 
 def policy_specs(choices: Sequence[tuple[str, str | Factory]], options: Mapping[str, Any],

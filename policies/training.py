@@ -45,7 +45,7 @@ from typing import Any
 import gymnasium
 import pettingzoo
 
-from policies.registry import DEFENDERS, PolicySpec
+from policies.registry import DEFENDERS, PolicySpec, make_batch_policy
 from reachavoid_env import checks
 from reachavoid_env.game_state import BatchPolicy, PerCopy
 from reachavoid_env.maps import ScenarioSource
@@ -159,13 +159,16 @@ def make_attackers_parallel_env(scenario: ScenarioSource = "paper_2v1", defender
                                scenario=scenario, **env_kwargs)
 
 
-def batch_policy(source: Any, options: Mapping[str, Any] | None, side: str,
-                 field: str) -> BatchPolicy:
-    """A ``BatchPolicy`` for the vector env's scripted ``side``: a ``BatchPolicy`` as it is;
-    a name, a factory ``scenario -> policy`` (``_source``) asked copy by copy
-    (``PerCopy``)."""
+def batch_policy(source: Any, options: Mapping[str, Any] | None, side: str, field: str,
+                 vec: ReachAvoidVectorEnv) -> BatchPolicy:
+    """A ``BatchPolicy`` for the scripted ``side`` of ``vec``'s copies: a ``BatchPolicy``
+    as it is; on one map, a name through ``make_batch_policy`` (its batched class where it
+    has one: all copies in one call); otherwise a name or a factory ``scenario -> policy``
+    asked copy by copy (``PerCopy``)."""
     if isinstance(source, BatchPolicy):
         return source
+    if isinstance(source, str) and len(vec.scenarios) == 1:
+        return make_batch_policy(side, source, vec.base_scenario, **(options or {}))
     built = _source(source, options, side, field)
     if not callable(built) or isinstance(built, type):
         raise TypeError(f"{field}s: the vector env needs a name, a factory scenario -> policy "
@@ -188,7 +191,7 @@ def make_attackers_vector_env(scenario: ScenarioSource = "paper_2v1", defenders:
     base = vec.base_scenario
     return LearnerVectorEnv(
         vec, base.attacker_names,
-        [(batch_policy(defenders, defender_options, "defenders", "defender"),
+        [(batch_policy(defenders, defender_options, "defenders", "defender", vec),
           base.defender_names)], action_repeat=action_repeat, timeout_reward=timeout_reward,
         autoreset=autoreset)
 
@@ -205,7 +208,7 @@ def make_defenders_vector_env(scenario: ScenarioSource = "paper_2v1",
     base = vec.base_scenario
     return LearnerVectorEnv(
         vec, base.defender_names,
-        [(batch_policy(attackers, attacker_options, "attackers", "attacker"),
+        [(batch_policy(attackers, attacker_options, "attackers", "attacker", vec),
           base.attacker_names)], action_repeat=action_repeat, autoreset=autoreset)
 
 
@@ -224,11 +227,11 @@ def make_attacker_vector_env(scenario: ScenarioSource = "paper_2v1", defenders: 
     base = vec.base_scenario
     checks.integer(attacker, "attacker", 0, base.num_attackers - 1)
     learner = base.attacker_names[attacker]
-    scripted = [(batch_policy(defenders, defender_options, "defenders", "defender"),
+    scripted = [(batch_policy(defenders, defender_options, "defenders", "defender", vec),
                  base.defender_names)]
     others = [name for name in base.attacker_names if name != learner]
     if others:
-        scripted.append((batch_policy(teammates, teammate_options, "attackers", "teammate"),
+        scripted.append((batch_policy(teammates, teammate_options, "attackers", "teammate", vec),
                          others))
     return LearnerVectorEnv(vec, [learner], scripted, action_repeat=action_repeat,
                             timeout_reward=timeout_reward)

@@ -23,8 +23,11 @@ if TYPE_CHECKING:
     from reachavoid_env.game_map import GameMap
     from reachavoid_env.game_state import (
         AttackerStatus,
+        BatchPolicy,
+        BatchState,
         GameState,
         Overlay,
+        PerCopy,
         Policy,
         PolicyMismatch,
         merged_overlay,
@@ -44,12 +47,15 @@ if TYPE_CHECKING:
 
 __all__ = [
     "AttackerStatus",
+    "BatchPolicy",
+    "BatchState",
     "Box",
     "Circle",
     "GameMap",
     "GameState",
     "ObservationConfig",
     "Overlay",
+    "PerCopy",
     "Policy",
     "PolicyMismatch",
     "Polygon",
@@ -75,8 +81,8 @@ ENV_ID = "reachavoid/ReachAvoid-v1"
 
 __getattr__, __dir__ = lazy.attributes(__name__, {
     "GameMap": "reachavoid_env.game_map",
-    **dict.fromkeys(["AttackerStatus", "GameState", "Overlay", "Policy", "PolicyMismatch",
-                     "merged_overlay"],
+    **dict.fromkeys(["AttackerStatus", "BatchPolicy", "BatchState", "GameState", "Overlay",
+                     "PerCopy", "Policy", "PolicyMismatch", "merged_overlay"],
                     "reachavoid_env.game_state"),
     **dict.fromkeys(["Scenario", "ScenarioError", "builtin_map", "builtin_names",
                      "builtin_scenario", "load_scenario", "save_scenario"],

@@ -1,11 +1,14 @@
-"""The game's state as policies and the renderer read it, and the one Policy protocol."""
+"""The game's state as policies and the renderer read it, and the one Policy protocol;
+K copies of a game at once (``BatchState``), the ``BatchPolicy`` protocol that acts on
+them, and ``PerCopy``, the batched policy made of one ``Policy`` per copy."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING, NamedTuple, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -173,93 +176,6 @@ class Policy(Protocol):
     def act(self, state: GameState) -> dict[str, np.ndarray]: ...
 
 
-class BatchState(NamedTuple):
-    """``K`` copies of one game at once (axis 0: the copy), as the vector env holds them.
-
-    Positions ``(K, M, 2)`` / ``(K, N, 2)`` and ``velocities`` ``(K, M + N, 2)`` (or
-    ``None``) in map units and map units per second; ``time`` ``(K,)`` seconds; ``step``
-    ``(K,)``; ``attacker_status`` ``(K, M)`` ``AttackerStatus.code``.
-    """
-
-    time: np.ndarray
-    step: np.ndarray
-    attacker_positions: np.ndarray
-    defender_positions: np.ndarray
-    attacker_status: np.ndarray
-    attacker_speed: float
-    defender_speed: float
-    capture_radius: float
-    velocities: np.ndarray | None = None
-
-    def game_state(self, k: int) -> GameState:
-        """Copy ``k`` as a ``GameState``: what the single env gives for the same game."""
-        statuses = tuple(AttackerStatus)
-        return GameState(time=float(self.time[k]), step=int(self.step[k]),
-                         attacker_positions=self.attacker_positions[k],
-                         defender_positions=self.defender_positions[k],
-                         attacker_status=tuple(statuses[s] for s in self.attacker_status[k]),
-                         attacker_speed=self.attacker_speed,
-                         defender_speed=self.defender_speed,
-                         capture_radius=self.capture_radius,
-                         velocities=None if self.velocities is None else self.velocities[k])
-
-
-@runtime_checkable
-class BatchPolicy(Protocol):
-    """Controls one side of ``K`` copies of a game at once (the vector env's scripted side).
-
-    ``reset_copies(copies, scenarios)``: a new episode starts in each copy of ``copies``
-    (int array) with ``scenarios[i]`` (starts included) for ``copies[i]``; called for every
-    copy after the vector env's reset and for the copies that reset after a step.
-    ``act_batch(states)``: ``(K, n, 2)`` controls in ``[-1, 1]`` for the ``n`` players of
-    the side, rows in agent order (rows of players out of the game are ignored). A batched
-    policy gives, for every copy, exactly the actions its single-game policy gives for that
-    copy's ``states.game_state(k)``.
-    """
-
-    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None: ...
-
-    def act_batch(self, states: BatchState) -> np.ndarray: ...
-
-
-class PerCopy:
-    """A ``BatchPolicy`` from a single-game policy: ``factory(scenario)`` builds one
-    ``Policy`` per copy (per map of a library, kept), and ``act_batch`` asks each copy's
-    policy in turn. The fallback for policies with no batched form, and their reference.
-
-    Args:
-        factory: ``scenario -> Policy``.
-        side: ``"attackers"`` or ``"defenders"``, the players it drives.
-    """
-
-    def __init__(self, factory: Callable[[Scenario], Policy], side: str) -> None:
-        if side not in ("attackers", "defenders"):
-            raise ValueError(f"side: expected 'attackers' or 'defenders', got {side!r}")
-        self.factory, self.side = factory, side
-        self.current: dict[int, Policy] = {}
-        self._built: dict[int, dict[Scenario, Policy]] = {}
-
-    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
-        for copy, scenario in zip(np.asarray(copies).tolist(), scenarios, strict=True):
-            key = replace(scenario, attackers=None, defenders=None)
-            built = self._built.setdefault(copy, {})
-            if key not in built:
-                built[key] = self.factory(key)
-            self.current[copy] = built[key]
-            built[key].reset(scenario)
-
-    def act_batch(self, states: BatchState) -> np.ndarray:
-        count = (states.attacker_positions if self.side == "attackers"
-                 else states.defender_positions).shape[1]
-        prefix = "attacker_" if self.side == "attackers" else "defender_"
-        out = np.zeros((len(states.step), count, 2))
-        for k in range(len(states.step)):
-            for name, action in self.current[k].act(states.game_state(k)).items():
-                if name.startswith(prefix):
-                    out[k, int(name[len(prefix):])] = action
-        return out
-
-
 def merged_overlay(*policies: Policy) -> Overlay | None:
     """The union of the policies' overlays (edges with their kinds, text lines); ``None`` if
     none draws."""
@@ -273,3 +189,120 @@ def merged_overlay(*policies: Policy) -> Overlay | None:
     return Overlay(edges=tuple(e for o in overlays for e in o.edges),
                    lines=tuple(line for o in overlays for line in o.lines),
                    kinds=tuple(e.kind for o in overlays for e in o.kinded_edges))
+
+
+_STATUSES = tuple(AttackerStatus)
+"""The statuses by ``code``."""
+_CODES = {status: code for code, status in enumerate(_STATUSES)}
+
+
+class BatchState(NamedTuple):
+    """K copies of one game at once (axis 0 = copy). Map units, seconds.
+
+    ``time`` ``(K,)`` seconds, ``step`` ``(K,)`` int, ``attacker_positions`` ``(K, M, 2)``,
+    ``defender_positions`` ``(K, N, 2)``, ``attacker_status`` ``(K, M)`` int8 (the
+    ``AttackerStatus.code``: 0 active, 1 captured, 2 arrived); the speeds and the capture
+    radius are the game's, the same in every copy."""
+
+    time: np.ndarray
+    step: np.ndarray
+    attacker_positions: np.ndarray
+    defender_positions: np.ndarray
+    attacker_status: np.ndarray
+    attacker_speed: float
+    defender_speed: float
+    capture_radius: float
+    velocities: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, states: Sequence[GameState]) -> BatchState:
+        """The copies ``states`` (of one game: speeds and radius from the first) stacked."""
+        first = states[0]
+        return cls(np.array([s.time for s in states]), np.array([s.step for s in states]),
+                   np.stack([s.attacker_positions for s in states]),
+                   np.stack([s.defender_positions for s in states]),
+                   np.array([[_CODES[a] for a in s.attacker_status] for s in states],
+                            dtype=np.int8).reshape(len(states), -1),
+                   first.attacker_speed, first.defender_speed, first.capture_radius)
+
+    def game_state(self, k: int) -> GameState:
+        """Copy ``k`` as the single env's ``GameState``, bit for bit."""
+        return GameState(
+            time=float(self.time[k]),
+            step=int(self.step[k]),
+            attacker_positions=self.attacker_positions[k],
+            defender_positions=self.defender_positions[k],
+            attacker_status=tuple(_STATUSES[s] for s in self.attacker_status[k].tolist()),
+            attacker_speed=self.attacker_speed,
+            defender_speed=self.defender_speed,
+            capture_radius=self.capture_radius,
+            velocities=None if self.velocities is None else self.velocities[k],
+        )
+
+
+@runtime_checkable
+class BatchPolicy(Protocol):
+    """Controls one side of K copies of a game in one call.
+
+    ``reset_copies(copies, scenarios)``: a new episode starts in each copy of ``copies``
+    (an int array) with ``scenarios[i]`` (starts included) for ``copies[i]``; called for
+    every copy after the vector env's reset, and for the copies that autoreset after each
+    step. ``act_batch(states)``: ``(K, n, 2)`` float32 controls, ``|u| <= 1``, for the
+    players this policy drives (``n = N`` for a defender policy, ``M`` for an attacker
+    policy), rows in agent order; the env ignores the rows of players out of the game.
+    Copy ``k``'s rows are exactly (bit for bit) what the single-game policy's ``act``
+    gives for ``states.game_state(k)``.
+    """
+
+    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None: ...
+
+    def act_batch(self, states: BatchState) -> np.ndarray: ...
+
+
+class PerCopy:
+    """A ``BatchPolicy`` made of one ordinary ``Policy`` per copy: ``factory(scenario)``
+    builds copy ``k``'s policy for each map it plays (kept for later episodes on that
+    map), and ``act_batch`` loops ``act(states.game_state(k))``. The fallback for policies
+    without a batched class, and the reference the batched ones are tested against.
+
+    ``side`` (``"defenders"`` or ``"attackers"``) says which players' rows ``act_batch``
+    returns; a player the policy gives no action (one out of the game) gets zeros.
+    """
+
+    def __init__(self, factory: Callable[[Scenario], Policy], side: str = "defenders") -> None:
+        if side not in ("defenders", "attackers"):
+            raise ValueError(f"side: expected 'defenders' or 'attackers', got {side!r}")
+        self.factory = factory
+        self.side = side
+        self.policies: list[Policy | None] = []
+        self._built: list[dict[Any, Policy]] = []
+
+    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
+        copies = np.asarray(copies, dtype=np.int64).reshape(-1)
+        if len(copies) != len(scenarios):
+            raise ValueError(f"scenarios: expected one per copy ({len(copies)}), got "
+                             f"{len(scenarios)}")
+        if len(copies):
+            grow = int(copies.max()) + 1 - len(self.policies)
+            self.policies += [None] * max(grow, 0)
+            self._built += [{} for _ in range(max(grow, 0))]
+        for k, scenario in zip(copies.tolist(), scenarios, strict=True):
+            key = dataclasses.replace(scenario, attackers=None, defenders=None)
+            built = self._built[k]
+            if key not in built:
+                built[key] = self.factory(key)
+            self.policies[k] = built[key]
+            built[key].reset(scenario)
+
+    def act_batch(self, states: BatchState) -> np.ndarray:
+        players = states.defender_positions if self.side == "defenders" else \
+            states.attacker_positions
+        count, n = players.shape[:2]
+        if len(self.policies) < count or any(p is None for p in self.policies[:count]):
+            raise RuntimeError("act_batch: call reset_copies for every copy first")
+        prefix = "defender_" if self.side == "defenders" else "attacker_"
+        actions = np.zeros((count, n, 2), dtype=np.float32)
+        for k in range(count):
+            for name, action in self.policies[k].act(states.game_state(k)).items():
+                actions[k, int(name.removeprefix(prefix))] = action
+        return actions

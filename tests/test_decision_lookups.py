@@ -21,11 +21,16 @@ class StepByStepDefender(HJDefenderPolicy):
 
 
 def open_space_tables(policy, state, certified):
-    """The open-space ``wins`` and ``held`` the policy's ``_decide`` passes on (none
-    where the policy has no open-space certificate)."""
-    wins = policy._open_wins(state)
+    """Open-space ``wins`` asked at every pair whose 1 vs 1 value is up to the margin
+    (the policy asks a subset: ``_open_wins`` and ``_ask_new_games``; both lookups take
+    the same table) and the ``held`` of ``_decide`` with them (none where the policy has
+    no open-space certificate)."""
+    shape = len(state.attacker_positions), len(state.defender_positions)
     if policy._open is None:
-        return wins, np.zeros(len(certified), dtype=bool)
+        return np.zeros(shape, dtype=bool), np.zeros(len(certified), dtype=bool)
+    values = policy.vf11.value(defenders_module.pair_states(state.attacker_positions,
+                                                            state.defender_positions))
+    wins = policy._open.wins(state, values <= policy.tubes.margins.m11)
     return wins, policy._open.held(certified, state, wins)
 
 

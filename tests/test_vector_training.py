@@ -11,12 +11,16 @@ from policies.training import make_attacker_env, make_attacker_vector_env, make_
 from reachavoid_env.integrations.vector import GymVectorEnv, sb3_vec_env
 
 
-@pytest.mark.parametrize("repeat", [1, 3])
-def test_copy_k_is_the_single_attacker_env(repeat):
+@pytest.mark.parametrize(("repeat", "defenders"), [
+    (1, "greedy"), (3, "greedy"), (3, "hj")])
+def test_copy_k_is_the_single_attacker_env(repeat, defenders):
+    """The batched defenders (``hj``, ``greedy``) and the per-copy teammates make copy k of
+    the vector view the single-attacker env seeded with seed + k."""
     copies, seed = 5, 11
-    kwargs = dict(scenario="paper_2v1", defenders="greedy", teammates="shortest-path",
-                  attacker=1, action_repeat=repeat, timeout_reward=-1.0, shaping=0.5,
-                  max_cycles=150)
+    options = {"grid1": 25, "grid2": 15} if defenders == "hj" else None
+    kwargs = dict(scenario="paper_2v1", defenders=defenders, defender_options=options,
+                  teammates="shortest-path", attacker=1, action_repeat=repeat,
+                  timeout_reward=-1.0, shaping=0.5, max_cycles=150)
     view = make_attacker_vector_env(num_envs=copies, starts="random", **kwargs)
     singles = [make_attacker_env(starts="random", **kwargs) for _ in range(copies)]
     table, _ = view.reset(seed=seed)

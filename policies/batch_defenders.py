@@ -1,0 +1,500 @@
+"""The reference defenders and the greedy ones acting on K copies of a game in one call.
+
+Each class here is a ``reachavoid_env.BatchPolicy``: ``reset_copies(copies, scenarios)``
+and ``act_batch(states) -> (K, N, 2)``, and gives every copy exactly (bit for bit) the
+actions its single-game policy gives for that copy's ``GameState``:
+
+- ``BatchGreedyDefenders``: ``policies.defenders.GreedyDefender``, in numpy over the batch;
+- ``BatchHJDefenders``: ``policies.defenders.HJDefenderPolicy`` (``idle="intercept"``, the
+  registry's ``hj``). What reads many points runs over every copy's players at once: the
+  1 vs 1 lookups and the open-space certificate of the step's open wins (asked, as the
+  single policy asks, only where read), the certificate check of the open-space games
+  held, the attackers' shortest paths and races (``policies.intercept.race_points``), the
+  intercept plan (one numba call), the certified defenders' steering and parallel
+  navigation; the decision tables before the program and the controls after it, one numba
+  call each for all copies (``policies.lookups.batch_decision_tables`` /
+  ``batch_decision_controls``, each copy through the single policy's kernel). What each
+  copy decides alone stays per copy, in the single policy's own functions: the kept
+  certified games and the assignment program, solved on CP-SAT only where its inputs
+  changed (each copy has its ``AssignmentSolver``, whose cache answers an unchanged
+  program). No overlay and no ``nominal_captures``: the batch is for training.
+
+Every batched computation applies the single policy's arithmetic to each row alone
+(elementwise numpy, per-point lookups, reductions along the same axes), which is what
+keeps the copies bit-identical; ``tests/test_batch_defenders.py`` plays both side by side.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+from policies.certificate import Basis, Match, OpenSpace, kept_games, match_arrays
+from policies.defenders import (
+    ATTACKER_MOVES,
+    CERTIFICATE_CELLS,
+    CONE_SLACK,
+    check_margin_cells,
+    check_tube,
+    joined_once,
+    open_games,
+    roles_of,
+)
+from policies.geodesic import DistanceField, distance_field
+from policies.intercept import PATH_STEP, race_points, traced_points
+from policies.lookups import (
+    HEADING_FLOOR,
+    Ragged,
+    TubeArrays,
+    batch_decision_controls,
+    batch_decision_tables,
+)
+from policies.tubes import tube_1v1, tube_2v1
+from reachavoid_env import BatchState, Scenario
+from reachavoid_env.rules import unit_vectors
+from solvers import open_space
+from solvers.assignment import AssignmentSolver
+from solvers.hj import PAPER_GRIDS, ValueFunction
+
+ACTIVE = 0
+"""``AttackerStatus.ACTIVE.code``: the status of an attacker still in the game."""
+
+
+class BatchGreedyDefenders:
+    """``GreedyDefender`` on K copies: every defender runs at full speed straight at the
+    nearest active attacker (the first of equals), and stands still once none is left."""
+
+    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
+        """Nothing to prepare: greedy defenders keep no state."""
+
+    def act_batch(self, states: BatchState) -> np.ndarray:
+        attackers = np.asarray(states.attacker_positions, dtype=np.float64)
+        defenders = np.asarray(states.defender_positions, dtype=np.float64)
+        active = np.asarray(states.attacker_status) == ACTIVE
+        gaps = attackers[:, None, :, :] - defenders[:, :, None, :]              # (K, N, M, 2)
+        distances = np.linalg.norm(gaps, axis=-1)
+        nearest = np.argmin(np.where(active[:, None, :], distances, np.inf), axis=2)
+        k, j = np.indices(nearest.shape)
+        chase, length = gaps[k, j, nearest], distances[k, j, nearest][..., None]
+        actions = np.divide(chase, length, out=np.zeros_like(chase), where=length > 0)
+        actions[~active.any(axis=1)] = 0.0
+        return actions.astype(np.float32)
+
+
+@dataclass
+class _Copy:
+    """What one copy's defenders carry from step to step: the program's solver (its
+    cache), the certified games of the last decision and the attackers' last positions
+    (``None`` before the first decision or after a game without attackers)."""
+
+    solver: AssignmentSolver = field(default_factory=lambda: AssignmentSolver("mip"))
+    certified: list[Match] = field(default_factory=list)
+    previous: np.ndarray | None = None
+
+
+class BatchHJDefenders:
+    """``HJDefenderPolicy(vf11, vf21, idle="intercept", margin_cells=...)`` on K copies of
+    one game (module docstring). Every copy plays the tubes' map; the scenarios of
+    ``reset_copies`` must share the map, speeds, capture radius, player radius and step.
+    """
+
+    def __init__(self, vf11: ValueFunction, vf21: ValueFunction | None,
+                 margin_cells: float = CERTIFICATE_CELLS) -> None:
+        if vf11.game != "1v1" or (vf21 is not None and vf21.game != "2v1"):
+            raise ValueError(f"vf11, vf21: expected a 1v1 and a 2v1 value function, got "
+                             f"{vf11.game!r} and {None if vf21 is None else vf21.game!r}")
+        self.vf11 = vf11
+        self.vf21 = vf21
+        self.margin_cells = check_margin_cells(margin_cells)
+        self.margins = np.array([self.margin_cells * float(max(vf.grid.spacing))
+                                 if vf is not None else 0.0 for vf in (vf11, vf21, None)])
+        self._tubes = (TubeArrays.of(vf11), None if vf21 is None else TubeArrays.of(vf21))
+        k = vf11.players.index(vf11.attackers[0])
+        q = vf11.players.index(vf11.defenders[0])
+        self._axes = (np.array([2 * k, 2 * k + 1]), np.array([2 * q, 2 * q + 1]))
+        self._copies: list[_Copy | None] = []
+        self._game: tuple | None = None
+        self._open: OpenSpace | None = None
+        self._field: DistanceField | None = None
+        self._dt = 0.0
+
+    @classmethod
+    def for_scenario(cls, scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
+                     grid2: int = PAPER_GRIDS.grid2, margin_cells: float = CERTIFICATE_CELLS,
+                     progress: bool = True) -> BatchHJDefenders:
+        """The tubes of ``HJDefenderPolicy.for_scenario`` (loaded, or solved and cached)."""
+        if scenario.num_attackers < 2:
+            return cls(tube_1v1(scenario, grid1, progress), None, margin_cells)
+        return cls(*tube_2v1(scenario, grid1, grid2, progress), margin_cells)
+
+    @property
+    def _certifies(self) -> bool:
+        return self.margin_cells > 0.0
+
+    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
+        copies = np.asarray(copies, dtype=np.int64).reshape(-1)
+        if len(copies) != len(scenarios):
+            raise ValueError(f"scenarios: expected one per copy ({len(copies)}), got "
+                             f"{len(scenarios)}")
+        for k, scenario in zip(copies.tolist(), scenarios, strict=True):
+            self._prepare(scenario)
+            self._copies += [None] * (k + 1 - len(self._copies))
+            self._copies[k] = _Copy()
+
+    def _prepare(self, scenario: Scenario) -> None:
+        """Check ``scenario`` against the tubes and the copies' game (the first scenario
+        sets it)."""
+        game = (scenario.map, scenario.attacker_speed, scenario.defender_speed,
+                scenario.capture_radius, scenario.player_radius, scenario.dt,
+                scenario.num_attackers)
+        if game == self._game:
+            return
+        if self._game is not None:
+            raise ValueError(f"scenarios: {scenario.name!r} is another game than the copies' "
+                             f"(map, speeds, capture radius, player radius, step or attackers)")
+        check_tube(self.vf11, scenario, "vf11")
+        if self.vf21 is not None:
+            check_tube(self.vf21, scenario, "vf21")
+        elif scenario.num_attackers > 1:
+            raise ValueError(f"vf21: {scenario.name!r} has {scenario.num_attackers} "
+                             f"attackers; these defenders were built without the 2 vs 1 tube")
+        self._game = game
+        self._dt = scenario.dt
+        self._open = OpenSpace.of(scenario) if self._certifies else None
+        self._field = distance_field(scenario.map, scenario.player_radius)
+
+    def act_batch(self, states: BatchState) -> np.ndarray:
+        attackers = np.asarray(states.attacker_positions, dtype=np.float64)
+        defenders = np.asarray(states.defender_positions, dtype=np.float64)
+        active = np.asarray(states.attacker_status) == ACTIVE
+        count, n = attackers.shape[0], defenders.shape[1]
+        if len(self._copies) < count or any(c is None for c in self._copies[:count]):
+            raise RuntimeError("act_batch: call reset_copies for every copy first")
+        actions = np.zeros((count, n, 2), dtype=np.float32)
+        live = np.flatnonzero(active.any(axis=1))
+        for k in np.flatnonzero(~active.any(axis=1)).tolist():
+            self._copies[k].certified, self._copies[k].previous = [], None
+        if not len(live):
+            return actions
+        game = _Batch(attackers[live], defenders[live], active[live], states.attacker_speed,
+                      states.defender_speed, states.capture_radius,
+                      [self._copies[k] for k in live.tolist()])
+        wins = self._open_wins(game)
+        held = self._held(game, wins)
+        out = actions[live]
+        self._decide_and_play(game, wins, held, out)
+        self._play_plan(game, out)
+        self._play_open(game, out)
+        for c, copy in enumerate(game.copies):
+            copy.previous = game.attackers[c].copy()
+        actions[live] = out
+        return actions
+
+    def _open_wins(self, game: _Batch) -> _OpenWins:
+        """``HJDefenderPolicy``'s open-space wins of every live copy, asked at once for
+        every copy's pairs that the program's tables read (1 vs 1 value <= 0); its other
+        pairs (value up to the margin) are asked when a game needs them (``_ask``)."""
+        shape = game.active.shape + (game.defenders.shape[1],)
+        wins = _OpenWins(np.zeros(shape, dtype=bool), np.zeros(shape, dtype=bool))
+        if self._open is None:
+            return wins
+        states = np.empty(shape + (4,))
+        states[..., :2] = game.attackers[:, :, None, :]
+        states[..., 2:] = game.defenders[:, None, :, :]
+        values = self.vf11.value(states)
+        wins.unasked[...] = (values <= self.margins[0]) & game.active[:, :, None]
+        self._ask(game, wins, values <= 0.0)
+        return wins
+
+    def _ask(self, game: _Batch, wins: _OpenWins, needed: np.ndarray) -> None:
+        """Ask the open-space certificate for the pairs of ``needed`` ``(L, M, N)`` that
+        ``HJDefenderPolicy`` asks and that are not asked yet, all copies at once."""
+        c, i, j = np.nonzero(needed & wins.unasked)
+        if c.size:
+            o = self._open
+            wins.table[c, i, j] = open_space.defender_certifies(
+                o.game_map, game.attackers[c, i], game.defenders[c, j], o.speeds, o.certify,
+                o.clearance)
+            wins.unasked[c, i, j] = False
+
+    def _ask_games(self, game: _Batch, wins: _OpenWins, rows: list[tuple[int, ...]]) -> None:
+        """``_ask`` for the pairs ``rows``, each ``(copy, attacker, defender)``."""
+        if rows and self._open is not None:
+            needed = np.zeros_like(wins.unasked)
+            needed[tuple(np.array(rows).T)] = True
+            self._ask(game, wins, needed)
+
+    def _held(self, game: _Batch, wins: _OpenWins) -> list[np.ndarray]:
+        """Each copy's ``OpenSpace.held`` of its certified games, the open-space games'
+        certificate asked once for all copies. A tube game's entry (``wins`` at its pair)
+        is read only where its 1 vs 1 value is <= 0 (``decision_tables`` keeps it while
+        the value is > 0; ``kept_games`` reads it at value <= 0), where it is asked."""
+        held = [np.zeros(len(copy.certified) if self._certifies else 0, dtype=bool)
+                for copy in game.copies]
+        if self._open is None:
+            return held
+        opened = []
+        for c, copy in enumerate(game.copies):
+            for g, match in enumerate(copy.certified):
+                left = [i for i in match.attackers if game.active[c, i]]
+                if len(match.defenders) != 1 or len(left) != 1:
+                    continue
+                if match.basis is Basis.OPEN:
+                    opened.append((c, g, left[0], match.defenders[0]))
+                else:
+                    held[c][g] = wins.table[c, left[0], match.defenders[0]]
+        if opened:
+            c, g, i, j = np.array(opened).T
+            o = self._open
+            keep = open_space.defender_certifies(
+                o.game_map, game.attackers[c, i], game.defenders[c, j], o.speeds, o.keep,
+                o.clearance)
+            for row, (copy, g_) in enumerate(zip(c.tolist(), g.tolist(), strict=True)):
+                held[copy][g_] = keep[row]
+        return held
+
+    def _decide_and_play(self, game: _Batch, wins: _OpenWins, held: list[np.ndarray],
+                         actions: np.ndarray) -> None:
+        """As ``_AssignmentDefender._decide`` and ``_play_games`` in every copy: the
+        tables of all copies in one call, then per copy the kept games and the program
+        (its solver's cache first), then every copy's optimal controls into ``actions``
+        (``(L, N, 2)``) and new games' slacks in one call, and each copy's new certified
+        games."""
+        n = game.defenders.shape[1]
+        certified = [copy.certified if self._certifies else [] for copy in game.copies]
+        before = [match_arrays(tuple(games)) for games in certified]
+        tables = batch_decision_tables(
+            game.attackers, game.defenders, game.active,
+            (Ragged.of([g.defenders for g in before]), Ragged.of([g.attackers for g in before])),
+            np.full(sum(len(g) for g in certified), np.nan), np.concatenate(held), wins.table,
+            *self._tubes)
+        offsets = np.cumsum([0] + [len(games) for games in certified]).tolist()
+        fresh, singles, doubles = [], [], []
+        for c, copy in enumerate(game.copies):
+            lo, hi = offsets[c], offsets[c + 1]
+            kept = kept_games(certified[c], tables.kept[lo:hi], tables.left[lo:hi], held[c],
+                              tables.values11[c])
+            assignment = copy.solver.solve(tables.beats[c], tables.beats_2v1[c],
+                                           tables.active[c])
+            if kept:
+                assignment = joined_once(assignment, tuple(kept), n)
+            roles = roles_of(assignment)
+            fresh.append([match for match in roles.games if match not in kept])
+            singles.append(roles.singles)
+            doubles.append(roles.doubles)
+            copy.certified = kept
+        self._ask_games(game, wins, [(c, m.attackers[0], m.defenders[0])
+                                     for c, games in enumerate(fresh) for m in games
+                                     if len(m.defenders) == len(m.attackers) == 1])
+        new = [match_arrays(tuple(games) if self._certifies else ()) for games in fresh]
+        slack = batch_decision_controls(
+            game.attackers, game.defenders, Ragged.of(singles), Ragged.of(doubles),
+            (Ragged.of([g.defenders for g in new]), Ragged.of([g.attackers for g in new])),
+            np.full(sum(len(g.defenders) for g in new), np.nan), self.margins,
+            tables.values11, tables.values21, *self._tubes, actions)
+        lo = 0
+        for c, copy in enumerate(game.copies):
+            games = fresh[c]
+            if self._certifies:
+                on = (slack[lo:lo + len(games)] > 0.0).tolist()
+                lo += len(games)
+                games = [match if certain else Match(match.defenders, match.attackers,
+                                                      Basis.OPEN)
+                         for match, certain, open_ in zip(games, on,
+                                                          open_games(games, wins.table[c]),
+                                                          strict=True)
+                         if certain or open_]
+            copy.certified = copy.certified + games
+
+    def _play_plan(self, game: _Batch, actions: np.ndarray) -> None:
+        """``_AssignmentDefender._play_plan`` of every live copy: the races and the
+        intercept plan of all copies at once, then the certified defenders' steering."""
+        aims, targets = _plan(*_races(self._field, game), game.active)
+        desired = _headings(targets, aims, game.defenders, game.attackers)
+        free = np.ones(actions.shape[:2], dtype=bool)
+        for c, copy in enumerate(game.copies):
+            free[c, [j for match in copy.certified for j in match.defenders]] = False
+        actions[free] = desired[free]
+        self._steer_certified(game, desired, actions)
+
+    def _steer_certified(self, game: _Batch, desired: np.ndarray, actions: np.ndarray) -> None:
+        """``_AssignmentDefender._steer_certified`` over every copy's certified 1 vs 1
+        tube games at once (its docstring says what it does)."""
+        rows = [(c, match.attackers[0], match.defenders[0])
+                for c, copy in enumerate(game.copies) for match in copy.certified
+                if match.basis is Basis.TUBE and len(match.defenders) == 1
+                and len(match.attackers) == 1]
+        if not rows:
+            return
+        c, i, j = (np.array(column) for column in zip(*rows, strict=True))
+        attackers, defenders = game.attackers[c, i], game.defenders[c, j]
+        states = np.concatenate([attackers, defenders], axis=1)
+        value, gradient = self.vf11.value_and_gradient(states)
+        grad_a, grad_d = gradient[:, self._axes[0]], gradient[:, self._axes[1]]
+        size_d = np.hypot(grad_d[:, 0], grad_d[:, 1])
+        floor = size_d > HEADING_FLOOR
+        cone = np.where(floor, game.attacker_speed * np.hypot(grad_a[:, 0], grad_a[:, 1])
+                        / (game.defender_speed * np.maximum(size_d, HEADING_FLOOR)), np.inf)
+        cone = cone + CONE_SLACK
+        best = grad_d / np.maximum(size_d, HEADING_FLOOR)[:, None]
+        wanted = desired[c, j]
+        aim = np.where(wanted.any(axis=1)[:, None], wanted, unit_vectors(attackers - defenders))
+        along = np.einsum("kd,kd->k", aim, best)
+        across = aim - along[:, None] * best
+        width = np.hypot(across[:, 0], across[:, 1])
+        across = across / np.maximum(width, 1e-12)[:, None]
+        rim = np.minimum(cone, 1.0)
+        edge = rim[:, None] * best + np.sqrt(1.0 - rim**2)[:, None] * across
+        step = (game.attacker_speed + game.defender_speed) * self._dt
+        clear = value - self.margins[0] > step
+        close = ~clear
+        if close.any():
+            clear[close] = self._held_one_step(game, attackers[close], defenders[close],
+                                               aim[close])
+        heading = np.where((clear | (along >= cone))[:, None], aim, edge)
+        steer = clear | (cone < 1.0) & (width > 1e-9) | (along >= cone)
+        actions[c[steer], j[steer]] = heading[steer]
+
+    def _held_one_step(self, game: _Batch, attackers: np.ndarray, defenders: np.ndarray,
+                       headings: np.ndarray) -> np.ndarray:
+        """``_AssignmentDefender._held_one_step`` of games at ``attackers``, ``defenders``
+        (``(G, 2)``)."""
+        moves = ATTACKER_MOVES * (game.attacker_speed * self._dt)
+        a = attackers[:, None, :] + moves[None]
+        d = defenders + headings * (game.defender_speed * self._dt)
+        states = np.concatenate([a, np.broadcast_to(d[:, None, :], a.shape)], axis=-1)
+        after = self.vf11.value(states.reshape(-1, 4)).reshape(len(attackers), -1)
+        return after.min(axis=1) > self.margins[0]
+
+    def _play_open(self, game: _Batch, actions: np.ndarray) -> None:
+        """``_AssignmentDefender._play_open`` of every copy's open-space games at once."""
+        rows = [(c, match.attackers[0], match.defenders[0])
+                for c, copy in enumerate(game.copies) for match in copy.certified
+                if match.basis is Basis.OPEN]
+        if not rows:
+            return
+        c, i, j = (np.array(column) for column in zip(*rows, strict=True))
+        attackers = game.attackers[c, i]
+        velocities = np.zeros_like(attackers)
+        for row, copy in enumerate(c.tolist()):
+            previous = game.copies[copy].previous
+            if previous is not None:
+                velocities[row] = (attackers[row] - previous[i[row]]) / self._dt
+        actions[c, j] = open_space.parallel_navigation(attackers, game.defenders[c, j],
+                                                       velocities, self._open.speeds[1])
+
+
+@dataclass(frozen=True)
+class _OpenWins:
+    """A step's open-space wins ``table`` ``(L, M, N)`` as far as asked, and the pairs
+    ``HJDefenderPolicy`` asks (active attacker, 1 vs 1 value up to the margin) that are
+    ``unasked`` yet. The certificate is row by row, so a pair asked only where it is
+    read gets the single policy's answer; it is read at value <= 0 (the program's
+    table, the held tube games) and for the step's new 1 vs 1 games (``_ask_games``),
+    and an unasked pair (false) is read nowhere else."""
+
+    table: np.ndarray
+    unasked: np.ndarray
+
+
+@dataclass(frozen=True)
+class _Batch:
+    """The live copies of one step (``L`` copies with an attacker in the game):
+    positions ``(L, M, 2)`` and ``(L, N, 2)``, ``active`` ``(L, M)``, the speeds and
+    capture radius, and each copy's ``_Copy``."""
+
+    attackers: np.ndarray
+    defenders: np.ndarray
+    active: np.ndarray
+    attacker_speed: float
+    defender_speed: float
+    capture_radius: float
+    copies: list[_Copy]
+
+
+def _races(paths: DistanceField, game: _Batch) -> tuple[np.ndarray, ...]:
+    """``policies.intercept.race_all`` of every live copy: ``wins``, ``aims``, ``times``
+    ``(L, M, N[, 2])`` and ``threat (L, M)``, the paths of every copy's active attackers
+    traced in one call and raced in one (an inactive attacker's rows never won, at
+    infinite times)."""
+    c, i = np.nonzero(game.active)
+    points, counts = traced_points(paths, game.attackers[c, i])
+    attacker_time = np.arange(points.shape[1]) * PATH_STEP / game.attacker_speed
+    won, best = race_points(points, counts, game.defenders, c, game.defender_speed,
+                            game.capture_radius, attacker_time)
+    copies, m = game.active.shape
+    n = game.defenders.shape[1]
+    wins = np.zeros((copies, m, n), dtype=bool)
+    aims = np.zeros((copies, m, n, 2))
+    times = np.full((copies, m, n), np.inf)
+    threat = np.full((copies, m), np.inf)
+    wins[c, i] = won
+    aims[c, i] = points[np.arange(len(c))[:, None], best]
+    times[c, i] = attacker_time[best]
+    threat[c, i] = attacker_time[np.maximum(counts - 1, 0)]
+    return wins, aims, times, threat
+
+
+@njit(cache=True)
+def _plan(wins, aims, times, threat, active):
+    """``policies.intercept.plan_intercepts`` of every copy (``_races``' tables; every
+    defender free, the active attackers ``(L, M)`` open): ``aims (L, N, 2)`` and
+    ``targets (L, N)``, ties broken as there (the stable threat order, the first
+    defender, the first attacker in that order)."""
+    copies, m, n = wins.shape
+    targets = np.full((copies, n), -1, dtype=np.int64)
+    planned = np.zeros((copies, n, 2))
+    order = np.empty(m, dtype=np.int64)
+    left = np.empty(n, dtype=np.bool_)
+    for c in range(copies):
+        count = 0
+        for i in range(m):  # open attackers by threat, stable (insertion sort)
+            if not active[c, i]:
+                continue
+            at = count
+            while at > 0 and threat[c, i] < threat[c, order[at - 1]]:
+                order[at] = order[at - 1]
+                at -= 1
+            order[at] = i
+            count += 1
+        if count == 0:
+            continue
+        left[:] = True
+        for r in range(count):
+            i = order[r]
+            best = -1
+            for j in range(n):
+                if left[j] and wins[c, i, j] and (best < 0 or times[c, i, j] < times[c, i, best]):
+                    best = j
+            if best >= 0:
+                targets[c, best] = i
+                planned[c, best] = aims[c, i, best]
+                left[best] = False
+        for j in range(n):
+            if not left[j]:
+                continue
+            best = -1
+            for r in range(count):
+                i = order[r]
+                if wins[c, i, j] and (best < 0 or times[c, i, j] < times[c, best, j]):
+                    best = i
+            if best < 0:
+                best = order[0]
+            targets[c, j] = best
+            planned[c, j] = aims[c, best, j]
+    return planned, targets
+
+
+def _headings(targets: np.ndarray, aims: np.ndarray, defenders: np.ndarray,
+              attackers: np.ndarray) -> np.ndarray:
+    """``policies.intercept.headings`` of every copy's plan: ``(L, N, 2)``."""
+    planned = targets >= 0
+    gaps = aims - defenders
+    at_aim = np.hypot(gaps[..., 0], gaps[..., 1]) < 1e-9
+    c, j = np.nonzero(at_aim)
+    gaps[c, j] = attackers[c, targets[c, j]] - defenders[c, j]
+    gaps[~planned] = 0.0
+    return unit_vectors(gaps) * planned[..., None]
