@@ -286,7 +286,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                                       self._active[:m].copy(), old[:m], new[:m], old[m:],
                                       new[m:], self._target_bounds)
         left = events.left
-        if left.any():
+        if events.any_left:
             t = events.times[left][:, None]
             new[:m][left] = old[:m][left] + t * (new[:m][left] - old[:m][left])
             self._status[events.captured] = _CAPTURED
@@ -305,7 +305,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         """Phase 4: ``(M + N,)`` rewards: +1 arrival, -1 capture, the shaping term for the
         attackers active at the start of the step; each defender gets minus their sum."""
         m = self._m
-        if not self.shaping and not events.left.any():
+        if not self.shaping and not events.any_left:
             return self._no_rewards
         rewards = events.arrived.astype(np.float64) - events.captured
         if self.shaping:
@@ -324,7 +324,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         observations = self._observations(live, rows)
         reward_dict = dict(zip(live, rewards[rows].tolist(), strict=True))
         infos = self._infos(live, events.captor)
-        if events.left.any() or truncate:
+        if events.any_left or truncate:
             ended = (~self._active[rows]).tolist()
             terminations = dict(zip(live, ended, strict=True))
             truncations = {name: truncate and not done
@@ -369,22 +369,27 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         return dict(zip(agents, agent_rows(self._state_matrix(), rows), strict=True))
 
     def _infos(self, agents: list[str], captor: np.ndarray) -> dict[str, dict[str, Any]]:
-        counts = {"captured": self._captured_count, "arrived": self._arrived_count}
+        """Every agent's info (fresh dicts): the episode's counts, and each attacker's
+        ``status`` and ``captured_by`` in ``info_format``."""
+        captured, arrived, m = self._captured_count, self._arrived_count, self._m
+        codes, captors = self._status.tolist(), captor.tolist()
+        numeric = self.info_format == "numeric"
         infos: dict[str, dict[str, Any]] = {}
-        m = self._m
         for name in agents:
             i = self._index[name]
-            info = dict(counts)
-            if i < m:
-                info.update(self._attacker_info(i, int(captor[i])))
-            infos[name] = info
+            if i >= m:
+                infos[name] = {"captured": captured, "arrived": arrived}
+            elif numeric:
+                infos[name] = {"captured": captured, "arrived": arrived, "status": codes[i],
+                               "captured_by": captors[i]}
+            else:
+                infos[name] = {"captured": captured, "arrived": arrived,
+                               **self._readable_info(codes[i], captors[i])}
         return infos
 
-    def _attacker_info(self, i: int, captor: int) -> dict[str, Any]:
-        """``status`` and ``captured_by`` of attacker ``i`` in ``info_format``."""
-        code = int(self._status[i])
-        if self.info_format == "numeric":
-            return {"status": code, "captured_by": captor}
+    def _readable_info(self, code: int, captor: int) -> dict[str, Any]:
+        """``status`` (an ``AttackerStatus``) and, on the step of a capture, ``captured_by``
+        (the defender's name) of an attacker."""
         if captor < 0:
             return {"status": _STATUSES[code]}
         return {"status": _STATUSES[code], "captured_by": self.possible_agents[self._m + captor]}

@@ -18,6 +18,7 @@ solvers keep their own fast form and are tested against this module.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -28,6 +29,8 @@ from reachavoid_env.shapes import quadratic_entry_time
 
 if TYPE_CHECKING:
     from reachavoid_env.game_map import GameMap
+
+_SQRT2 = math.sqrt(2.0)
 
 
 def bounded_controls(controls: np.ndarray) -> np.ndarray:
@@ -88,6 +91,8 @@ class StepEvents:
     captor: np.ndarray
     left: np.ndarray
     """Attackers that left the game this step (captured or arrived)."""
+    any_left: bool
+    """``left.any()``, kept so that the env's phases do not reduce ``left`` again."""
 
 
 def target_bounds(game_map: GameMap) -> tuple[float, float, float, float]:
@@ -105,33 +110,47 @@ def resolve_events(game_map: GameMap, capture_radius: float, active: np.ndarray,
 
     Each attacker's earliest event wins; a tie goes to capture (module docstring).
     ``bounds`` (``target_bounds(game_map)``) only saves work: two cheap filters skip the
-    exact tests for pairs too far apart to meet and attackers too far from the target.
+    exact tests for pairs too far apart to meet and attackers too far from the target; a
+    step in which no active attacker passes either filter (most steps) returns at once.
     """
     m = len(active)
-    never = np.full(m, np.inf)
-    t_capture, t_arrival, captor = never, never, np.full(m, -1)
     # Nobody moves farther than sqrt(2) times its largest coordinate change, so a pair
     # farther apart than capture_radius plus two such moves cannot meet this step.
     a_move = np.abs(attackers_new - attackers_old)
-    longest = math.sqrt(2.0) * max(a_move.max(), np.abs(defenders_new - defenders_old).max())
+    longest = _SQRT2 * max(a_move.max(), np.abs(defenders_new - defenders_old).max())
     reach = capture_radius + 2.0 * longest
     gaps = attackers_old[:, None, :] - defenders_old[None, :, :]
-    closest = np.einsum("ijk,ijk->ij", gaps, gaps).min(axis=1)
-    if (closest[active] <= reach * reach).any():
+    may_meet = np.einsum("ijk,ijk->ij", gaps, gaps).min(axis=1) <= reach * reach
+    # Only attackers whose move spans the target's bounding box on both axes can enter it.
+    centre, half = _centre_and_half(bounds or target_bounds(game_map))
+    near = (np.abs(attackers_old - centre) <= half + a_move).all(axis=1)
+    if not ((may_meet | near) & active).any():
+        return StepEvents(np.zeros(m, dtype=bool), np.zeros(m, dtype=bool),
+                          np.full(m, np.inf), np.full(m, -1), np.zeros(m, dtype=bool), False)
+    never = np.full(m, np.inf)
+    t_capture, t_arrival, captor = never, never, np.full(m, -1)
+    if (may_meet & active).any():
         pair_times = capture_times(attackers_old, attackers_new, defenders_old, defenders_new,
                                    capture_radius)
         captor = pair_times.argmin(axis=1)
         t_capture = pair_times[np.arange(m), captor]
-    # Only attackers whose move spans the target's bounding box on both axes can enter it.
-    xmin, xmax, ymin, ymax = bounds or target_bounds(game_map)
-    centre = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
-    half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
-    near = (np.abs(attackers_old - centre) <= half + a_move).all(axis=1) & active
+    near &= active
     if near.any():
         t_arrival = never.copy()
         t_arrival[near] = game_map.target_entry_time(attackers_old[near], attackers_new[near])
     captured = active & (t_capture <= 1.0) & (t_capture <= t_arrival)
     arrived = active & ~captured & (t_arrival <= 1.0)
     times = np.where(captured, t_capture, np.where(arrived, t_arrival, np.inf))
-    return StepEvents(captured, arrived, times, np.where(captured, captor, -1),
-                      captured | arrived)
+    left = captured | arrived
+    return StepEvents(captured, arrived, times, np.where(captured, captor, -1), left,
+                      bool(left.any()))
+
+
+@functools.lru_cache(maxsize=64)
+def _centre_and_half(bounds: tuple[float, float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Centre and half extent ``(2,)`` of the box ``bounds`` (read-only, cached per box)."""
+    xmin, xmax, ymin, ymax = bounds
+    centre = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
+    half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
+    centre.flags.writeable = half.flags.writeable = False
+    return centre, half
