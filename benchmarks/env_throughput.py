@@ -12,17 +12,23 @@ Measures, in one run:
 
 Each figure is the best and the median of ``--repeats`` timed runs (the machine is shared;
 the best is the least disturbed). ``--profile`` prints where an env step spends its time.
-``--against DIR`` compares the step-only rate of this tree with the checkout in ``DIR``
-(another revision, e.g. ``git worktree add /tmp/base HEAD~1``) side by side: fresh
-processes alternate between the two trees, ``--repeats`` rounds.
+``--against DIR [DIR ...]`` compares the step-only rate of this tree with the checkouts in
+``DIR`` (other revisions, e.g. ``git worktree add /tmp/base HEAD~1``) side by side: each
+of ``--repeats`` rounds runs one fresh process per tree (``cd`` into it, ``PYTHONPATH``
+set to it, this script's harness) and one for MPE, so every tree's ratio to MPE is taken
+within its round; the medians over the rounds are reported. ``--json PATH`` also writes
+the figures, the command, the machine, the date and the trees' commits as JSON.
 
     SDL_VIDEODRIVER=dummy .venv/bin/python benchmarks/env_throughput.py [--steps 5000]
+    taskset -c 0 .venv/bin/python benchmarks/env_throughput.py --against /tmp/base \
+        --repeats 7 --json env_throughput.json
 """
 
 from __future__ import annotations
 
 import argparse
 import cProfile
+import datetime
 import os
 import platform
 import pstats
@@ -139,29 +145,72 @@ def profile(steps: int) -> None:
     pstats.Stats(profiler).sort_stats("tottime").print_stats(20)
 
 
-def step_rate(steps: int) -> float:
-    """Step-only ``paper_8v4`` steps per CPU second (process time, which other jobs on a
-    shared machine disturb less than wall time), best of three runs in this process."""
-    env = make_reachavoid()
+def step_rate(make: Callable[[], object], steps: int) -> float:
+    """Step-only steps per CPU second of the env ``make`` builds (process time, which other
+    jobs on a shared machine disturb less than wall time), best of three runs in this
+    process."""
+    env = make()
     actions = random_actions(env, steps, seed=0)
     return max(steps / run_steps(env, actions, steps, time.process_time) for _ in range(3))
 
 
-def against(other: Path, steps: int, rounds: int) -> None:
-    """Step-only rates of this tree and of ``other``, in alternating fresh processes."""
-    trees = {"this tree": Path(__file__).resolve().parents[1], str(other): other.resolve()}
+def commit(tree: Path) -> str | None:
+    """The commit checked out in ``tree`` (``+dirty`` with uncommitted changes), if any."""
+    try:
+        head = subprocess.run(["git", "-C", str(tree), "rev-parse", "HEAD"], check=True,
+                              capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(tree), "status", "--porcelain",
+                                "--untracked-files=no"], check=True, capture_output=True,
+                               text=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return head + ("+dirty" if dirty else "")
+
+
+def child_rate(tree: Path, option: str, steps: int) -> float:
+    """One fresh process of this script in ``tree`` (its ``reachavoid_env``) printing the
+    step-only rate ``option`` measures."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    done = subprocess.run([sys.executable, str(Path(__file__).resolve()), option, str(steps)],
+                          env=env, cwd=tree, capture_output=True, text=True)
+    if done.returncode != 0:
+        sys.exit(f"{option} in {tree} failed:\n{done.stderr}")
+    return float(done.stdout)
+
+
+def against(others: list[Path], steps: int, mpe_steps: int, rounds: int) -> dict:
+    """Step-only rates of this tree, of ``others`` and of MPE in alternating fresh
+    processes, ``rounds`` rounds; each tree's ratio to the MPE run of the same round."""
+    here = Path(__file__).resolve().parents[1]
+    trees = {"this tree": here} | {str(other): other.resolve() for other in others}
     rates: dict[str, list[float]] = {name: [] for name in trees}
-    for _ in range(rounds):
+    mpe: list[float] = []
+    for round_ in range(rounds):
         for name, tree in trees.items():
-            env = dict(os.environ, PYTHONPATH=str(tree))
-            out = subprocess.run([sys.executable, __file__, "--only-steps", str(steps)],
-                                 env=env, check=True, capture_output=True, text=True).stdout
-            rates[name].append(float(out))
+            rates[name].append(child_rate(tree, "--only-steps", steps))
+        mpe.append(child_rate(here, "--only-mpe", mpe_steps))
+        print(f"round {round_ + 1}: " + ", ".join(f"{name} {values[-1]:,.0f}/s"
+                                                 for name, values in rates.items())
+              + f", MPE {mpe[-1]:,.0f}/s; load average {os.getloadavg()[0]:.2f}", flush=True)
+    result = {"mpe": {"rates": mpe, "median": statistics.median(mpe)}, "trees": {}}
+    print(f"\n{'tree':<32} {'commit':<12} {'best':>9} {'median':>9}  ratio to MPE "
+          f"(median of rounds)  / this tree")
+    ours = statistics.median(rates["this tree"])
     for name, values in rates.items():
-        print(f"{name:<40} step only, per CPU second: best {max(values):>9,.0f}/s   "
-              f"median {statistics.median(values):>9,.0f}/s")
-    base, ours = (statistics.median(v) for v in reversed(rates.values()))
-    print(f"this tree / {other}: {ours / base:.3f} (median of {rounds} rounds)")
+        ratios = [rate / base for rate, base in zip(values, mpe, strict=True)]
+        sha = commit(trees[name])
+        row = {"path": str(trees[name]), "commit": sha, "rates": values,
+               "best": max(values), "median": statistics.median(values),
+               "ratios_to_mpe": ratios, "ratio_to_mpe": statistics.median(ratios),
+               "relative_to_this_tree": statistics.median(values) / ours}
+        result["trees"][name] = row
+        short = (sha or "?")[:10] + ("+" if sha and sha.endswith("+dirty") else "")
+        print(f"{name:<32} {short:<12} {row['best']:>9,.0f} {row['median']:>9,.0f}"
+              f"  {row['ratio_to_mpe']:>5.1f}x ({min(ratios):.1f}-{max(ratios):.1f})"
+              f"{'':>10}{row['relative_to_this_tree']:.3f}")
+    print(f"MPE simple_tag 8+4: median {result['mpe']['median']:,.0f}/s "
+          f"(steps per CPU second, best of 3 runs per process)")
+    return result
 
 
 def main() -> None:
@@ -171,43 +220,80 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=300, help="frames to render and encode")
     parser.add_argument("--repeats", type=int, default=5, help="timed runs per figure")
     parser.add_argument("--profile", action="store_true", help="cProfile an env run too")
-    parser.add_argument("--against", type=Path, metavar="DIR",
-                        help="compare the step rate with another checkout, side by side")
+    parser.add_argument("--against", type=Path, metavar="DIR", nargs="+",
+                        help="compare the step rate with other checkouts, side by side")
+    parser.add_argument("--json", type=Path, metavar="PATH",
+                        help="also write the figures (and command, machine, date, commits)")
     parser.add_argument("--only-steps", type=int, metavar="N", help=argparse.SUPPRESS)
+    parser.add_argument("--only-mpe", type=int, metavar="N", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.only_steps:
-        print(step_rate(args.only_steps))
+        print(step_rate(make_reachavoid, args.only_steps))
+        return
+    if args.only_mpe:
+        print(step_rate(make_mpe, args.only_mpe))
         return
 
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"Python {platform.python_version()}; load average "
+    machine = {"processor": platform.processor() or platform.machine(),
+               "cores": os.cpu_count(), "cores_used": sorted(os.sched_getaffinity(0)),
+               "python": platform.python_version(), "numpy": np.__version__,
+               "load_average_at_start": os.getloadavg()}
+    print(f"machine: {machine['processor']}, {machine['cores']} cores (this run on "
+          f"{machine['cores_used']}), Python {machine['python']}; load average "
           f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    report = {"command": [Path(sys.executable).name, *sys.argv],
+              "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+              "machine": machine, "commit": commit(Path(__file__).resolve().parents[1])}
     if args.against is not None:
-        against(args.against, args.steps, args.repeats)
-        return
+        report["side_by_side"] = against(args.against, args.steps, args.mpe_steps,
+                                         args.repeats)
+    else:
+        report["figures"] = figures(args)
+    report["load_average_at_end"] = os.getloadavg()
+    if args.json is not None:
+        from reachavoid_env.files import write_json  # not in older trees' children
+
+        write_json(args.json, report)
+        print(f"figures written to {args.json}")
+
+
+def figures(args: argparse.Namespace) -> dict[str, dict[str, float]]:
+    """Every figure of a plain run (step rates, render and encode), best and median."""
     ours, mpe = make_reachavoid(), make_mpe()
     ours_actions = random_actions(ours, args.steps, seed=0)
     mpe_actions = random_actions(mpe, args.mpe_steps, seed=0)
     r = args.repeats
-    ours_step = rate("reach-avoid paper_8v4, step only",
-                     lambda: run_steps(ours, ours_actions, args.steps), args.steps, r)
-    rate("reach-avoid paper_8v4, with sampling",
-         lambda: run_steps(ours, None, args.steps), args.steps, r)
-    mpe_step = rate("MPE simple_tag 8 good/4 adv/2 obst, step only",
-                    lambda: run_steps(mpe, mpe_actions, args.mpe_steps), args.mpe_steps, r)
-    rate("MPE simple_tag 8 good/4 adv/2 obst, with sampling",
-         lambda: run_steps(mpe, None, args.mpe_steps), args.mpe_steps, r)
-    print(f"ratio (step only): best {ours_step['best'] / mpe_step['best']:.1f}x, "
-          f"median {ours_step['median'] / mpe_step['median']:.1f}x  (goal: 20x)")
+    out = {
+        "reach-avoid paper_8v4, step only": rate(
+            "reach-avoid paper_8v4, step only",
+            lambda: run_steps(ours, ours_actions, args.steps), args.steps, r),
+        "reach-avoid paper_8v4, with sampling": rate(
+            "reach-avoid paper_8v4, with sampling",
+            lambda: run_steps(ours, None, args.steps), args.steps, r),
+        "MPE simple_tag 8+4, step only": rate(
+            "MPE simple_tag 8 good/4 adv/2 obst, step only",
+            lambda: run_steps(mpe, mpe_actions, args.mpe_steps), args.mpe_steps, r),
+        "MPE simple_tag 8+4, with sampling": rate(
+            "MPE simple_tag 8 good/4 adv/2 obst, with sampling",
+            lambda: run_steps(mpe, None, args.mpe_steps), args.mpe_steps, r),
+    }
+    ours_step, mpe_step = out["reach-avoid paper_8v4, step only"], out[
+        "MPE simple_tag 8+4, step only"]
+    out["ratio to MPE, step only"] = {key: ours_step[key] / mpe_step[key]
+                                      for key in ("best", "median")}
+    print(f"ratio (step only): best {out['ratio to MPE, step only']['best']:.1f}x, "
+          f"median {out['ratio to MPE, step only']['median']:.1f}x  (goal: 20x)")
     work, frames = render_fps(args.frames)
-    rate("render rgb_array paper_8v4 (frames)", work, args.frames, r)
+    out["render rgb_array paper_8v4, frames"] = rate("render rgb_array paper_8v4 (frames)",
+                                                     work, args.frames, r)
     print(f"  frame size {frames[0].shape[1]}x{frames[0].shape[0]}")
-    rate("MP4 encode via VideoWriter (frames)",
-         encode_fps(frames, reachavoid_env.ReachAvoidEnv.metadata["render_fps"]), len(frames),
-         min(r, 3))
+    out["MP4 encode, frames"] = rate(
+        "MP4 encode via VideoWriter (frames)",
+        encode_fps(frames, reachavoid_env.ReachAvoidEnv.metadata["render_fps"]), len(frames),
+        min(r, 3))
     if args.profile:
         profile(args.steps)
-
+    return out
 
 if __name__ == "__main__":
     main()

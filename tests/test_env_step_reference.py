@@ -1,0 +1,176 @@
+"""The env's step against a slow reference path: the event rules and infos as they were
+before the step was made faster (issue 34), kept here verbatim. Same seeds and actions
+must give the same trajectories, rewards, flags and infos, bit for bit."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+
+from reachavoid_env import Box, Circle, GameMap, Polygon, ReachAvoidEnv, Scenario, rules
+from reachavoid_env.environment import _STATUSES
+
+MIXED_MAP = GameMap(
+    domain=(-1.0, 1.0, -0.8, 0.8),
+    target=(Box((0.6, 0.1), (0.8, 0.3)), Circle((-0.7, 0.6), 0.1)),
+    obstacles=(
+        Box((-0.1, -0.8), (0.1, -0.3)),
+        Circle((-0.5, -0.3), 0.12),
+        Polygon(((0.4, -0.7), (0.9, -0.7), (0.9, -0.2), (0.75, -0.2), (0.65, -0.55),
+                 (0.55, -0.2), (0.4, -0.2))),
+    ),
+)
+MIXED = Scenario(map=MIXED_MAP, num_attackers=4, num_defenders=3, capture_radius=0.08,
+                 max_steps=10_000)
+
+
+def reference_resolve_events(game_map, capture_radius, active, attackers_old,
+                             attackers_new, defenders_old, defenders_new, bounds=None):
+    """``rules.resolve_events`` as it was (every step through every array operation)."""
+    m = len(active)
+    never = np.full(m, np.inf)
+    t_capture, t_arrival, captor = never, never, np.full(m, -1)
+    a_move = np.abs(attackers_new - attackers_old)
+    longest = math.sqrt(2.0) * max(a_move.max(), np.abs(defenders_new - defenders_old).max())
+    reach = capture_radius + 2.0 * longest
+    gaps = attackers_old[:, None, :] - defenders_old[None, :, :]
+    closest = np.einsum("ijk,ijk->ij", gaps, gaps).min(axis=1)
+    if (closest[active] <= reach * reach).any():
+        pair_times = rules.capture_times(attackers_old, attackers_new, defenders_old,
+                                         defenders_new, capture_radius)
+        captor = pair_times.argmin(axis=1)
+        t_capture = pair_times[np.arange(m), captor]
+    xmin, xmax, ymin, ymax = bounds or rules.target_bounds(game_map)
+    centre = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
+    half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
+    near = (np.abs(attackers_old - centre) <= half + a_move).all(axis=1) & active
+    if near.any():
+        t_arrival = never.copy()
+        t_arrival[near] = game_map.target_entry_time(attackers_old[near], attackers_new[near])
+    captured = active & (t_capture <= 1.0) & (t_capture <= t_arrival)
+    arrived = active & ~captured & (t_arrival <= 1.0)
+    times = np.where(captured, t_capture, np.where(arrived, t_arrival, np.inf))
+    left = captured | arrived
+    return rules.StepEvents(captured, arrived, times, np.where(captured, captor, -1), left,
+                            bool(left.any()))
+
+
+class ReferenceEnv(ReachAvoidEnv):
+    """The env with the reference event rules and the reference infos."""
+
+    def _resolve_events(self, old, new):
+        real = rules.resolve_events
+        rules.resolve_events = reference_resolve_events
+        try:
+            return super()._resolve_events(old, new)
+        finally:
+            rules.resolve_events = real
+
+    def _infos(self, agents, captor):
+        counts = {"captured": self._captured_count, "arrived": self._arrived_count}
+        infos: dict[str, dict[str, Any]] = {}
+        for name in agents:
+            i = self._index[name]
+            info = dict(counts)
+            if i < self._m:
+                code, by = int(self._status[i]), int(captor[i])
+                if self.info_format == "numeric":
+                    info.update({"status": code, "captured_by": by})
+                elif by < 0:
+                    info.update({"status": _STATUSES[code]})
+                else:
+                    info.update({"status": _STATUSES[code],
+                                 "captured_by": self.possible_agents[self._m + by]})
+            infos[name] = info
+        return infos
+
+
+def chase_actions(env: ReachAvoidEnv, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """Attackers run for the target, defenders now and then for the nearest attacker in
+    play, with noise and lengths from 0.2 to 2 (so captures, arrivals and scaled actions
+    all happen)."""
+    state = env.game_state()
+    goal = np.mean(np.array(env.scenario.map.target[0].bounds()).reshape(2, 2), axis=1)
+    live = state.attacker_positions[state.active_attackers]
+    actions = {}
+    for name in env.agents:
+        i = env.possible_agents.index(name)
+        if i < env.scenario.num_attackers:
+            heading = goal - state.attacker_positions[i]
+        elif rng.random() < 0.4:
+            me = state.defender_positions[i - env.scenario.num_attackers]
+            heading = live[np.argmin(((live - me) ** 2).sum(axis=1))] - me
+        else:
+            heading = rng.normal(0.0, 1.0, 2)
+        heading = heading / max(float(np.hypot(*heading)), 1e-9) * rng.uniform(0.2, 2.0)
+        actions[name] = (heading + rng.normal(0.0, 0.7, 2)).astype(np.float32)
+    return actions
+
+
+def assert_same(a: Any, b: Any) -> None:
+    """Equal values of equal types, arrays bit for bit, dicts in the same key order."""
+    assert type(a) is type(b)
+    if isinstance(a, dict):
+        assert list(a) == list(b)
+        for key in a:
+            assert_same(a[key], b[key])
+    elif isinstance(a, tuple):
+        assert len(a) == len(b)
+        for x, y in zip(a, b, strict=True):
+            assert_same(x, y)
+    elif isinstance(a, np.ndarray):
+        assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    else:
+        assert a == b
+
+
+@pytest.mark.parametrize("kwargs", [
+    {"scenario": "paper_8v4"},
+    {"scenario": "paper_8v4", "starts": "random", "shaping": 0.5, "info_format": "readable"},
+    {"scenario": MIXED, "shaping": 0.25, "max_cycles": 300},
+], ids=["paper_8v4", "random-starts-shaping-readable", "mixed-map"])
+def test_rollouts_match_the_reference_bit_for_bit(kwargs):
+    fast, slow = ReachAvoidEnv(**kwargs), ReferenceEnv(**kwargs)
+    rng = np.random.default_rng(7)
+    events = {"captured": 0, "arrived": 0, "episodes": 0}
+    for seed in range(3):
+        assert_same(fast.reset(seed=seed), slow.reset(seed=seed))
+        while fast.agents:
+            actions = chase_actions(fast, rng)
+            out = fast.step(actions)
+            assert_same(out, slow.step(actions))
+            assert fast.agents == slow.agents
+            assert_same(fast.game_state().attacker_positions,
+                        slow.game_state().attacker_positions)
+        state = fast.game_state()
+        events["captured"] += len(state.captured)
+        events["arrived"] += len(state.arrived)
+        events["episodes"] += 1
+    assert events["captured"] > 0 and events["arrived"] > 0, events  # both rules are tested
+
+
+def test_resolve_events_matches_the_reference_on_random_steps():
+    rng = np.random.default_rng(3)
+    game_map, bounds = MIXED_MAP, rules.target_bounds(MIXED_MAP)
+    seen = {"captured": 0, "arrived": 0, "quiet": 0}
+    for _ in range(600):
+        m, n = int(rng.integers(1, 6)), int(rng.integers(1, 4))
+        a_old = rng.uniform(-1.0, 1.0, (m, 2))
+        d_old = np.where(rng.random((n, 1)) < 0.5, a_old[rng.integers(0, m, n)]
+                         + rng.normal(0.0, 0.1, (n, 2)), rng.uniform(-1.0, 1.0, (n, 2)))
+        a_new = a_old + rng.normal(0.0, rng.choice([0.005, 0.05, 0.2]), (m, 2))
+        d_new = d_old + rng.normal(0.0, rng.choice([0.005, 0.05]), (n, 2))
+        active = rng.random(m) < 0.8
+        for b in (bounds, None):
+            got = rules.resolve_events(game_map, 0.08, active, a_old, a_new, d_old, d_new, b)
+            want = reference_resolve_events(game_map, 0.08, active, a_old, a_new, d_old,
+                                            d_new, b)
+            for field in ("captured", "arrived", "times", "captor", "left", "any_left"):
+                assert_same(getattr(got, field), getattr(want, field))
+        seen["captured"] += int(want.captured.any())
+        seen["arrived"] += int(want.arrived.any())
+        seen["quiet"] += int(not want.any_left)
+    assert min(seen.values()) > 20, seen
