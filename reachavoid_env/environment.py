@@ -109,6 +109,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         "render_fps": 50,
         "is_parallelizable": True,
     }
+    _watch: rules.EventWatch | None = None
+    _watched_world: World | None = None  # the episode _watch belongs to (reset: a new world)
 
     def __init__(
         self,
@@ -280,8 +282,15 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
 
     def _resolve_events(self, old: np.ndarray, new: np.ndarray) -> rules.StepEvents:
         """Phase 3: captures and arrivals along the step's segments (``rules``); attackers
-        that left stop where their event happened, and the defenders leave with the last."""
+        that left stop where their event happened, and the defenders leave with the last.
+        A step that ``rules.EventWatch`` knows to have no event skips the rules."""
         m = self._m
+        if self._watched_world is not self._world:
+            self._watch = rules.EventWatch(self.scenario.capture_radius, self._target_bounds)
+            self._watched_world = self._world
+        if self._watch.quiet(float(np.abs(new - old).max())):
+            self._positions = new
+            return rules.no_events(m)
         events = rules.resolve_events(self.scenario.map, self.scenario.capture_radius,
                                       self._active[:m].copy(), old[:m], new[:m], old[m:],
                                       new[m:], self._target_bounds)
@@ -298,6 +307,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                 self._active[m:] = False
             self._all_active = False
         self._positions = new
+        self._watch.anchor(self._active[:m], new[:m], new[m:])
         return events
 
     def _rewards(self, events: rules.StepEvents, old: np.ndarray,

@@ -154,3 +154,63 @@ def _centre_and_half(bounds: tuple[float, float, float, float]) -> tuple[np.ndar
     half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
     centre.flags.writeable = half.flags.writeable = False
     return centre, half
+
+
+class EventWatch:
+    """Tells, cheaply, steps in which ``resolve_events`` can find no event (most steps).
+
+    ``anchor`` takes the positions at the start of a step and measures the slack before any
+    active attacker could pass either of ``resolve_events``' filters: its distance to the
+    nearest defender less ``capture_radius``, over ``2 sqrt(2)`` (each of the two players
+    moves at most ``sqrt(2)`` times the largest coordinate change of the steps since), and
+    its distance to the target's bounding box along the farther axis. ``quiet`` spends each
+    following step's largest coordinate change (any player, either axis); while the sum
+    since the anchor stays under the slack, neither filter can pass, so the step has no
+    event. The slack is shrunk by ``1e-9`` (relative, and absolute at the coordinates'
+    scale) so that rounding can only make the watch more careful. Before the first anchor
+    no step is quiet.
+    """
+
+    def __init__(self, capture_radius: float,
+                 bounds: tuple[float, float, float, float]) -> None:
+        self._radius = capture_radius
+        self._centre, self._half = _centre_and_half(bounds)
+        self._slack = -math.inf
+        self._spent = 0.0
+
+    def anchor(self, active: np.ndarray, attackers: np.ndarray, defenders: np.ndarray) -> None:
+        """Measure the slack from these positions, the start of the next step.
+
+        Args:
+            active: ``(M,)`` bool, the attackers in play.
+            attackers: ``(M, 2)`` map units.
+            defenders: ``(N, 2)`` map units.
+        """
+        self._spent = 0.0
+        attackers = attackers[active]
+        if not len(attackers):
+            self._slack = math.inf  # no attacker in play: no event can happen
+            return
+        gaps = attackers[:, None, :] - defenders[None, :, :]
+        meet = (math.sqrt(np.einsum("ijk,ijk->ij", gaps, gaps).min()) - self._radius) / (
+            2.0 * _SQRT2)
+        enter = float((np.abs(attackers - self._centre) - self._half).max(axis=1).min())
+        slack = min(meet, enter)
+        scale = max(float(np.abs(attackers).max()), float(np.abs(defenders).max()), 1.0)
+        self._slack = slack - 1e-9 * (abs(slack) + scale)
+
+    def quiet(self, move: float) -> bool:
+        """Spend a step whose largest coordinate change is ``move`` (map units): whether it
+        certainly has no event."""
+        self._spent += move
+        return self._spent < self._slack
+
+
+@functools.lru_cache(maxsize=16)
+def no_events(m: int) -> StepEvents:
+    """The events of a step in which none of ``m`` attackers left (shared, read-only)."""
+    arrays = (np.zeros(m, dtype=bool), np.zeros(m, dtype=bool), np.full(m, np.inf),
+              np.full(m, -1), np.zeros(m, dtype=bool))
+    for array in arrays:
+        array.flags.writeable = False
+    return StepEvents(*arrays, False)

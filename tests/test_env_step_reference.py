@@ -1,6 +1,7 @@
-"""The env's step against a slow reference path: the event rules and infos as they were
-before the step was made faster (issue 34), kept here verbatim. Same seeds and actions
-must give the same trajectories, rewards, flags and infos, bit for bit."""
+"""The env's step against a slow reference path: the event phase (the rules at every
+step, no ``EventWatch``) and the infos as they were before the step was made faster
+(issue 34), kept here verbatim. Same seeds and actions must give the same trajectories,
+rewards, flags and infos, bit for bit."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import pytest
 
 from reachavoid_env import Box, Circle, GameMap, Polygon, ReachAvoidEnv, Scenario, rules
 from reachavoid_env.environment import _STATUSES
+from reachavoid_env.game_state import AttackerStatus
 
 MIXED_MAP = GameMap(
     domain=(-1.0, 1.0, -0.8, 0.8),
@@ -59,15 +61,27 @@ def reference_resolve_events(game_map, capture_radius, active, attackers_old,
 
 
 class ReferenceEnv(ReachAvoidEnv):
-    """The env with the reference event rules and the reference infos."""
+    """The env with the reference event phase (the rules at every step) and infos."""
 
     def _resolve_events(self, old, new):
-        real = rules.resolve_events
-        rules.resolve_events = reference_resolve_events
-        try:
-            return super()._resolve_events(old, new)
-        finally:
-            rules.resolve_events = real
+        m = self._m
+        events = reference_resolve_events(self.scenario.map, self.scenario.capture_radius,
+                                          self._active[:m].copy(), old[:m], new[:m], old[m:],
+                                          new[m:], self._target_bounds)
+        left = events.left
+        if left.any():
+            t = events.times[left][:, None]
+            new[:m][left] = old[:m][left] + t * (new[:m][left] - old[:m][left])
+            self._status[events.captured] = AttackerStatus.CAPTURED.code
+            self._status[events.arrived] = AttackerStatus.ARRIVED.code
+            self._captured_count += int(events.captured.sum())
+            self._arrived_count += int(events.arrived.sum())
+            self._active[:m] &= ~left
+            if not self._active[:m].any():
+                self._active[m:] = False
+            self._all_active = False
+        self._positions = new
+        return events
 
     def _infos(self, agents, captor):
         counts = {"captured": self._captured_count, "arrived": self._arrived_count}
@@ -174,3 +188,32 @@ def test_resolve_events_matches_the_reference_on_random_steps():
         seen["arrived"] += int(want.arrived.any())
         seen["quiet"] += int(not want.any_left)
     assert min(seen.values()) > 20, seen
+
+
+def test_a_step_the_watch_calls_quiet_has_no_event():
+    # Players rush diagonally (the most distance per coordinate change) at each other and
+    # at the target: the watch's slack may be spent to the last bit, never past an event.
+    rng = np.random.default_rng(11)
+    bounds = rules.target_bounds(MIXED_MAP)
+    goal = np.array([0.7, 0.2])
+    quiet = 0
+    for _ in range(300):
+        m, n = int(rng.integers(1, 5)), int(rng.integers(1, 4))
+        a, d = rng.uniform(-1.0, 1.0, (m, 2)), rng.uniform(-1.0, 1.0, (n, 2))
+        active = rng.random(m) < 0.8
+        watch = rules.EventWatch(0.08, bounds)
+        watch.anchor(active, a, d)
+        for _ in range(60):
+            step = float(rng.choice([0.001, 0.004, 0.02]))
+            to_goal = rng.random(m)[:, None] < 0.5
+            a_aim = np.where(to_goal, goal, d[rng.integers(0, n, m)])
+            a_new = a + step * np.sign(a_aim - a)
+            d_new = d + step * np.sign(a[rng.integers(0, m, n)] - d)
+            move = float(np.abs(np.concatenate([a_new - a, d_new - d])).max())
+            if not watch.quiet(move):
+                break  # the env resolves this step and anchors again
+            quiet += 1
+            assert not reference_resolve_events(MIXED_MAP, 0.08, active, a, a_new, d, d_new,
+                                                 bounds).any_left
+            a, d = a_new, d_new
+    assert quiet > 500
