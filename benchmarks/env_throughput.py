@@ -3,7 +3,8 @@
 Measures, in one run:
 
 - parallel ``step`` calls per second with random actions and no rendering, for
-  ``paper_8v4`` (8 attackers, 4 defenders) and for ``mpe2.simple_tag_v3`` with 8 good
+  ``paper_8v4`` (8 attackers, 4 defenders; v0's global observation, ``--observation v1``
+  for the egocentric one) and for ``mpe2.simple_tag_v3`` with 8 good
   agents, 4 adversaries, 2 obstacles and continuous actions. Both run 1000-step episodes
   (resets included). Actions are drawn beforehand ("step only") and, separately, by
   ``action_space(agent).sample()`` inside the loop ("with sampling");
@@ -29,6 +30,7 @@ from __future__ import annotations
 import argparse
 import cProfile
 import datetime
+import inspect
 import os
 import platform
 import pstats
@@ -50,9 +52,19 @@ from reachavoid_env.video import VideoWriter  # noqa: E402
 EPISODE_STEPS = 1000
 
 
+OBSERVATION = "v0"
+"""The observation measured (``--observation``): v0's global vector (the only one before
+v1, so older trees compare like with like) or v1's egocentric one."""
+
+
 def make_reachavoid(render_mode: str | None = None):
+    options: dict = {}
+    if "observation" in inspect.signature(reachavoid_env.ReachAvoidEnv).parameters:
+        options["observation"] = {"egocentric": OBSERVATION == "v1"}
+    elif OBSERVATION == "v1":
+        sys.exit(f"{reachavoid_env.__file__}: this revision has no v1 observation")
     return reachavoid_env.parallel_env(scenario="paper_8v4", max_cycles=EPISODE_STEPS,
-                                       render_mode=render_mode)
+                                       render_mode=render_mode, **options)
 
 
 def make_mpe():
@@ -171,7 +183,8 @@ def child_rate(tree: Path, option: str, steps: int) -> float:
     """One fresh process of this script in ``tree`` (its ``reachavoid_env``) printing the
     step-only rate ``option`` measures."""
     env = dict(os.environ, PYTHONPATH=str(tree))
-    done = subprocess.run([sys.executable, str(Path(__file__).resolve()), option, str(steps)],
+    done = subprocess.run([sys.executable, str(Path(__file__).resolve()), option, str(steps),
+                           "--observation", OBSERVATION],
                           env=env, cwd=tree, capture_output=True, text=True)
     if done.returncode != 0:
         sys.exit(f"{option} in {tree} failed:\n{done.stderr}")
@@ -224,9 +237,14 @@ def main() -> None:
                         help="compare the step rate with other checkouts, side by side")
     parser.add_argument("--json", type=Path, metavar="PATH",
                         help="also write the figures (and command, machine, date, commits)")
+    parser.add_argument("--observation", choices=("v0", "v1"), default=OBSERVATION,
+                        help="v0's global vector (default; every revision has it) or v1's "
+                             "egocentric observation")
     parser.add_argument("--only-steps", type=int, metavar="N", help=argparse.SUPPRESS)
     parser.add_argument("--only-mpe", type=int, metavar="N", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    global OBSERVATION
+    OBSERVATION = args.observation
     if args.only_steps:
         print(step_rate(make_reachavoid, args.only_steps))
         return
@@ -243,7 +261,8 @@ def main() -> None:
           f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
     report = {"command": [Path(sys.executable).name, *sys.argv],
               "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-              "machine": machine, "commit": commit(Path(__file__).resolve().parents[1])}
+              "machine": machine, "commit": commit(Path(__file__).resolve().parents[1]),
+              "observation": OBSERVATION}
     if args.against is not None:
         report["side_by_side"] = against(args.against, args.steps, args.mpe_steps,
                                          args.repeats)

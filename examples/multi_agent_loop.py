@@ -1,6 +1,6 @@
 """A plain PettingZoo loop over the attackers of a game, with learned-policy hooks.
 
-The attacker-only env (``reachavoid/Attackers-v0``) moves the defenders itself; each
+The attacker-only env (``reachavoid/Attackers-v1``) moves the defenders itself; each
 attacker is driven by a hook, a callable ``observation -> action`` (a float32 ``(2,)``
 velocity in ``[-1, 1]``). Plug a trained network in here, one per attacker or shared:
 
@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import pettingzoo
 
-import policies  # noqa: F401  (registers reachavoid/Attackers-v0)
+import policies  # noqa: F401  (registers reachavoid/Attackers-v1)
 from policies.attackers import target_centres
 from policies.learned import load_sb3
 from policies.training import PETTINGZOO_ID, add_defender_arguments, defender_options

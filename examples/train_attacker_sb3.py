@@ -13,8 +13,11 @@ play at the time limit scores -1 like a capture (``--timeout-reward -1``: in the
 only arrival wins, so hiding from the defenders earns nothing). The defenders' HJ tubes
 are solved once (``--grid1``/``--grid2`` nodes per axis) and cached on disk.
 
-Training prints a line every ``--print-seconds`` (agent steps, wall time, and over the
-training episodes ended since the last line: mean return and arrival rate) and stops at
+Training runs on the vector env (``--envs`` copies of the game stepped together, the
+defenders acting on every copy in one call; ``--single-envs`` uses one Gymnasium env per
+copy instead, in this process or with ``--subprocess`` in subprocesses). It prints a line
+every ``--print-seconds`` (agent steps, wall time, and over the training episodes ended
+since the last line: mean return and arrival rate) and stops at
 ``--timesteps`` or after ``--max-minutes``, whichever comes first. Then the trained
 attacker, a random one and the paper's scripted shortest-path one play the same
 ``--episodes`` seeded starts, and a closing table gives their arrival, capture and
@@ -41,9 +44,9 @@ import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
-from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
-from policies.learned import TRAINING_ATTRIBUTE
+from policies.learned import DEFAULT_OBSERVATION, TRAINING_ATTRIBUTE, training_record
 from policies.training import (
     add_defender_arguments,
     add_reward_arguments,
@@ -51,11 +54,13 @@ from policies.training import (
     defender_factory,
     defender_options,
     make_attacker_env,
+    make_attacker_vector_env,
     reward_options,
 )
 from reachavoid.evaluation import bootstrap_interval, wilson_interval, write_csv
 from reachavoid_env import AttackerStatus, Scenario, load_scenario
 from reachavoid_env.files import atomic_write, write_json
+from reachavoid_env.integrations.vector import sb3_vec_env
 from reachavoid_env.video import VideoWriter
 from reachavoid_env.wrappers import SingleAttackerEnv
 
@@ -79,10 +84,13 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="PPO training steps (default: %(default)s)")
     parser.add_argument("--max-minutes", type=float, default=None,
                         help="stop training after this much wall time (None: no limit)")
-    parser.add_argument("--envs", type=int, default=4,
-                        help="parallel training envs (default: %(default)s)")
+    parser.add_argument("--envs", type=int, default=16,
+                        help="copies of the game trained on at once (default: %(default)s)")
+    parser.add_argument("--single-envs", action="store_true",
+                        help="one Gymnasium env per copy (SB3's make_vec_env) instead of the "
+                             "vector env")
     parser.add_argument("--subprocess", action="store_true",
-                        help="run the training envs in subprocesses (SubprocVecEnv)")
+                        help="with --single-envs: run them in subprocesses (SubprocVecEnv)")
     add_reward_arguments(parser)
     parser.add_argument("--episodes", type=int, default=200,
                         help="evaluation episodes per attacker (default: %(default)s)")
@@ -232,10 +240,22 @@ def record(kwargs: dict[str, Any], model: PPO, path: Path, seed: int) -> int:
     return writer.frames
 
 
+def training_envs(args: argparse.Namespace, kwargs: dict[str, Any]) -> Any:
+    """The SB3 ``VecEnv`` of ``--envs`` copies: the vector env (under ``VecMonitor``), or one
+    Gymnasium env per copy with ``--single-envs``."""
+    if args.single_envs:
+        vec_cls = SubprocVecEnv if args.subprocess else DummyVecEnv
+        return make_vec_env(make_attacker_env, n_envs=args.envs, seed=args.seed,
+                            env_kwargs=kwargs, vec_env_cls=vec_cls)
+    starts = "scenario" if args.fixed_starts else "random"
+    view = make_attacker_vector_env(num_envs=args.envs, starts=starts, **kwargs)
+    envs = sb3_vec_env(view)
+    envs.seed(args.seed)
+    return VecMonitor(envs)
+
+
 def train(args: argparse.Namespace, kwargs: dict[str, Any]) -> tuple[PPO, Progress]:
-    vec_cls = SubprocVecEnv if args.subprocess else DummyVecEnv
-    train_envs = make_vec_env(make_attacker_env, n_envs=args.envs, seed=args.seed,
-                              env_kwargs=kwargs, vec_env_cls=vec_cls)
+    train_envs = training_envs(args, kwargs)
     model = PPO("MlpPolicy", train_envs, n_steps=256, batch_size=256, seed=args.seed,
                 device="cpu", verbose=0)
     progress = Progress(args.print_seconds,
@@ -281,8 +301,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     }
     if args.evaluate_only is None:
         model, progress = train(args, kwargs)
-        setattr(model, TRAINING_ATTRIBUTE, {"action_repeat": args.action_repeat,
-                                            "scenario": scenario.name})
+        setattr(model, TRAINING_ATTRIBUTE, training_record(
+            DEFAULT_OBSERVATION, action_repeat=args.action_repeat, scenario=scenario.name))
         with atomic_write(args.out / "model.zip", "wb") as handle:
             model.save(handle)
         write_csv(args.out / "curve.csv", progress.rows)

@@ -88,9 +88,15 @@ import torch
 from matplotlib.figure import Figure
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.vec_env import VecMonitor
 from tqdm import tqdm
 
-from policies.learned import TRAINING_ATTRIBUTE, ObservationPolicy
+from policies.learned import (
+    DEFAULT_OBSERVATION,
+    TRAINING_ATTRIBUTE,
+    ObservationPolicy,
+    training_record,
+)
 from policies.registry import ATTACKERS, PolicySpec
 from policies.training import (
     add_defender_arguments,
@@ -98,12 +104,14 @@ from policies.training import (
     defender_factory,
     defender_options,
     make_attackers_parallel_env,
+    make_attackers_vector_env,
     reward_options,
 )
 from reachavoid.evaluation import bootstrap_interval, write_csv
 from reachavoid_env import AttackerStatus, Policy, Scenario
 from reachavoid_env.files import atomic_write, write_json
-from reachavoid_env.integrations.supersuit import sb3_vec_env
+from reachavoid_env.integrations.supersuit import sb3_vec_env as supersuit_vec_env
+from reachavoid_env.integrations.vector import sb3_vec_env
 from reachavoid_env.maps import load_library
 from reachavoid_env.video import RecordEpisode
 from reachavoid_env.wrappers import AttackerParallelEnv, PerMapPolicy
@@ -124,6 +132,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="stop training after this much wall time (None: no limit)")
     parser.add_argument("--copies", type=int, default=2,
                         help="game copies in the vector env (default: %(default)s)")
+    parser.add_argument("--supersuit", action="store_true",
+                        help="train through SuperSuit's chain over the attacker-only env "
+                             "(one game per copy) instead of the vector env")
     parser.add_argument("--n-steps", type=int, default=256,
                         help="PPO rollout length per slot (default: %(default)s)")
     parser.add_argument("--batch-size", type=int, default=512,
@@ -476,11 +487,23 @@ def clone(args: argparse.Namespace, maps: Maps, model: PPO) -> dict[str, Any]:
 
 # ---- training ---------------------------------------------------------------------------
 
+def training_envs(args: argparse.Namespace, maps: Maps) -> Any:
+    """The SB3 ``VecEnv`` of ``--copies`` games: the vector env (one slot per attacker and
+    copy, the defenders acting on every copy in one call), or SuperSuit's chain over the
+    attacker-only env with ``--supersuit``."""
+    if args.supersuit:
+        return supersuit_vec_env(game(args, maps, **reward_options(args)), copies=args.copies)
+    view = make_attackers_vector_env(maps, defenders=args.defenders, num_envs=args.copies,
+                                     defender_options=defender_options(args),
+                                     **reward_options(args))
+    return VecMonitor(sb3_vec_env(view))
+
+
 def train(args: argparse.Namespace, maps: Maps,
           ) -> tuple[PPO, TrainingCurve, dict[str, Any] | None]:
     """PPO on the training env, from the cloned script with ``--imitate-steps``; returns the
     model, its curve and what the cloning did (None without it)."""
-    envs = sb3_vec_env(game(args, maps, **reward_options(args)), copies=args.copies)
+    envs = training_envs(args, maps)
     model = PPO("MlpPolicy", envs, n_steps=args.n_steps, batch_size=args.batch_size,
                 learning_rate=args.learning_rate, clip_range=args.clip_range,
                 ent_coef=args.ent_coef, seed=args.seed, device="cpu", verbose=0,
@@ -660,8 +683,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         report["model"] = str(args.evaluate_only)
     elif "learned" in args.teams:
         model, curve, cloning = train(args, maps)
-        setattr(model, TRAINING_ATTRIBUTE, {"action_repeat": args.action_repeat,
-                                            "scenario": args.scenario})
+        setattr(model, TRAINING_ATTRIBUTE, training_record(
+            DEFAULT_OBSERVATION, action_repeat=args.action_repeat, scenario=args.scenario))
         with atomic_write(args.out / "model.zip", "wb") as handle:
             model.save(handle)
         game_steps = model.num_timesteps // maps[0].num_attackers * args.action_repeat

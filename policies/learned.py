@@ -20,13 +20,16 @@ the rate it was trained on. The training examples store ``k`` in the saved model
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from reachavoid_env import GameState, PolicyMismatch, Scenario, checks
-from reachavoid_env.observations import observe
+from reachavoid_env.observations import GLOBAL, ObservationConfig, observe
+
+DEFAULT_OBSERVATION = ObservationConfig()
 
 if TYPE_CHECKING:
     from policies.registry import NamedPolicy
@@ -36,25 +39,42 @@ SB3_PREFIX = "sb3:"
 SIDES = ("attackers", "defenders")
 TRAINING_ATTRIBUTE = "reachavoid_training"
 """The attribute of a saved SB3 model holding how it was trained: a dict with
-``action_repeat`` (and, for the record, ``scenario``). SB3 saves and loads an algorithm's
+``action_repeat``, ``observation`` (the ``ObservationConfig``'s fields; absent: v0's
+global observation) and ``max_cycles`` (the time left's unit; absent: the scenario's
+``max_steps``), and, for the record, ``scenario``. SB3 saves and loads an algorithm's
 plain attributes with the model."""
 
 Predict = Callable[[np.ndarray], Any]
 
 
+def training_record(observation: ObservationConfig, max_cycles: int | None = None,
+                    **extra: Any) -> dict[str, Any]:
+    """What ``TRAINING_ATTRIBUTE`` holds for a model trained on observations
+    ``observation`` with episodes of ``max_cycles`` steps (``None``: the scenario's), and
+    ``extra`` (``action_repeat``, ``scenario``)."""
+    record = {"observation": asdict(observation), **extra}
+    if max_cycles is not None:
+        record["max_cycles"] = max_cycles
+    return record
+
+
 class ObservationPolicy:
     """A ``Policy`` for one side from ``predict``, a function of observations.
 
-    ``predict`` maps a batch of observations ``(K, 2 + 3 (M + N))`` float32 (one row per
-    live agent of ``side``, in name order; the layout of ``reachavoid_env.observations``) to
-    actions ``(K, 2)`` in ``[-1, 1]`` (a velocity as a fraction of the player's speed), as
-    ``model.predict`` does. Every agent of the side shares it (parameter sharing). Actions
-    are chosen at env steps ``0, k, 2k, ...`` (``action_repeat = k``) and held in between.
-    ``observation_size``, when given, is checked against each scenario at ``reset``.
+    ``predict`` maps a batch of observations ``(K, D)`` float32 (one row per live agent of
+    ``side``, in name order; ``observation`` is their layout, ``reachavoid_env.observations``,
+    the env's egocentric default unless given) to actions ``(K, 2)`` in ``[-1, 1]`` (a velocity as a
+    fraction of the player's speed), as ``model.predict`` does. Every agent of the side
+    shares it (parameter sharing). Actions are chosen at env steps ``0, k, 2k, ...``
+    (``action_repeat = k``) and held in between. ``observation_size``, when given, is
+    checked against each scenario at ``reset``. ``max_cycles`` is the time left's unit (the
+    scenario's ``max_steps`` when ``None``).
     """
 
     def __init__(self, predict: Predict, side: str = "attackers", action_repeat: int = 1,
-                 observation_size: int | None = None, label: str = "the learned policy") -> None:
+                 observation_size: int | None = None, label: str = "the learned policy",
+                 observation: ObservationConfig = DEFAULT_OBSERVATION,
+                 max_cycles: int | None = None) -> None:
         if side not in SIDES:
             raise ValueError(f"side: expected one of {SIDES}, got {side!r}")
         self.predict = predict
@@ -62,23 +82,25 @@ class ObservationPolicy:
         self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
         self.observation_size = observation_size
         self.label = label
+        self.observation = observation
+        self.max_cycles = max_cycles
         self._map = None
+        self._max_cycles = 1
         self._held: dict[str, np.ndarray] = {}
 
     def check(self, scenario: Scenario) -> None:
         """``PolicyMismatch`` when the policy's observations do not fit ``scenario``."""
-        players = scenario.num_attackers + scenario.num_defenders
-        size = 2 + 3 * players
+        size = self.observation.size(scenario.num_attackers, scenario.num_defenders)
         if self.observation_size is not None and self.observation_size != size:
-            trained = (self.observation_size - 2) / 3
             raise PolicyMismatch(
-                f"{self.side}: {self.label} observes {self.observation_size} numbers (a game "
-                f"of {trained:g} players); {scenario.name!r} has {scenario.num_attackers} "
-                f"attackers and {scenario.num_defenders} defenders ({size} numbers)")
+                f"{self.side}: {self.label} observes {self.observation_size} numbers; "
+                f"{scenario.name!r} has {scenario.num_attackers} attackers and "
+                f"{scenario.num_defenders} defenders ({size} numbers in its observation)")
 
     def reset(self, scenario: Scenario) -> None:
         self.check(scenario)
         self._map = scenario.map
+        self._max_cycles = self.max_cycles or scenario.max_steps
         self._held = {}
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
@@ -96,7 +118,7 @@ class ObservationPolicy:
     def _decide(self, state: GameState, live: list[str]) -> dict[str, np.ndarray]:
         if not live:
             return {}
-        observations = observe(state, self._map)
+        observations = observe(state, self._map, self.observation, self._max_cycles)
         batch = np.stack([observations[name] for name in live])
         actions = np.asarray(self.predict(batch), dtype=np.float32).reshape(len(live), 2)
         return dict(zip(live, np.clip(actions, -1.0, 1.0), strict=True))
@@ -129,7 +151,10 @@ def load_sb3(path: str | Path, side: str = "attackers", action_repeat: int | Non
     return ObservationPolicy(lambda batch: model.predict(batch, deterministic=True)[0],
                              side=side,
                              action_repeat=action_repeat or trained.get("action_repeat", 1),
-                             observation_size=shape[0], label=f"model {str(path)!r}")
+                             observation_size=shape[0], label=f"model {str(path)!r}",
+                             observation=ObservationConfig(**trained["observation"])
+                             if "observation" in trained else GLOBAL,
+                             max_cycles=trained.get("max_cycles"))
 
 
 def sb3_named_policy(side: str, spec: str) -> NamedPolicy:

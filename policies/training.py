@@ -10,21 +10,25 @@ made from strings (on the command line, in a registry id, in a subprocess):
 Importing ``policies`` (or this module) registers, for Gymnasium (``make_attacker_env``,
 one learning attacker):
 
-- ``reachavoid/Attacker-v0`` (``scenario=`` keyword, default ``paper_2v1``; a map library
+- ``reachavoid/Attacker-v1`` (``scenario=`` keyword, default ``paper_2v1``; a map library
   folder or index trains across its maps, one drawn per reset, with the defenders built
   per map);
-- ``reachavoid/Attacker-<builtin>-v0`` for every built-in scenario, e.g.
-  ``reachavoid/Attacker-paper_2v1-v0`` (the scenario's starts);
-- ``reachavoid/Attacker-<builtin>-random-v0``: the same map and player counts with
+- ``reachavoid/Attacker-<builtin>-v1`` for every built-in scenario, e.g.
+  ``reachavoid/Attacker-paper_2v1-v1`` (the scenario's starts);
+- ``reachavoid/Attacker-<builtin>-random-v1``: the same map and player counts with
   random starts at every reset (``starts="random"``), e.g.
-  ``reachavoid/Attacker-paper_6v2-random-v0`` for 6 vs 2;
+  ``reachavoid/Attacker-paper_6v2-random-v1`` for 6 vs 2;
 
 and for PettingZoo (``pettingzoo.make("parallel", ...)``, ``make_attackers_parallel_env``,
-every attacker learning) ``reachavoid/Attackers-v0`` (``scenario=`` keyword) and
-``reachavoid/Attackers-<builtin>-v0`` / ``reachavoid/Attackers-<builtin>-random-v0``
+every attacker learning) ``reachavoid/Attackers-v1`` (``scenario=`` keyword) and
+``reachavoid/Attackers-<builtin>-v1`` / ``reachavoid/Attackers-<builtin>-random-v1``
 likewise. Every id takes ``starts="random"`` as a keyword too. Without importing anything
 first, Gymnasium's ``"module:id"`` form loads them:
-``gymnasium.make("policies:reachavoid/Attacker-paper_2v1-random-v0")``. Keyword arguments of
+``gymnasium.make("policies:reachavoid/Attacker-paper_2v1-random-v1")``.
+
+Version history: ``-v1`` observe the egocentric observation (``ReachAvoid-v1``: target,
+lidar, the others relative to the agent); the same ids ending ``-v0`` remain, with v0's
+global observation (``observation={"egocentric": False}``). Keyword arguments of
 ``gymnasium.make`` / ``make_vec`` / ``pettingzoo.make`` go to the factory.
 
 Defenders default to ``"hj"``, the paper's HJ + MIP defenders
@@ -42,8 +46,12 @@ import gymnasium
 import pettingzoo
 
 from policies.registry import DEFENDERS, PolicySpec
+from reachavoid_env import checks
+from reachavoid_env.game_state import BatchPolicy, PerCopy
 from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.scenario import builtin_names
+from reachavoid_env.vector import ReachAvoidVectorEnv
+from reachavoid_env.vector_views import LearnerVectorEnv
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 from solvers.hj.settings import TRAINING_GRIDS
 
@@ -151,29 +159,109 @@ def make_attackers_parallel_env(scenario: ScenarioSource = "paper_2v1", defender
                                scenario=scenario, **env_kwargs)
 
 
-GYM_ID = "reachavoid/Attacker-v0"
-PETTINGZOO_ID = "reachavoid/Attackers-v0"
+def batch_policy(source: Any, options: Mapping[str, Any] | None, side: str,
+                 field: str) -> BatchPolicy:
+    """A ``BatchPolicy`` for the vector env's scripted ``side``: a ``BatchPolicy`` as it is;
+    a name, a factory ``scenario -> policy`` (``_source``) asked copy by copy
+    (``PerCopy``)."""
+    if isinstance(source, BatchPolicy):
+        return source
+    built = _source(source, options, side, field)
+    if not callable(built) or isinstance(built, type):
+        raise TypeError(f"{field}s: the vector env needs a name, a factory scenario -> policy "
+                        f"or a BatchPolicy, got {type(source).__name__}")
+    return PerCopy(built, side)
 
 
-def gym_id(scenario: str, starts: str = "scenario") -> str:
+def make_attackers_vector_env(scenario: ScenarioSource = "paper_2v1", defenders: Any = "hj",
+                              num_envs: int = 16,
+                              defender_options: Mapping[str, Any] | None = None,
+                              action_repeat: int = 1, timeout_reward: float = 0.0,
+                              autoreset: bool = True, **env_kwargs: Any) -> LearnerVectorEnv:
+    """Every attacker of ``num_envs`` copies learns (``LearnerVectorEnv``, arrays
+    ``(K, M, ...)``); ``defenders`` (a name, a factory or a ``BatchPolicy``) move the
+    defenders of every copy. ``autoreset=False`` for TorchRL
+    (``integrations.torchrl.VectorGroupEnv``). ``env_kwargs``: ``starts``
+    (``"random"`` by default), ``max_cycles``, ``shaping``, ``observation``
+    (``ReachAvoidVectorEnv``)."""
+    vec = ReachAvoidVectorEnv(scenario, num_envs=num_envs, autoreset=False, **env_kwargs)
+    base = vec.base_scenario
+    return LearnerVectorEnv(
+        vec, base.attacker_names,
+        [(batch_policy(defenders, defender_options, "defenders", "defender"),
+          base.defender_names)], action_repeat=action_repeat, timeout_reward=timeout_reward,
+        autoreset=autoreset)
+
+
+def make_defenders_vector_env(scenario: ScenarioSource = "paper_2v1",
+                              attackers: Any = "shortest-path", num_envs: int = 16,
+                              attacker_options: Mapping[str, Any] | None = None,
+                              action_repeat: int = 1, autoreset: bool = True,
+                              **env_kwargs: Any) -> LearnerVectorEnv:
+    """Every defender of ``num_envs`` copies learns (arrays ``(K, N, ...)``); ``attackers``
+    (a name, a factory or a ``BatchPolicy``) move the attackers of every copy: the view a
+    learned defender trains on. ``env_kwargs`` as ``make_attackers_vector_env``."""
+    vec = ReachAvoidVectorEnv(scenario, num_envs=num_envs, autoreset=False, **env_kwargs)
+    base = vec.base_scenario
+    return LearnerVectorEnv(
+        vec, base.defender_names,
+        [(batch_policy(attackers, attacker_options, "attackers", "attacker"),
+          base.attacker_names)], action_repeat=action_repeat, autoreset=autoreset)
+
+
+def make_attacker_vector_env(scenario: ScenarioSource = "paper_2v1", defenders: Any = "hj",
+                             teammates: Any = "shortest-path", num_envs: int = 16,
+                             attacker: int = 0,
+                             defender_options: Mapping[str, Any] | None = None,
+                             teammate_options: Mapping[str, Any] | None = None,
+                             action_repeat: int = 1, timeout_reward: float = 0.0,
+                             **env_kwargs: Any) -> LearnerVectorEnv:
+    """One learning attacker (``attacker_{attacker}``) in each of ``num_envs`` copies, as
+    ``make_attacker_env`` has it (its episode ends when it leaves), against scripted
+    defenders and teammates (names, factories or ``BatchPolicy`` objects). Wrap it in
+    ``integrations.vector.GymVectorEnv`` for Gymnasium's vector API."""
+    vec = ReachAvoidVectorEnv(scenario, num_envs=num_envs, autoreset=False, **env_kwargs)
+    base = vec.base_scenario
+    checks.integer(attacker, "attacker", 0, base.num_attackers - 1)
+    learner = base.attacker_names[attacker]
+    scripted = [(batch_policy(defenders, defender_options, "defenders", "defender"),
+                 base.defender_names)]
+    others = [name for name in base.attacker_names if name != learner]
+    if others:
+        scripted.append((batch_policy(teammates, teammate_options, "attackers", "teammate"),
+                         others))
+    return LearnerVectorEnv(vec, [learner], scripted, action_repeat=action_repeat,
+                            timeout_reward=timeout_reward)
+
+
+GYM_ID = "reachavoid/Attacker-v1"
+PETTINGZOO_ID = "reachavoid/Attackers-v1"
+_VERSIONS = {1: {}, 0: {"observation": {"egocentric": False}}}
+
+
+def gym_id(scenario: str, starts: str = "scenario", version: int = 1) -> str:
     """The Gymnasium id of the single-attacker env of built-in ``scenario`` (``starts``:
-    ``"scenario"`` or ``"random"``, as ``ReachAvoidEnv``)."""
-    return f"reachavoid/Attacker-{scenario}{_STARTS_SUFFIX[starts]}-v0"
+    ``"scenario"`` or ``"random"``, as ``ReachAvoidEnv``; ``version`` 1 or 0)."""
+    return f"reachavoid/Attacker-{scenario}{_STARTS_SUFFIX[starts]}-v{version}"
 
 
-def pettingzoo_id(scenario: str, starts: str = "scenario") -> str:
+def pettingzoo_id(scenario: str, starts: str = "scenario", version: int = 1) -> str:
     """The PettingZoo id of the attacker-only env of built-in ``scenario``."""
-    return f"reachavoid/Attackers-{scenario}{_STARTS_SUFFIX[starts]}-v0"
+    return f"reachavoid/Attackers-{scenario}{_STARTS_SUFFIX[starts]}-v{version}"
 
 
 _STARTS_SUFFIX = {"scenario": "", "random": "-random"}
 
 
-def _ids(default_id: str, id_of: Any) -> dict[str, dict[str, str]]:
-    """``default_id`` (no keywords) and ``id_of(builtin, starts)`` of every built-in and
-    starts, with their keywords."""
-    return {default_id: {}} | {id_of(name, starts): {"scenario": name, "starts": starts}
-                               for name in builtin_names() for starts in _STARTS_SUFFIX}
+def _ids(default_id: str, id_of: Any) -> dict[str, dict[str, Any]]:
+    """``default_id`` (no keywords) and ``id_of(builtin, starts, version)`` of every
+    built-in, starts and version, with their keywords."""
+    ids: dict[str, dict[str, Any]] = {}
+    for version, kwargs in _VERSIONS.items():
+        ids[default_id.replace("-v1", f"-v{version}")] = kwargs
+        ids |= {id_of(name, starts, version): {"scenario": name, "starts": starts, **kwargs}
+                for name in builtin_names() for starts in _STARTS_SUFFIX}
+    return ids
 
 
 def register_envs() -> None:

@@ -5,9 +5,11 @@ Every name below loads its module on first use (PEP 562). The ground floor (shap
 env (``ReachAvoidEnv``, ``env``, ``parallel_env``, ``raw_env``) loads PettingZoo,
 Gymnasium and pymunk, so the solvers stand on the map without the simulator.
 
-Importing the package registers the env with PettingZoo as ``reachavoid/ReachAvoid-v0``
-(both ``pettingzoo.make("parallel", ...)`` and ``pettingzoo.make("aec", ...)``): at once
-when PettingZoo is loaded already, else the moment it is imported.
+Importing the package registers the env with PettingZoo as ``reachavoid/ReachAvoid-v1``
+(the egocentric observation; ``env``, ``parallel_env`` and ``raw_env`` here are v1's) and
+``reachavoid/ReachAvoid-v0`` (the global observation, ``reach_avoid_v0``), both for
+``pettingzoo.make("parallel", ...)`` and ``pettingzoo.make("aec", ...)``: at once when
+PettingZoo is loaded already, else the moment it is imported.
 """
 
 from __future__ import annotations
@@ -27,7 +29,8 @@ if TYPE_CHECKING:
         PolicyMismatch,
         merged_overlay,
     )
-    from reachavoid_env.reach_avoid_v0 import env, parallel_env, raw_env
+    from reachavoid_env.observations import ObservationConfig
+    from reachavoid_env.reach_avoid_v1 import env, parallel_env, raw_env
     from reachavoid_env.scenario import (
         Scenario,
         ScenarioError,
@@ -45,6 +48,7 @@ __all__ = [
     "Circle",
     "GameMap",
     "GameState",
+    "ObservationConfig",
     "Overlay",
     "Policy",
     "PolicyMismatch",
@@ -64,7 +68,10 @@ __all__ = [
     "save_scenario",
 ]
 
-ENV_ID = "reachavoid/ReachAvoid-v0"
+ENV_IDS = {"reachavoid/ReachAvoid-v0": "reachavoid_env.reach_avoid_v0",
+           "reachavoid/ReachAvoid-v1": "reachavoid_env.reach_avoid_v1"}
+ENV_ID = "reachavoid/ReachAvoid-v1"
+"""The current version's id."""
 
 __getattr__, __dir__ = lazy.attributes(__name__, {
     "GameMap": "reachavoid_env.game_map",
@@ -76,14 +83,15 @@ __getattr__, __dir__ = lazy.attributes(__name__, {
                     "reachavoid_env.scenario"),
     **dict.fromkeys(["Box", "Circle", "Polygon", "ShapeError"], "reachavoid_env.shapes"),
     "ReachAvoidEnv": "reachavoid_env.environment",
-    **dict.fromkeys(["env", "parallel_env", "raw_env"], "reachavoid_env.reach_avoid_v0"),
+    "ObservationConfig": "reachavoid_env.observations",
+    **dict.fromkeys(["env", "parallel_env", "raw_env"], "reachavoid_env.reach_avoid_v1"),
 })
 
 
 def _register(pettingzoo: Any) -> None:
-    pettingzoo.register("parallel", ENV_ID,
-                        entry_point="reachavoid_env.reach_avoid_v0:parallel_env")
-    pettingzoo.register("aec", ENV_ID, entry_point="reachavoid_env.reach_avoid_v0:env")
+    for env_id, module in ENV_IDS.items():
+        pettingzoo.register("parallel", env_id, entry_point=f"{module}:parallel_env")
+        pettingzoo.register("aec", env_id, entry_point=f"{module}:env")
 
 
 lazy.after_import("pettingzoo", _register)

@@ -2,6 +2,18 @@
 
 ``ReachAvoidEnv`` is the parallel env; ``env()`` / ``raw_env()`` give the AEC version.
 The rules themselves live in ``rules``; ``step`` applies them in named phases.
+
+Version History (``reachavoid/ReachAvoid-vN``, ``reach_avoid_vN``):
+
+- v1: the egocentric observation by default (own position and velocity, the target's
+  nearest point and signed distance, lidar rays to walls and obstacles, every other
+  player's relative position, velocity and active flag, the time left;
+  ``observations.ObservationConfig``); ``GameState.velocities``. Rules, rewards and infos
+  as v0.
+- v0: the global observation (every player's normalised position and active flag);
+  numeric infos (``status`` codes, ``captured_by`` on every step) since the TorchRL work,
+  readable ones with ``info_format="readable"``. Still available, bit for bit, as
+  ``reach_avoid_v0`` / ``ReachAvoid-v0`` and ``observation=GLOBAL``.
 """
 
 from __future__ import annotations
@@ -20,7 +32,13 @@ from pettingzoo.utils import ClipOutOfBoundsWrapper, OrderEnforcingWrapper, para
 from reachavoid_env import checks, rules
 from reachavoid_env.game_state import AttackerStatus, GameState, Overlay
 from reachavoid_env.maps import ScenarioSource, load_library
-from reachavoid_env.observations import Normaliser, agent_rows, player_table
+from reachavoid_env.observations import (
+    Normaliser,
+    ObservationConfig,
+    Observer,
+    agent_rows,
+    player_table,
+)
 from reachavoid_env.scenario import MAX_STEPS, Scenario, ScenarioError
 from reachavoid_env.world import World
 
@@ -43,17 +61,17 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     **Actions** (every agent): ``Box(-1, 1, (2,), float32)``, the desired velocity as a
     fraction of the player's speed. Vectors longer than 1 are scaled to length 1.
 
-    **Observations** (every agent; ``reachavoid_env.observations.observe`` computes the
-    same from a ``GameState``): ``Box(-1, 1, (2 + 3 (M + N),), float32)``, positions
-    normalised to the domain (``-1`` at ``xmin``/``ymin``, ``+1`` at ``xmax``/``ymax``)::
-
-        [own x, own y,
-         attacker_0 x, attacker_0 y, attacker_0 active, ..., (every attacker)
-         defender_0 x, defender_0 y, defender_0 active, ...] (every defender)
-
-    ``active`` is 1.0 for a player still in the game, else 0.0; a captured or arrived
-    attacker keeps the position where it left the game. ``state()`` is the same vector
-    without the two leading own-position entries (``state_space``, ``3 (M + N)``).
+    **Observations** (every agent, one size for all; ``reachavoid_env.observations``
+    gives the layouts, and ``observe`` computes the same from a ``GameState``):
+    ``Box(-1, 1, (D,), float32)``. ``observation`` (an ``ObservationConfig``, or a dict of
+    its fields) chooses what is in it. The default is **egocentric** (v1): own position and
+    velocity, the target's nearest point relative to the agent and its signed distance,
+    ``lidar_rays`` (16) lidar distances to walls and obstacles, every teammate's and then
+    every opponent's relative position, velocity and active flag, and the time left;
+    ``D = 7 + R + 5 (M + N - 1) + 1``. ``ObservationConfig(egocentric=False)`` is v0's
+    global vector, ``D = 2 + 3 (M + N)``: own position, then every player's normalised
+    position and active flag. ``state()`` is always the global table without the two
+    leading own-position entries (``state_space``, ``3 (M + N)``).
 
     **Rules** (design.md section 1): within one step every player moves along a straight
     segment from its old to its new position; an active attacker is captured at the
@@ -121,17 +139,18 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         render_width: int = 640,
         info_format: str = "numeric",
         starts: str = "scenario",
+        observation: ObservationConfig | Mapping[str, Any] | None = None,
     ) -> None:
         EzPickle.__init__(self, scenario=scenario, max_cycles=max_cycles,
                           render_mode=render_mode, shaping=shaping, render_width=render_width,
-                          info_format=info_format, starts=starts)
+                          info_format=info_format, starts=starts, observation=observation)
+        self.observation = observation_config(observation)
+        self.metadata = {**self.metadata, "name": "reach_avoid_v1"
+                         if self.observation.egocentric else "reach_avoid_v0"}
         if starts not in STARTS:
             raise ValueError(f"starts: {starts!r} is not one of {STARTS}")
         self.starts = starts
-        self.scenarios = _library(scenario)
-        if starts == "random":
-            self.scenarios = tuple(s.with_players(s.num_attackers, s.num_defenders)
-                                   for s in self.scenarios)
+        self.scenarios = library(scenario, starts)
         self.base_scenario = self.scenarios[0]
         if max_cycles is not None:
             checks.integer(max_cycles, "max_cycles", 1, MAX_STEPS)
@@ -153,8 +172,9 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         self.agents: list[str] = []
         self._index = {name: i for i, name in enumerate(self.possible_agents)}
         players = m + n
+        size = self.observation.size(m, n)
         self._observation_spaces = {
-            name: gymnasium.spaces.Box(-1.0, 1.0, (2 + 3 * players,), np.float32)
+            name: gymnasium.spaces.Box(-1.0, 1.0, (size,), np.float32)
             for name in self.possible_agents
         }
         self._action_spaces = {
@@ -168,6 +188,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         self._renderer: Any = None
         self._overlay: Overlay | None = None
         self._caption: str | None = None
+        self._observer: Observer | None = None
+        self._observer_map: Any = None
 
     # ----------------------------------------------------------------- spaces
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
@@ -200,6 +222,12 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         self._speeds = np.concatenate([np.full(m, sc.attacker_speed),
                                        np.full(self._n, sc.defender_speed)])[:, None]
         self._normaliser = Normaliser.of(sc.map)
+        self._velocities = np.zeros_like(positions)
+        if self.observation.egocentric and self._observer_map is not sc.map:
+            self._observer = Observer(self.observation, sc.map, m, self._n,
+                                      max(sc.attacker_speed, sc.defender_speed),
+                                      self.max_cycles)
+            self._observer_map = sc.map
         self._target_bounds = rules.target_bounds(sc.map)
         self._steps = 0
         self._captured_count = 0
@@ -219,10 +247,9 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         return observations, infos
 
     def _episode_scenario(self, options: dict[str, Any]) -> Scenario:
-        scenario = self.base_scenario
-        if len(self.scenarios) > 1 and "scenario" not in options:
-            scenario = self.scenarios[int(self.np_random.integers(len(self.scenarios)))]
-        if "scenario" in options:
+        if "scenario" not in options:
+            scenario = draw_scenario(self.scenarios, self.np_random)[0]
+        else:
             scenario = options["scenario"]
             if not isinstance(scenario, Scenario):
                 raise TypeError(f"options['scenario']: expected a Scenario, "
@@ -289,25 +316,28 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             self._watch = rules.EventWatch(self.scenario.capture_radius, self._target_bounds)
             self._watched_world = self._world
         if self._watch.quiet(float(np.abs(new - old).max())):
-            self._positions = new
-            return rules.no_events(m)
-        events = rules.resolve_events(self.scenario.map, self.scenario.capture_radius,
-                                      self._active[:m].copy(), old[:m], new[:m], old[m:],
-                                      new[m:], self._target_bounds)
-        left = events.left
-        if events.any_left:
-            t = events.times[left][:, None]
-            new[:m][left] = old[:m][left] + t * (new[:m][left] - old[:m][left])
-            self._status[events.captured] = _CAPTURED
-            self._status[events.arrived] = _ARRIVED
-            self._captured_count += int(events.captured.sum())
-            self._arrived_count += int(events.arrived.sum())
-            self._active[:m] &= ~left
-            if not self._active[:m].any():
-                self._active[m:] = False
-            self._all_active = False
+            events = rules.no_events(m)
+        else:
+            events = rules.resolve_events(self.scenario.map, self.scenario.capture_radius,
+                                          self._active[:m].copy(), old[:m], new[:m], old[m:],
+                                          new[m:], self._target_bounds)
+            left = events.left
+            if events.any_left:
+                t = events.times[left][:, None]
+                new[:m][left] = old[:m][left] + t * (new[:m][left] - old[:m][left])
+                self._status[events.captured] = _CAPTURED
+                self._status[events.arrived] = _ARRIVED
+                self._captured_count += int(events.captured.sum())
+                self._arrived_count += int(events.arrived.sum())
+                self._active[:m] &= ~left
+                if not self._active[:m].any():
+                    self._active[m:] = False
+                self._all_active = False
+            self._watch.anchor(self._active[:m], new[:m], new[m:])
         self._positions = new
-        self._watch.anchor(self._active[:m], new[:m], new[m:])
+        if self.observation.egocentric:
+            self._velocities = (new - old) / self.scenario.dt
+            self._velocities[~self._active] = 0.0
         return events
 
     def _rewards(self, events: rules.StepEvents, old: np.ndarray,
@@ -376,7 +406,11 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                       ) -> dict[str, np.ndarray]:
         """Observations of ``agents`` (rows ``rows`` of the players), one fresh matrix
         (``reachavoid_env.observations``, the code path of ``observe``)."""
-        return dict(zip(agents, agent_rows(self._state_matrix(), rows), strict=True))
+        if not self.observation.egocentric:
+            return dict(zip(agents, agent_rows(self._state_matrix(), rows), strict=True))
+        table = self._observer(self._positions[None], self._velocities[None],
+                               self._active[None], np.array([self._steps]))[0]
+        return dict(zip(agents, table[rows], strict=True))
 
     def _infos(self, agents: list[str], captor: np.ndarray) -> dict[str, dict[str, Any]]:
         """Every agent's info (fresh dicts): the episode's counts, and each attacker's
@@ -424,6 +458,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             attacker_speed=sc.attacker_speed,
             defender_speed=sc.defender_speed,
             capture_radius=sc.capture_radius,
+            velocities=self._velocities if self.observation.egocentric else None,
         )
 
     # -------------------------------------------------------------- rendering
@@ -501,9 +536,18 @@ def _live_part(overlay: Overlay | None, state: GameState) -> Overlay | None:
                    kinds=tuple(e.kind for e in kept))
 
 
-def _library(source: Any) -> tuple[Scenario, ...]:
+def draw_scenario(scenarios: Sequence[Scenario], rng: np.random.Generator,
+                  ) -> tuple[Scenario, int]:
+    """The scenario of an episode and its index: one drawn with ``rng`` from a library of
+    several maps, the only one otherwise (no draw)."""
+    index = int(rng.integers(len(scenarios))) if len(scenarios) > 1 else 0
+    return scenarios[index], index
+
+
+def library(source: Any, starts: str) -> tuple[Scenario, ...]:
     """The scenarios an env plays (``maps.load_library``), checked to share the player
-    counts (the spaces depend on them)."""
+    counts (the spaces depend on them); with ``starts="random"`` without start positions,
+    so that every reset draws them."""
     scenarios = load_library(source)
     first = scenarios[0]
     for scenario in scenarios[1:]:
@@ -513,6 +557,8 @@ def _library(source: Any) -> tuple[Scenario, ...]:
                                 f"attackers and {scenario.num_defenders} defenders, "
                                 f"{first.name!r} {first.num_attackers} and "
                                 f"{first.num_defenders}; a library's maps share the counts")
+    if starts == "random":
+        scenarios = tuple(s.with_players(s.num_attackers, s.num_defenders) for s in scenarios)
     return scenarios
 
 
@@ -551,6 +597,25 @@ def _name_player(message: str) -> str:
     """Append the agent name to a scenario error about ``players.attackers[i]``."""
     match = _PLAYER_FIELD.search(message)
     return f"{message} ({match[1]}_{match[2]})" if match else message
+
+
+def observation_config(value: ObservationConfig | Mapping[str, Any] | None,
+                       ) -> ObservationConfig:
+    """``value`` as an ``ObservationConfig``: itself, the default (``None``), or built from
+    a dict of its fields (an unknown key is a ``ValueError`` naming it)."""
+    if value is None:
+        return ObservationConfig()
+    if isinstance(value, ObservationConfig):
+        return value
+    if isinstance(value, Mapping):
+        fields = ObservationConfig.__dataclass_fields__
+        for key in value:
+            if key not in fields:
+                raise ValueError(f"observation.{key}: not an option (accepted: "
+                                 f"{', '.join(fields)})")
+        return ObservationConfig(**value)
+    raise TypeError(f"observation: expected an ObservationConfig or a dict, got "
+                    f"{type(value).__name__}")
 
 
 def parallel_env(**kwargs: Any) -> ReachAvoidEnv:

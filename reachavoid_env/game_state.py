@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 from enum import Enum
 from typing import TYPE_CHECKING, NamedTuple, Protocol, runtime_checkable
 
@@ -44,6 +45,9 @@ class GameState:
     Positions are map units, ``(x, y)`` per row, float64, for every player of the scenario
     in name order (``attacker_0..M-1``, ``defender_0..N-1``); a captured or arrived attacker
     keeps the position where it left the game. ``time`` is seconds since reset.
+    ``velocities`` (optional, ``(M + N, 2)`` map units per second, attackers then
+    defenders) is each player's displacement over the last step divided by ``dt`` (zero
+    at reset and for players out of the game), as the egocentric observations carry it.
     The arrays are read-only copies.
     """
 
@@ -55,9 +59,12 @@ class GameState:
     attacker_speed: float
     defender_speed: float
     capture_radius: float
+    velocities: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        for name in ("attacker_positions", "defender_positions"):
+        for name in ("attacker_positions", "defender_positions", "velocities"):
+            if getattr(self, name) is None:
+                continue
             array = np.array(getattr(self, name), dtype=np.float64)
             array.setflags(write=False)
             object.__setattr__(self, name, array)
@@ -164,6 +171,93 @@ class Policy(Protocol):
     def reset(self, scenario: Scenario) -> None: ...
 
     def act(self, state: GameState) -> dict[str, np.ndarray]: ...
+
+
+class BatchState(NamedTuple):
+    """``K`` copies of one game at once (axis 0: the copy), as the vector env holds them.
+
+    Positions ``(K, M, 2)`` / ``(K, N, 2)`` and ``velocities`` ``(K, M + N, 2)`` (or
+    ``None``) in map units and map units per second; ``time`` ``(K,)`` seconds; ``step``
+    ``(K,)``; ``attacker_status`` ``(K, M)`` ``AttackerStatus.code``.
+    """
+
+    time: np.ndarray
+    step: np.ndarray
+    attacker_positions: np.ndarray
+    defender_positions: np.ndarray
+    attacker_status: np.ndarray
+    attacker_speed: float
+    defender_speed: float
+    capture_radius: float
+    velocities: np.ndarray | None = None
+
+    def game_state(self, k: int) -> GameState:
+        """Copy ``k`` as a ``GameState``: what the single env gives for the same game."""
+        statuses = tuple(AttackerStatus)
+        return GameState(time=float(self.time[k]), step=int(self.step[k]),
+                         attacker_positions=self.attacker_positions[k],
+                         defender_positions=self.defender_positions[k],
+                         attacker_status=tuple(statuses[s] for s in self.attacker_status[k]),
+                         attacker_speed=self.attacker_speed,
+                         defender_speed=self.defender_speed,
+                         capture_radius=self.capture_radius,
+                         velocities=None if self.velocities is None else self.velocities[k])
+
+
+@runtime_checkable
+class BatchPolicy(Protocol):
+    """Controls one side of ``K`` copies of a game at once (the vector env's scripted side).
+
+    ``reset_copies(copies, scenarios)``: a new episode starts in each copy of ``copies``
+    (int array) with ``scenarios[i]`` (starts included) for ``copies[i]``; called for every
+    copy after the vector env's reset and for the copies that reset after a step.
+    ``act_batch(states)``: ``(K, n, 2)`` controls in ``[-1, 1]`` for the ``n`` players of
+    the side, rows in agent order (rows of players out of the game are ignored). A batched
+    policy gives, for every copy, exactly the actions its single-game policy gives for that
+    copy's ``states.game_state(k)``.
+    """
+
+    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None: ...
+
+    def act_batch(self, states: BatchState) -> np.ndarray: ...
+
+
+class PerCopy:
+    """A ``BatchPolicy`` from a single-game policy: ``factory(scenario)`` builds one
+    ``Policy`` per copy (per map of a library, kept), and ``act_batch`` asks each copy's
+    policy in turn. The fallback for policies with no batched form, and their reference.
+
+    Args:
+        factory: ``scenario -> Policy``.
+        side: ``"attackers"`` or ``"defenders"``, the players it drives.
+    """
+
+    def __init__(self, factory: Callable[[Scenario], Policy], side: str) -> None:
+        if side not in ("attackers", "defenders"):
+            raise ValueError(f"side: expected 'attackers' or 'defenders', got {side!r}")
+        self.factory, self.side = factory, side
+        self.current: dict[int, Policy] = {}
+        self._built: dict[int, dict[Scenario, Policy]] = {}
+
+    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
+        for copy, scenario in zip(np.asarray(copies).tolist(), scenarios, strict=True):
+            key = replace(scenario, attackers=None, defenders=None)
+            built = self._built.setdefault(copy, {})
+            if key not in built:
+                built[key] = self.factory(key)
+            self.current[copy] = built[key]
+            built[key].reset(scenario)
+
+    def act_batch(self, states: BatchState) -> np.ndarray:
+        count = (states.attacker_positions if self.side == "attackers"
+                 else states.defender_positions).shape[1]
+        prefix = "attacker_" if self.side == "attackers" else "defender_"
+        out = np.zeros((len(states.step), count, 2))
+        for k in range(len(states.step)):
+            for name, action in self.current[k].act(states.game_state(k)).items():
+                if name.startswith(prefix):
+                    out[k, int(name[len(prefix):])] = action
+        return out
 
 
 def merged_overlay(*policies: Policy) -> Overlay | None:

@@ -1,25 +1,97 @@
-"""Observations of the game: the one code path of ``ReachAvoidEnv`` and of policies that
-act on observations (a trained network as a ``Policy``, ``policies.learned``).
+"""Observations of the game: the one code path of ``ReachAvoidEnv`` (v0 and v1), the
+vector env, and policies that act on observations (a trained network as a ``Policy``,
+``policies.learned``).
 
-Every agent observes ``Box(-1, 1, (2 + 3 (M + N),), float32)``, positions normalised to
-the domain (``-1`` at ``xmin``/``ymin``, ``+1`` at ``xmax``/``ymax``)::
+Two layouts, chosen by ``ObservationConfig`` (``egocentric``). Every agent's observation
+is a float32 vector in ``[-1, 1]`` of one size for all agents of a game; players are
+numbered attackers first, then defenders (agent order); ``M``/``N`` attackers/defenders.
+
+**Egocentric** (``ReachAvoid-v1``'s default) for an agent of side ``S`` (its teammates are
+the other players of ``S``, its opponents the other side)::
+
+    [own x, own y,                              position, normalised to the domain
+     own vx, own vy,                            velocity, fraction of the fastest speed *
+     target dx, target dy, target distance,     the target's nearest point minus the own
+                                                position, and the signed distance to the
+                                                target (negative inside), / diagonal
+     lidar_0 .. lidar_{R-1},                    distance to the first wall or obstacle
+                                                along ray r (world angle 2 pi r / R,
+                                                counter-clockwise from +x), / lidar range
+     for every teammate, then every opponent, in agent order:
+         dx, dy, vx, vy, active,                relative position / diagonal, velocity
+                                                (fraction of the fastest speed) *, flag
+     time left]                                 1 - step / max_cycles *
+
+``diagonal`` is the domain's diagonal (map units); the entries marked * are present only
+when ``velocities`` / ``time_left`` are on; a velocity is the player's displacement over
+the last step (walls included) divided by ``dt``, zero at reset and for players out of the
+game. Size: ``7 + R + 5 (M + N - 1) + 1`` with every part on.
+
+**Global** (``ReachAvoid-v0``, ``egocentric=False``): ``2 + 3 (M + N)``, positions
+normalised to the domain (``-1`` at ``xmin``/``ymin``, ``+1`` at ``xmax``/``ymax``)::
 
     [own x, own y,
      attacker_0 x, attacker_0 y, attacker_0 active, ..., (every attacker)
      defender_0 x, defender_0 y, defender_0 active, ...] (every defender)
 
 ``active`` is 1.0 for a player still in the game (an attacker neither captured nor
-arrived; a defender while some attacker is active), else 0.0.
+arrived; a defender while some attacker is active), else 0.0; a player out of the game
+keeps the position where it left.
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
+from reachavoid_env import checks
 from reachavoid_env.game_map import GameMap
 from reachavoid_env.game_state import GameState
+from reachavoid_env.lidar import Lidar, RayScene
+
+MAX_RAYS = 360
+
+
+@dataclass(frozen=True)
+class ObservationConfig:
+    """What an observation holds (module docstring); checked once, here.
+
+    ``egocentric``: the egocentric layout (``False``: v0's global vector; the other fields
+    are then unused). ``lidar_rays``: rays per agent (0 to 360). ``lidar_range``: the
+    longest distance a ray reports, map units (``None``: the domain's diagonal).
+    ``velocities`` / ``time_left``: include the players' velocities / the time left.
+    """
+
+    egocentric: bool = True
+    lidar_rays: int = 16
+    lidar_range: float | None = None
+    velocities: bool = True
+    time_left: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("egocentric", "velocities", "time_left"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"observation.{name}: expected true or false, got "
+                                 f"{getattr(self, name)!r}")
+        checks.integer(self.lidar_rays, "observation.lidar_rays", 0, MAX_RAYS)
+        if self.lidar_range is not None:
+            checks.positive(self.lidar_range, "observation.lidar_range")
+
+    def size(self, num_attackers: int, num_defenders: int) -> int:
+        """Entries of every agent's observation in a game of these player counts."""
+        players = num_attackers + num_defenders
+        if not self.egocentric:
+            return 2 + 3 * players
+        own = 4 if self.velocities else 2
+        other = 5 if self.velocities else 3
+        return own + 3 + self.lidar_rays + other * (players - 1) + int(self.time_left)
+
+
+GLOBAL = ObservationConfig(egocentric=False)
+"""v0's observation: positions and active flags of every player, in absolute terms."""
 
 
 class Normaliser(NamedTuple):
@@ -63,14 +135,104 @@ def agent_rows(table: np.ndarray, rows: slice | list[int]) -> np.ndarray:
     return observations
 
 
-def observe(state: GameState, game_map: GameMap) -> dict[str, np.ndarray]:
+class Observer:
+    """Every agent's observation of many copies of one game at once (one map, one
+    ``ObservationConfig``; module docstring for the layouts).
+
+    Args:
+        config: what the observations hold.
+        game_map: the map every copy plays.
+        num_attackers, num_defenders: the player counts ``M``, ``N``.
+        fastest: the largest player speed, map units per second (velocities' unit).
+        max_cycles: the steps of an episode (the time left's unit).
+    """
+
+    def __init__(self, config: ObservationConfig, game_map: GameMap, num_attackers: int,
+                 num_defenders: int, fastest: float, max_cycles: int) -> None:
+        self.config = config
+        self.size = config.size(num_attackers, num_defenders)
+        self.normaliser = Normaliser.of(game_map)
+        self.target = game_map.target
+        width, height = game_map.size
+        self.diagonal = math.hypot(width, height)
+        self.fastest = float(fastest)
+        self.max_cycles = int(max_cycles)
+        self.lidar = Lidar(RayScene.of(game_map), config.lidar_rays,
+                           config.lidar_range or self.diagonal) if config.lidar_rays else None
+        m, n = num_attackers, num_defenders
+        attackers, defenders = list(range(m)), list(range(m, m + n))
+        self.others = np.array([[k for k in attackers if k != i] + defenders for i in attackers]
+                               + [[k for k in defenders if k != j] + attackers
+                                  for j in defenders], dtype=np.intp).reshape(m + n, m + n - 1)
+
+    def __call__(self, positions: np.ndarray, velocities: np.ndarray, active: np.ndarray,
+                 steps: np.ndarray) -> np.ndarray:
+        """Observations ``(K, P, size)`` float32 of ``K`` copies' ``P = M + N`` players.
+
+        Args:
+            positions: ``(K, P, 2)`` map units.
+            velocities: ``(K, P, 2)`` map units per second.
+            active: ``(K, P)`` bool.
+            steps: ``(K,)`` steps played in each copy.
+        """
+        k, p = active.shape
+        if not self.config.egocentric:
+            table = np.empty((k, p, 3), dtype=np.float32)
+            normalised = (positions - self.normaliser.centre) / self.normaliser.half
+            table[..., :2] = np.minimum(np.maximum(normalised, -1.0), 1.0)
+            table[..., 2] = active
+            observations = np.empty((k, p, self.size), dtype=np.float32)
+            observations[..., :2] = table[..., :2]
+            observations[..., 2:] = table.reshape(k, 1, 3 * p)
+            return observations
+        return self._egocentric(positions, velocities, active, steps)
+
+    def _egocentric(self, positions: np.ndarray, velocities: np.ndarray, active: np.ndarray,
+                    steps: np.ndarray) -> np.ndarray:
+        from reachavoid_env.lidar_kernel import egocentric
+
+        config, (k, p) = self.config, active.shape
+        distances = np.stack([shape.signed_distance(positions) for shape in self.target])
+        nearest = np.stack([shape.nearest_point(positions) for shape in self.target])
+        if len(self.target) > 1:
+            closest = distances.argmin(axis=0)[None, ..., None]
+            nearest = np.take_along_axis(nearest, closest, axis=0)
+        time_left = 1.0 - np.asarray(steps, dtype=np.float64) / self.max_cycles
+        lidar = self.lidar
+        observations = np.empty((k, p, self.size), dtype=np.float32)
+        egocentric(np.ascontiguousarray(positions, dtype=np.float64),
+                   np.ascontiguousarray(velocities, dtype=np.float64), active, time_left,
+                   nearest[0] - positions, distances.min(axis=0), self.others,
+                   self.normaliser.centre, self.normaliser.half, self.diagonal,
+                   self.fastest, config.velocities, config.time_left,
+                   *(lidar.arrays() if lidar else _NO_LIDAR), observations)
+        return observations
+
+
+_NO_LIDAR = (np.zeros((0, 2)), np.zeros((0, 4)), np.zeros((0, 0)), np.zeros((0, 3)), 1.0)
+
+
+def observe(state: GameState, game_map: GameMap, config: ObservationConfig = GLOBAL,
+            max_cycles: int | None = None) -> dict[str, np.ndarray]:
     """Every player's observation of ``state`` on ``game_map``, keyed by agent name
-    (``attacker_0..M-1``, ``defender_0..N-1``): what ``ReachAvoidEnv`` returns for the
-    same state, bit for bit."""
+    (``attacker_0..M-1``, ``defender_0..N-1``): what ``ReachAvoidEnv`` with observation
+    ``config`` (and ``max_cycles``, for the time left) returns for the same state, bit for
+    bit. The velocities are ``state.velocities`` (zero where the state has none)."""
     attackers = state.active_attackers
     active = np.concatenate([attackers, np.full(len(state.defender_positions),
                                                 attackers.any())])
     positions = np.concatenate([state.attacker_positions, state.defender_positions])
-    table = player_table(positions, active, Normaliser.of(game_map))
     names = state.attacker_names + state.defender_names
-    return dict(zip(names, agent_rows(table, slice(None)), strict=True))
+    if not config.egocentric:
+        table = player_table(positions, active, Normaliser.of(game_map))
+        return dict(zip(names, agent_rows(table, slice(None)), strict=True))
+    if max_cycles is None:
+        if config.time_left:
+            raise ValueError("observe: max_cycles is needed for the time left")
+        max_cycles = 1
+    velocities = (state.velocities if state.velocities is not None
+                  else np.zeros_like(positions))
+    observer = Observer(config, game_map, len(attackers), len(state.defender_positions),
+                        max(state.attacker_speed, state.defender_speed), max_cycles)
+    rows = observer(positions[None], velocities[None], active[None], np.array([state.step]))
+    return dict(zip(names, rows[0], strict=True))

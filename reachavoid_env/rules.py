@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -66,13 +67,15 @@ def capture_times(attackers_old: np.ndarray, attackers_new: np.ndarray,
                   capture_radius: float) -> np.ndarray:
     """Earliest capture time of every attacker-defender pair within one step.
 
-    Positions are ``(M, 2)`` and ``(N, 2)`` map units at the start and end of the step;
+    Positions are ``(..., M, 2)`` and ``(..., N, 2)`` map units at the start and end of the
+    step (``...``: copies of the game, as the vector env steps them);
     each pair's offset moves linearly, so the capture time is the first root of a
-    quadratic. Returns ``(M, N)`` fractions of the step in ``[0, 1]``, ``inf`` where the
+    quadratic. Returns ``(..., M, N)`` fractions of the step in ``[0, 1]``, ``inf`` where the
     pair never comes within ``capture_radius``.
     """
-    offsets = attackers_old[:, None, :] - defenders_old[None, :, :]
-    motions = (attackers_new - attackers_old)[:, None, :] - (defenders_new - defenders_old)[None]
+    offsets = attackers_old[..., :, None, :] - defenders_old[..., None, :, :]
+    motions = ((attackers_new - attackers_old)[..., :, None, :]
+               - (defenders_new - defenders_old)[..., None, :, :])
     return quadratic_entry_time(offsets, motions, capture_radius)
 
 
@@ -138,6 +141,37 @@ def resolve_events(game_map: GameMap, capture_radius: float, active: np.ndarray,
     if near.any():
         t_arrival = never.copy()
         t_arrival[near] = game_map.target_entry_time(attackers_old[near], attackers_new[near])
+    captured = active & (t_capture <= 1.0) & (t_capture <= t_arrival)
+    arrived = active & ~captured & (t_arrival <= 1.0)
+    times = np.where(captured, t_capture, np.where(arrived, t_arrival, np.inf))
+    left = captured | arrived
+    return StepEvents(captured, arrived, times, np.where(captured, captor, -1), left,
+                      bool(left.any()))
+
+
+def resolve_batch(maps: Sequence[GameMap], map_of: np.ndarray, capture_radius: float,
+                  active: np.ndarray, attackers_old: np.ndarray, attackers_new: np.ndarray,
+                  defenders_old: np.ndarray, defenders_new: np.ndarray) -> StepEvents:
+    """``resolve_events`` of ``K`` copies at once: arrays ``(K, M)`` / ``(K, M, 2)`` /
+    ``(K, N, 2)``, copy ``k`` on map ``maps[map_of[k]]``. Each copy's events are exactly
+    those ``resolve_events`` finds for it (the same arithmetic, element by element)."""
+    k, m = active.shape
+    pair_times = capture_times(attackers_old, attackers_new, defenders_old, defenders_new,
+                               capture_radius)
+    captor = pair_times.argmin(axis=2)
+    t_capture = np.take_along_axis(pair_times, captor[..., None], axis=2)[..., 0]
+    t_arrival = np.full((k, m), np.inf)
+    a_move = np.abs(attackers_new - attackers_old)
+    for index in np.unique(map_of).tolist():
+        game_map = maps[index]
+        xmin, xmax, ymin, ymax = target_bounds(game_map)
+        centre = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
+        half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
+        near = ((np.abs(attackers_old - centre) <= half + a_move).all(axis=2) & active
+                & (map_of == index)[:, None])
+        if near.any():
+            t_arrival[near] = game_map.target_entry_time(attackers_old[near],
+                                                         attackers_new[near])
     captured = active & (t_capture <= 1.0) & (t_capture <= t_arrival)
     arrived = active & ~captured & (t_arrival <= 1.0)
     times = np.where(captured, t_capture, np.where(arrived, t_arrival, np.inf))

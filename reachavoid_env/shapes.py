@@ -11,7 +11,9 @@ Every shape answers, for points given as an array of shape ``(..., 2)`` in map u
   included), ``inf`` where it never is (exact for every shape kind);
 - ``to_dict()`` / ``from_dict(table, field)``: the shape's TOML table, whose ``type`` is
   the class's ``type``;
-- ``outline()``: the boundary as a closed ring of vertices ``(K, 2)`` for drawing.
+- ``outline()``: the boundary as a closed ring of vertices ``(K, 2)`` for drawing;
+- ``nearest_point(points)``: the shape's closest point to each point (the point itself
+  where it is inside), ``(..., 2)`` -> ``(..., 2)`` (the observations' target direction).
 
 ``SHAPES`` is the registry (TOML ``type`` -> class) that the loader uses and that
 ``register`` fills, so a new shape kind is one class here (and, to be an obstacle in the
@@ -39,6 +41,7 @@ class Shape(Protocol):
     def segment_entry_time(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray: ...
     def bounds(self) -> tuple[float, float, float, float]: ...
     def outline(self) -> np.ndarray: ...
+    def nearest_point(self, points: np.ndarray) -> np.ndarray: ...
     def to_dict(self) -> dict[str, Any]: ...
     @classmethod
     def from_dict(cls, data: dict[str, Any], field: str) -> Shape: ...
@@ -131,6 +134,9 @@ class Box:
         (x0, y0), (x1, y1) = self.min, self.max
         return np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
 
+    def nearest_point(self, points: np.ndarray) -> np.ndarray:
+        return np.clip(_points(points), self.min, self.max)
+
     def to_dict(self) -> dict[str, Any]:
         return {"type": self.type, "min": list(self.min), "max": list(self.max)}
 
@@ -184,6 +190,14 @@ class Circle:
         angles = np.linspace(0.0, 2.0 * np.pi, vertices, endpoint=False)
         return np.asarray(self.center) + self.radius * np.stack([np.cos(angles),
                                                                  np.sin(angles)], axis=-1)
+
+    def nearest_point(self, points: np.ndarray) -> np.ndarray:
+        p = _points(points)
+        offsets = p - np.asarray(self.center)
+        lengths = np.linalg.norm(offsets, axis=-1, keepdims=True)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rim = np.asarray(self.center) + offsets * (self.radius / lengths)
+        return np.where(lengths <= self.radius, p, rim)
 
     def to_dict(self) -> dict[str, Any]:
         return {"type": self.type, "center": list(self.center), "radius": self.radius}
@@ -309,14 +323,26 @@ class Polygon:
         x, y = v[:, 0], v[:, 1]
         return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
-    def _edge_distance(self, p: np.ndarray) -> np.ndarray:
+    def _edge_points(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The closest point of every edge to ``p`` ``(..., E, 2)`` and its distance
+        ``(..., E)``."""
         a = np.asarray(self.vertices, dtype=np.float64)
         b = np.roll(a, -1, axis=0)
         ab = b - a
         ap = p[..., None, :] - a
         t = np.clip(np.sum(ap * ab, axis=-1) / np.sum(ab * ab, axis=-1), 0.0, 1.0)
         closest = a + t[..., None] * ab
-        return np.linalg.norm(p[..., None, :] - closest, axis=-1).min(axis=-1)
+        return closest, np.linalg.norm(p[..., None, :] - closest, axis=-1)
+
+    def _edge_distance(self, p: np.ndarray) -> np.ndarray:
+        return self._edge_points(p)[1].min(axis=-1)
+
+    def nearest_point(self, points: np.ndarray) -> np.ndarray:
+        p = _points(points)
+        closest, distances = self._edge_points(p)
+        rim = np.take_along_axis(closest, distances.argmin(axis=-1)[..., None, None],
+                                 axis=-2)[..., 0, :]
+        return np.where(self._crossing_inside(p)[..., None], p, rim)
 
     def _crossing_inside(self, p: np.ndarray) -> np.ndarray:
         a = np.asarray(self.vertices, dtype=np.float64)

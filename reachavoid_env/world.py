@@ -76,16 +76,22 @@ class World:
             shape.friction = 0.0
             shape.elasticity = 0.0
         self.space.add(*walls)
-        self.bodies: list[pymunk.Body] = []
-        for x, y in positions:
-            body = pymunk.Body(mass=1.0, moment=math.inf)
-            body.position = (float(x), float(y))
-            circle = pymunk.Circle(body, player_radius)
-            circle.filter = pymunk.ShapeFilter(group=_PLAYER_GROUP)
-            circle.friction = 0.0
-            circle.elasticity = 0.0
-            self.space.add(body, circle)
-            self.bodies.append(body)
+        self.player_radius = player_radius
+        self.bodies = [self._add_player(x, y) for x, y in positions]
+        self._index_bodies()
+        self._get_buffer = pymunk.batch.Buffer()
+
+    def _add_player(self, x: float, y: float) -> pymunk.Body:
+        body = pymunk.Body(mass=1.0, moment=math.inf)
+        body.position = (float(x), float(y))
+        circle = pymunk.Circle(body, self.player_radius)
+        circle.filter = pymunk.ShapeFilter(group=_PLAYER_GROUP)
+        circle.friction = 0.0
+        circle.elasticity = 0.0
+        self.space.add(body, circle)
+        return body
+
+    def _index_bodies(self) -> None:
         self._rows, body_count = self._body_rows()
         # Batch buffer: one (vx, vy, fx, fy) row per body the space iterates over (its
         # static body included). Velocities stay zero; a player's force is m v / h, so the
@@ -93,7 +99,17 @@ class World:
         self._commands = np.zeros((body_count, 4), dtype=np.float64)
         self._set_buffer = pymunk.batch.Buffer()
         self._set_buffer.set_float_buf(self._commands)
-        self._get_buffer = pymunk.batch.Buffer()
+
+    def replace_players(self, rows: np.ndarray, positions: np.ndarray) -> None:
+        """Put new bodies at ``positions`` ``(len(rows), 2)`` in place of the players
+        ``rows``: a fresh body keeps no contact of the old one, so the players move on
+        exactly as in a new ``World`` (the vector env's reset of one copy)."""
+        for row, (x, y) in zip(rows.tolist(), np.asarray(positions, dtype=np.float64),
+                               strict=True):
+            old = self.bodies[row]
+            self.space.remove(old, *old.shapes)
+            self.bodies[row] = self._add_player(x, y)
+        self._index_bodies()
 
     def _body_rows(self) -> tuple[slice | np.ndarray, int]:
         """Rows of the players' bodies in pymunk's batch order (a slice where they are

@@ -171,7 +171,7 @@ class _OnGame:
     def _open_game(self, scenario: ScenarioSource, max_cycles: int | None,
                    render_mode: str | None, shaping: float, timeout_reward: float,
                    action_repeat: int, scripted_every: int, render_width: int,
-                   info_format: str, starts: str) -> ReachAvoidEnv:
+                   info_format: str, starts: str, observation: Any) -> ReachAvoidEnv:
         """Check the view's own options, set them and ``metadata``, and build the game
         (which checks the rest)."""
         self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
@@ -179,7 +179,7 @@ class _OnGame:
         self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
         game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
                              shaping=shaping, render_width=render_width, info_format=info_format,
-                             starts=starts)
+                             starts=starts, observation=observation)
         self.metadata = _metadata(self.metadata, game, self.action_repeat)
         return game
 
@@ -199,8 +199,8 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
 
     Agents: ``attacker_0 .. attacker_{M-1}``. Observations, actions, rewards, infos, rules,
     ``state()`` and ``reset`` options are the attackers' part of ``ReachAvoidEnv`` (its
-    docstring has the layout): observation ``Box(-1, 1, (2 + 3 (M + N),))``, own position
-    first, then every attacker and every defender (x, y, active); action ``Box(-1, 1, (2,))``,
+    docstring has the layouts): the attackers' observations (``observation``, as
+    ``ReachAvoidEnv``: egocentric by default); action ``Box(-1, 1, (2,))``,
     a velocity as a fraction of the attacker's speed; reward +1 on arrival, -1 on capture
     (plus the optional ``shaping`` progress term, and ``timeout_reward`` for an attacker
     still in play when the episode is truncated). An attacker leaves ``agents``
@@ -225,15 +225,16 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
                  max_cycles: int | None = None, render_mode: str | None = None,
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
                  scripted_every: int = 1, render_width: int = 640,
-                 info_format: str = "numeric", starts: str = "scenario") -> None:
+                 info_format: str = "numeric", starts: str = "scenario",
+                 observation: Any = None) -> None:
         EzPickle.__init__(self, defenders, scenario=scenario, max_cycles=max_cycles,
                           render_mode=render_mode, shaping=shaping,
                           timeout_reward=timeout_reward, action_repeat=action_repeat,
                           scripted_every=scripted_every, render_width=render_width,
-                          info_format=info_format, starts=starts)
+                          info_format=info_format, starts=starts, observation=observation)
         game = self._open_game(scenario, max_cycles, render_mode, shaping, timeout_reward,
                                action_repeat, scripted_every, render_width, info_format,
-                               starts)
+                               starts, observation)
         self.game = game
         self.render_mode = render_mode
         self.defenders = scripted_policy(defenders, game, "defenders")
@@ -309,13 +310,9 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
     policy or a factory ``scenario -> policy``; ``teammates`` is required when the scenario
     has more than one attacker).
 
-    **Observation**: ``Box(-1, 1, (2 + 3 (M + N),), float32)``, the learner's observation
-    in ``ReachAvoidEnv``, positions normalised to the domain (-1 at ``xmin``/``ymin``, +1 at
-    ``xmax``/``ymax``)::
-
-        [own x, own y,
-         attacker_0 x, attacker_0 y, attacker_0 active, ..., (every attacker)
-         defender_0 x, defender_0 y, defender_0 active, ...] (every defender)
+    **Observation**: the learner's observation in ``ReachAvoidEnv`` (``observation``, an
+    ``ObservationConfig`` or a dict of its fields: egocentric by default;
+    ``reachavoid_env.observations`` has the layouts).
 
     **Action**: ``Box(-1, 1, (2,), float32)``, the desired velocity as a fraction of the
     attacker's speed (longer vectors are scaled to length 1), held for ``action_repeat``
@@ -349,15 +346,17 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
                  max_cycles: int | None = None, render_mode: str | None = None,
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
                  scripted_every: int = 1, render_width: int = 640,
-                 info_format: str = "numeric", starts: str = "scenario") -> None:
+                 info_format: str = "numeric", starts: str = "scenario",
+                 observation: Any = None) -> None:
         EzPickle.__init__(self, defenders, scenario=scenario, attacker=attacker,
                           teammates=teammates, max_cycles=max_cycles, render_mode=render_mode,
                           shaping=shaping, timeout_reward=timeout_reward,
                           action_repeat=action_repeat, scripted_every=scripted_every,
-                          render_width=render_width, info_format=info_format, starts=starts)
+                          render_width=render_width, info_format=info_format, starts=starts,
+                          observation=observation)
         game = self._open_game(scenario, max_cycles, render_mode, shaping, timeout_reward,
                                action_repeat, scripted_every, render_width, info_format,
-                               starts)
+                               starts, observation)
         base = game.base_scenario
         m = base.num_attackers
         if isinstance(attacker, bool) or not isinstance(attacker, int) \

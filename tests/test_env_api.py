@@ -84,7 +84,7 @@ def test_spaces_are_declared_once():
     for name in env.possible_agents:
         assert env.observation_space(name) is env.observation_space(name)
         assert env.action_space(name) is env.action_space(name)
-        assert env.observation_space(name).shape == (2 + 3 * 12,)
+        assert env.observation_space(name).shape == (7 + 16 + 5 * 11 + 1,)
         assert env.observation_space(name).dtype == np.float32
     assert env.state_space.shape == (36,)
     obs, _ = env.reset(seed=1)

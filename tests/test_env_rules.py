@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from reachavoid_env import AttackerStatus, Box, GameMap, ReachAvoidEnv, Scenario
+from reachavoid_env.observations import GLOBAL
 from reachavoid_env.rules import capture_times, resolve_events
 
 # Powers of two throughout, so positions after a step are exact in binary.
@@ -123,7 +124,8 @@ def test_capture_times_match_dense_sampling():
 
 def test_captured_attacker_leaves_and_keeps_its_last_position():
     scenario = exact_scenario(num_attackers=2, num_defenders=1)
-    env = start(scenario, [[-0.5, 0.0], [0.0, -0.75]], [[-0.5, 0.25 + 0.125]])
+    env = start(scenario, [[-0.5, 0.0], [0.0, -0.75]], [[-0.5, 0.25 + 0.125]],
+                observation=GLOBAL)
     south = np.array([0.0, -1.0], dtype=np.float32)
     _, rewards, terminations, _, infos = env.step(
         {"attacker_0": STILL, "attacker_1": STILL, "defender_0": south})
@@ -139,7 +141,7 @@ def test_captured_attacker_leaves_and_keeps_its_last_position():
     state = env.game_state()
     assert state.attacker_positions[0].tolist() == [-0.5, 0.0]
     assert state.attacker_status == (AttackerStatus.CAPTURED, AttackerStatus.ACTIVE)
-    # Observation layout: own (x, y), then (x, y, active) per attacker, per defender.
+    # v0's layout: own (x, y), then (x, y, active) per attacker, per defender.
     expected = np.array([0.0, -0.75, -0.5, 0.0, 0.0, 0.0, -0.75, 1.0, -0.5, 0.125, 1.0],
                         dtype=np.float32)
     assert np.array_equal(obs["attacker_1"], expected)

@@ -14,6 +14,7 @@ import pytest
 from reachavoid_env import Box, Circle, GameMap, Polygon, ReachAvoidEnv, Scenario, rules
 from reachavoid_env.environment import _STATUSES
 from reachavoid_env.game_state import AttackerStatus
+from reachavoid_env.observations import GLOBAL
 
 MIXED_MAP = GameMap(
     domain=(-1.0, 1.0, -0.8, 0.8),
@@ -81,6 +82,9 @@ class ReferenceEnv(ReachAvoidEnv):
                 self._active[m:] = False
             self._all_active = False
         self._positions = new
+        if self.observation.egocentric:
+            self._velocities = (new - old) / self.scenario.dt
+            self._velocities[~self._active] = 0.0
         return events
 
     def _infos(self, agents, captor):
@@ -142,10 +146,10 @@ def assert_same(a: Any, b: Any) -> None:
 
 
 @pytest.mark.parametrize("kwargs", [
-    {"scenario": "paper_8v4"},
+    {"scenario": "paper_8v4", "observation": GLOBAL},
     {"scenario": "paper_8v4", "starts": "random", "shaping": 0.5, "info_format": "readable"},
-    {"scenario": MIXED, "shaping": 0.25, "max_cycles": 300},
-], ids=["paper_8v4", "random-starts-shaping-readable", "mixed-map"])
+    {"scenario": MIXED, "shaping": 0.25, "max_cycles": 300, "observation": GLOBAL},
+], ids=["paper_8v4-v0", "random-starts-shaping-readable-v1", "mixed-map-v0"])
 def test_rollouts_match_the_reference_bit_for_bit(kwargs):
     fast, slow = ReachAvoidEnv(**kwargs), ReferenceEnv(**kwargs)
     rng = np.random.default_rng(7)

@@ -18,7 +18,7 @@ from checks import ROOT
 
 import reachavoid_env
 from policies import GreedyDefender, IdleDefender
-from policies.learned import TRAINING_ATTRIBUTE, ObservationPolicy, load_sb3
+from policies.learned import TRAINING_ATTRIBUTE, ObservationPolicy, load_sb3, training_record
 from policies.registry import make_policy, resolve
 from policies.training import (
     gym_id,
@@ -28,7 +28,7 @@ from policies.training import (
 from reachavoid import cli
 from reachavoid.rollout import run_episode
 from reachavoid_env import builtin_names, builtin_scenario
-from reachavoid_env.observations import observe
+from reachavoid_env.observations import GLOBAL, ObservationConfig, observe
 from reachavoid_env.video import RecordEpisode
 
 
@@ -46,10 +46,10 @@ def test_random_start_ids_draw_from_the_seed(name):
     scenario = builtin_scenario(name)
     envs = [gymnasium.make(gym_id(name, "random"), defenders="idle"),
             gymnasium.make(gym_id(name), defenders="idle", starts="random"),
-            gymnasium.make("reachavoid/Attacker-v0", scenario=name, defenders="idle",
+            gymnasium.make("reachavoid/Attacker-v1", scenario=name, defenders="idle",
                            starts="random"),
             pettingzoo.make("parallel", pettingzoo_id(name, "random"), defenders="idle"),
-            pettingzoo.make("parallel", "reachavoid/Attackers-v0", scenario=name,
+            pettingzoo.make("parallel", "reachavoid/Attackers-v1", scenario=name,
                             defenders="idle", starts="random"),
             pettingzoo.make("parallel", "reachavoid/ReachAvoid-v0", scenario=name,
                             starts="random")]
@@ -71,17 +71,19 @@ def test_scenario_starts_stay_the_default_and_bad_starts_are_named():
 
 
 # ------------------------------------------------------------------ observations
-def test_observe_is_the_env_observation_bit_for_bit():
+@pytest.mark.parametrize("config", [GLOBAL, ObservationConfig()], ids=["v0", "v1"])
+def test_observe_is_the_env_observation_bit_for_bit(config):
     """Along a game with captures and arrivals, ``observe(game_state())`` gives what the
     env returned to every agent it returned something to."""
-    env = reachavoid_env.parallel_env(scenario="paper_6v2", starts="random")
+    env = reachavoid_env.parallel_env(scenario="paper_6v2", starts="random",
+                                      observation=config)
     observations, _ = env.reset(seed=3)
     rng = np.random.default_rng(0)
     defenders = GreedyDefender()
     defenders.reset(env.scenario)
     left = 0
     while env.agents:
-        seen = observe(env.game_state(), env.scenario.map)
+        seen = observe(env.game_state(), env.scenario.map, config, env.max_cycles)
         for name, value in observations.items():
             np.testing.assert_array_equal(seen[name], value)
         actions = {**defenders.act(env.game_state()),
@@ -102,8 +104,8 @@ def test_observation_policy_holds_its_actions_for_action_repeat_steps():
     env = reachavoid_env.parallel_env(scenario="paper_2v1")
     result = run_episode(env, policy, IdleDefender(), seed=0)
     assert len(calls) == -(-result.steps // 4)
-    assert calls[0].shape == (2, 2 + 3 * 3) and calls[0].dtype == np.float32
-    with pytest.raises(ValueError, match="observes 11 numbers .* 'paper_6v2' has 6 attackers"):
+    assert calls[0].shape == (2, 7 + 16 + 5 * 2 + 1) and calls[0].dtype == np.float32
+    with pytest.raises(ValueError, match="observes 11 numbers; 'paper_6v2' has 6 attackers"):
         ObservationPolicy(predict, observation_size=11).reset(builtin_scenario("paper_6v2"))
 
 
@@ -120,7 +122,8 @@ def model_path(tmp_path_factory):
                             action_repeat=10, shaping=1.0, timeout_reward=-1.0)
     model = PPO("MlpPolicy", env, n_steps=500, batch_size=100, seed=0, device="cpu")
     model.learn(2_000)
-    setattr(model, TRAINING_ATTRIBUTE, {"action_repeat": 10, "scenario": "paper_1v1"})
+    setattr(model, TRAINING_ATTRIBUTE, training_record(env.game.observation, action_repeat=10,
+                                                          scenario="paper_1v1"))
     path = tmp_path_factory.mktemp("model") / "model.zip"
     model.save(path)
     return path
@@ -155,7 +158,7 @@ def test_sb3_names_go_through_the_registry(model_path):
     policy = make_policy("attackers", f"sb3:{model_path}", builtin_scenario("paper_1v1"),
                          action_repeat=2)
     assert isinstance(policy, ObservationPolicy) and policy.action_repeat == 2
-    with pytest.raises(ValueError, match="observes 8 numbers"):
+    with pytest.raises(ValueError, match="observes 29 numbers"):
         make_policy("attackers", f"sb3:{model_path}", builtin_scenario("paper_2v1"))
     with pytest.raises(ValueError, match="attackers: model 'nowhere.zip' .* is not a file"):
         resolve("attackers", "sb3:nowhere.zip")
@@ -177,11 +180,11 @@ def test_play_and_bench_take_a_model(model_path, tmp_path, capsys):
     assert cell["attackers"] == spec
     assert [m["label"] for m in cell["methods"]] == ["greedy", "idle"]
     assert cli.main(["play", "--scenario", "paper_2v1", "--attackers", spec]) == 2
-    assert "observes 8 numbers" in capsys.readouterr().err
+    assert "observes 29 numbers" in capsys.readouterr().err
     assert cli.main(["bench", "--attackers", spec, "--config", "2v1", "--defenders",
                      "greedy", "--episodes", "2", "--backend", "process", "--workers", "2"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "observes 8 numbers" in err, err   # one line, no traceback
+    assert err.count("\n") == 1 and "observes 29 numbers" in err, err   # one line, no traceback
     assert cli.main(["play", "--attackers", "sb3:nowhere.zip"]) == 2
     assert "'nowhere.zip' (in 'sb3:nowhere.zip') is not a file" in capsys.readouterr().err
 

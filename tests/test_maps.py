@@ -231,7 +231,7 @@ def test_a_library_is_accepted_by_the_registered_ids_and_by_play(tmp_path, capsy
     import reachavoid_env
 
     write_library(tmp_path, SMALL, 2, 3)
-    env = gymnasium.make("reachavoid/Attacker-v0", scenario=str(tmp_path), defenders="greedy")
+    env = gymnasium.make("reachavoid/Attacker-v1", scenario=str(tmp_path), defenders="greedy")
     names = set()
     for seed in range(6):
         env.reset(seed=seed)

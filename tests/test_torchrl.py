@@ -117,3 +117,36 @@ def test_mappo_example_trains_with_finite_losses():
         # captures.
         assert record["reward_sum"] == record["arrived"] - record["captured"]
         assert record["captured"] == 0       # idle defenders capture nobody
+
+
+def test_vector_attackers_env_passes_specs_and_resets_ended_copies_alone():
+    from torchrl.envs.utils import check_env_specs
+
+    from policies.training import make_attackers_vector_env
+    from reachavoid_env.integrations.torchrl import VectorGroupEnv
+
+    view = make_attackers_vector_env("paper_6v2", defenders="greedy", num_envs=4,
+                                     max_cycles=60, autoreset=False)
+    env = VectorGroupEnv(view)
+    check_env_specs(env)
+    rollout = env.rollout(150, break_when_any_done=False)
+    assert rollout["next", "attacker", "observation"].shape == (4, 150, 6, 59)
+    done = rollout["next", "done"][..., 0]
+    assert done.sum() >= 8                                # every copy ended twice or more
+    # the step after a copy's end is its new episode's first: time left is full again
+    after = rollout["next", "attacker", "observation"][:, 1:][done[:, :-1]]
+    assert (after[..., -1] > 0.97).all()
+    mask = rollout["next", "attacker", "mask"]
+    assert (rollout["next", "attacker", "observation"][~mask] == 0).all()
+
+
+def test_vector_defenders_learn_as_the_defender_group():
+    from policies.training import make_defenders_vector_env
+    from reachavoid_env.integrations.torchrl import VectorGroupEnv
+
+    env = VectorGroupEnv(make_defenders_vector_env("paper_6v2", num_envs=3, max_cycles=40,
+                                                   autoreset=False))
+    rollout = env.rollout(50, break_when_any_done=False)
+    assert env.group == "defender"
+    assert rollout["next", "defender", "reward"].shape == (3, 50, 2, 1)
+    assert rollout["next", "done"].any()

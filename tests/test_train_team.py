@@ -145,7 +145,7 @@ def test_demonstrations_line_up_with_their_returns(tmp_path):
     args = recipe.parse_args(["--defenders", "greedy", "--imitate-steps", "200",
                               "--out", str(tmp_path)])
     demonstrations = recipe.collect_demonstrations(args, recipe.team_maps(args.scenario), 0.9)
-    assert demonstrations.observations.shape == (200, 2 + 3 * 8)
+    assert demonstrations.observations.shape == (200, 7 + 16 + 5 * 7 + 1)
     assert demonstrations.actions.shape == (200, 2) and demonstrations.returns.shape == (200,)
     lengths = np.linalg.norm(demonstrations.actions, axis=1)
     assert np.all((np.abs(lengths - 1.0) < 1e-4) | (lengths == 0.0))

@@ -100,7 +100,7 @@ def test_gymnasium_ids_are_registered_for_every_builtin():
             spec = gymnasium.spec(gym_id(name, starts))
             assert spec.kwargs == {"scenario": name, "starts": starts}
             assert spec.entry_point == "policies.training:make_attacker_env"
-    assert gym_id("paper_6v2", "random") == "reachavoid/Attacker-paper_6v2-random-v0"
+    assert gym_id("paper_6v2", "random") == "reachavoid/Attacker-paper_6v2-random-v1"
 
 
 def test_check_env_through_the_registry():
@@ -108,7 +108,7 @@ def test_check_env_through_the_registry():
     inner = env.unwrapped
     assert isinstance(inner, SingleAttackerEnv) and inner.action_repeat == 5
     assert isinstance(inner.defenders, HJDefenderPolicy)
-    assert env.observation_space.shape == (11,)
+    assert env.observation_space.shape == (34,)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         check_env(inner)  # with a spec, so the other render mode is made and checked too
@@ -121,7 +121,7 @@ def test_make_vec(mode):
                               defender_options=COARSE, action_repeat=25)
     try:
         obs, _ = envs.reset(seed=0)
-        assert obs.shape == (2, 8)
+        assert obs.shape == (2, 29)
         finished = 0
         for _ in range(50):
             obs, rewards, terminated, truncated, infos = envs.step(
@@ -184,13 +184,13 @@ def test_train_attacker_example_beats_random(tmp_path):
     from stable_baselines3 import PPO
 
     train = example("train_attacker_sb3")
-    report = train.main(["--defenders", "idle", "--timesteps", "4096", "--envs", "2",
+    report = train.main(["--defenders", "idle", "--timesteps", "8192", "--envs", "2",
                          "--timeout-reward", "0", "--episodes", "20", "--seed", "0",
                          "--out", str(tmp_path)])
     assert report["trained"]["arrived_rate"] > report["random"]["arrived_rate"]
     assert json.loads((tmp_path / "report.json").read_text()) == report
     assert (tmp_path / "trained.mp4").stat().st_size > 0
     model = PPO.load(tmp_path / "model.zip", device="cpu")
-    assert model.observation_space.shape == (8,)
+    assert model.observation_space.shape == (29,)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["curve.csv", "model.zip",
                                                           "report.json", "trained.mp4"]

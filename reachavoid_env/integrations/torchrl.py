@@ -15,15 +15,26 @@ is done rather than at the first capture. Agents are grouped by role, ``"attacke
 ``"defender"`` (TorchRL would otherwise make one group per agent), so a group's policy is
 shared by its agents. The infos become tensors under ``(group, "info")``: they must be the
 env's numeric infos (``info_format="numeric"``, the default).
+
+``VectorGroupEnv(view)`` is the batched form over the vector env's training view: the
+learners of ``K`` copies (the attackers, or the defenders) as one TorchRL env of batch size
+``(K,)``, the scripted side acting inside it (below).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+import torch
 from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils import BaseWrapper
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import Bounded, Categorical, Composite, Unbounded
+from torchrl.envs import EnvBase
 from torchrl.envs.libs.pettingzoo import PettingZooWrapper
+
+from reachavoid_env.vector_views import LearnerVectorEnv
 
 
 class TorchRLAEC(BaseWrapper):
@@ -92,3 +103,92 @@ def torchrl_env(env: ParallelEnv | AECEnv, *, seed: int | None = None, device: A
     options = {"group_map": role_groups(list(env.possible_agents)), "use_mask": True,
                "done_on_any": False, "return_state": hasattr(env.unwrapped, "state_space")}
     return PettingZooWrapper(env, seed=seed, device=device, **(options | kwargs))
+
+
+class VectorGroupEnv(EnvBase):
+    """The learners of a vector training view (``vector_views.LearnerVectorEnv`` made with
+    ``autoreset=False``; ``policies.training.make_attackers_vector_env(...,
+    autoreset=False)``) as a batched TorchRL env: batch size ``(K,)``, one group (``group``:
+    ``"attacker"`` or ``"defender"``, the learners' side) with ``observation``
+    ``(K, L, D)``, ``action`` ``(K, L, 2)``, ``reward``
+    ``(K, L, 1)``, per-learner ``done`` / ``terminated`` / ``truncated`` and ``mask``
+    (``False`` for a learner that has left: its observation is then zero), and the copy's
+    ``done`` / ``terminated`` / ``truncated`` ``(K, 1)`` at the root. A copy whose episode
+    ended stands still until TorchRL resets it (``"_reset"``), as its collectors do.
+    """
+
+    def __init__(self, view: LearnerVectorEnv) -> None:
+        if view.autoreset:
+            raise ValueError("view: TorchRL resets the copies itself; make the view with "
+                             "autoreset=False")
+        k, learners = view.num_envs, len(view.learners)
+        size = view.single_observation_space.shape[0]
+        super().__init__(batch_size=torch.Size([k]), device="cpu")
+        self.view = view
+        self.group = "attacker" if view.learners[0].startswith("attacker") else "defender"
+        group = (k, learners)
+        flags = {name: Categorical(2, (*group, 1), dtype=torch.bool)
+                 for name in ("done", "terminated", "truncated")}
+        self.observation_spec = Composite({self.group: Composite(
+            observation=Bounded(-1.0, 1.0, (*group, size), dtype=torch.float32),
+            mask=Categorical(2, group, dtype=torch.bool), shape=group)}, shape=(k,))
+        self.action_spec = Composite({self.group: Composite(
+            action=Bounded(-1.0, 1.0, (*group, 2), dtype=torch.float32), shape=group)},
+            shape=(k,))
+        self.reward_spec = Composite({self.group: Composite(
+            reward=Unbounded((*group, 1), dtype=torch.float32), shape=group)}, shape=(k,))
+        self.done_spec = Composite(
+            {self.group: Composite(**flags, shape=group),
+             **{name: Categorical(2, (k, 1), dtype=torch.bool) for name in flags}}, shape=(k,))
+        self._seed: int | None = None
+        self._alive = np.ones(group, dtype=bool)
+        self._left = np.zeros(group, dtype=bool)
+
+    def _set_seed(self, seed: int | None) -> None:
+        self._seed = seed
+
+    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDict:
+        partial = tensordict is not None and "_reset" in tensordict.keys()
+        if partial and self._started:
+            copies = np.flatnonzero(tensordict["_reset"].reshape(-1).numpy())
+            table = self._table.copy()
+            table[copies] = self.view.reset_copies(copies)
+            self._alive[copies] = True
+            self._left[copies] = False
+        else:
+            table, infos = self.view.reset(seed=self._seed)
+            self._seed, self._started = None, True
+            self._alive = infos["active"].copy()
+            self._left[:] = False
+        self._table = table
+        return self._output(table, None, np.zeros_like(self._left), np.zeros_like(self._left),
+                            np.zeros(len(table), dtype=bool))
+
+    _started = False
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDict:
+        actions = tensordict[self.group, "action"].detach().cpu().numpy()
+        table, rewards, terminated, truncated, infos = self.view.step(actions)
+        self._left |= terminated
+        self._alive = infos["active"].copy()
+        self._table = table
+        over = infos["episode_over"]
+        return self._output(table, rewards, self._left | truncated, truncated, over)
+
+    def _output(self, table: np.ndarray, rewards: np.ndarray | None, done: np.ndarray,
+                truncated: np.ndarray, over: np.ndarray) -> TensorDict:
+        k, learners = self._left.shape
+        observed = np.where(self._alive[..., None], table, 0.0).astype(np.float32)
+        group = {"observation": torch.from_numpy(observed),
+                 "mask": torch.from_numpy(self._alive.copy()),
+                 "done": torch.from_numpy(done[..., None].copy()),
+                 "terminated": torch.from_numpy((done & ~truncated)[..., None].copy()),
+                 "truncated": torch.from_numpy(truncated[..., None].copy())}
+        if rewards is not None:
+            group["reward"] = torch.from_numpy(rewards[..., None].astype(np.float32))
+        copy_truncated = truncated.any(axis=1)[:, None]
+        root = {"done": torch.from_numpy(over[:, None].copy()),
+                "terminated": torch.from_numpy((over[:, None] & ~copy_truncated).copy()),
+                "truncated": torch.from_numpy((over[:, None] & copy_truncated).copy())}
+        return TensorDict({self.group: TensorDict(group, batch_size=(k, learners)), **root},
+                          batch_size=(k,))
