@@ -227,6 +227,7 @@ def against(others: list[Path], steps: int, mpe_steps: int, rounds: int) -> dict
 
 
 def main() -> None:
+    global OBSERVATION
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=5000, help="steps per timed run")
     parser.add_argument("--mpe-steps", type=int, default=1000, help="MPE steps per timed run")
@@ -243,7 +244,6 @@ def main() -> None:
     parser.add_argument("--only-steps", type=int, metavar="N", help=argparse.SUPPRESS)
     parser.add_argument("--only-mpe", type=int, metavar="N", help=argparse.SUPPRESS)
     args = parser.parse_args()
-    global OBSERVATION
     OBSERVATION = args.observation
     if args.only_steps:
         print(step_rate(make_reachavoid, args.only_steps))
