@@ -16,7 +16,11 @@ per size, over ``--instances`` instances, as wall time
   ``I_j`` and ``P_j`` do during a game; unchanged steps reuse the last answer.
 
     python benchmarks/assignment_latency.py [--instances 300] [--p1 0.3] [--p2 0.3]
-        [--team-p1 0.7] [--p3 0.3]
+        [--team-p1 0.7] [--p3 0.3] [--json benchmarks/results/assignment_latency.json]
+
+``--json`` writes the medians and tails as a result record (``benchmarks/result_file.py``):
+the team rows as ``cold_cpu_p50_ms.MvN``, ``cold_cpu_p99_ms.MvN`` and ``cached_p50_ms.MvN``
+(wall), the first table as ``mip_*`` and ``matching_*``.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ import time
 from collections.abc import Callable
 
 import numpy as np
+from result_file import write_result
 
 from solvers.assignment import AssignmentSolver, max_matching, solve_assignment
 
@@ -81,6 +86,14 @@ def summary(samples: list[tuple[float, float]]) -> str:
             f"({np.median(cpu):.3f} / {np.percentile(cpu, 99):.2f})")
 
 
+def figures_of(name: str, size: str, samples: list[tuple[float, float]]) -> dict[str, float]:
+    """Wall p50 and CPU p50 / p99 of ``samples`` (seconds) as result-record keys, in ms."""
+    wall, cpu = (np.asarray(s) * 1e3 for s in zip(*samples, strict=True))
+    return {f"{name}_p50_ms.{size}": float(np.median(wall)),
+            f"{name}_cpu_p50_ms.{size}": float(np.median(cpu)),
+            f"{name}_cpu_p99_ms.{size}": float(np.percentile(cpu, 99))}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--instances", type=int, default=300)
@@ -93,7 +106,9 @@ def main() -> None:
     parser.add_argument("--change", type=float, default=0.1,
                         help="share of steps whose inputs change (cached runs)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
+    figures: dict[str, float] = {}
     rng = np.random.default_rng(args.seed)
     print(f"machine: {platform.machine()} {platform.processor() or ''}, "
           f"python {platform.python_version()}; p1={args.p1}, p2={args.p2}, "
@@ -115,6 +130,9 @@ def main() -> None:
         print(f"| {m}v{n} | {summary(mip_cold)} | {summary(mip_cached)} | "
               f"{summary(match_cold)} | {summary(match_cached)} | "
               f"{mip.solves}/{mip.solves + mip.reuses} |")
+        for name, samples in (("mip_cold", mip_cold), ("mip_cached", mip_cached),
+                              ("matching_cold", match_cold), ("matching_cached", match_cached)):
+            figures |= figures_of(name, f"{m}v{n}", samples)
     print("\n| size | MIP + teams cold | MIP + teams cached | teams in answer | re-solves |")
     print("|---|---|---|---|---|")
     for m, n in TEAM_SIZES:
@@ -130,6 +148,21 @@ def main() -> None:
         print(f"| {m}v{n} | {summary(cold)} | {summary(cached)} | "
               f"{teams / len(tables):.2f} per instance | "
               f"{mip.solves}/{mip.solves + mip.reuses} |")
+        figures |= figures_of("cold", f"{m}v{n}", cold) | figures_of("cached", f"{m}v{n}", cached)
+    if args.json:
+        what = {"cold": "the program with defender teams, a fresh solve",
+                "cached": "the program with defender teams on the cached path a game runs",
+                "mip_cold": "the paper's program, a fresh solve",
+                "mip_cached": "the paper's program on the cached path",
+                "matching_cold": "the maximum matching, fresh",
+                "matching_cached": "the maximum matching on the cached path"}
+        units = {}
+        for lead in {key.split(".")[0] for key in figures}:
+            name, tail = lead.split("_p")
+            clock = "CPU" if name.endswith("_cpu") else "wall"
+            units[lead] = (f"{what[name.removesuffix('_cpu')]}: {clock} time, "
+                           f"p{tail.split('_')[0]}, milliseconds")
+        write_result(args.json, "assignment_latency", figures, units)
 
 
 if __name__ == "__main__":

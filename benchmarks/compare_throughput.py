@@ -4,7 +4,8 @@ each process timing greedy and hj runs alternately; then one table of medians.
 
     git worktree add /tmp/base main
     taskset -c 0 .venv/bin/python benchmarks/compare_throughput.py /tmp/base . \\
-        --rounds 3 -- --scenarios paper_8v4 --every 1 --steps 3000 --repeats 5
+        --rounds 3 --json benchmarks/results/training_throughput.json \\
+        -- --scenarios paper_8v4 --every 1 --steps 3000 --repeats 5
 
 Every process runs this checkout's ``training_throughput.py`` (the same harness) with
 ``PYTHONPATH`` set to the checkout it times, so only the library code differs. Arguments
@@ -12,7 +13,8 @@ after ``--`` go to ``training_throughput.py``. The table gives, per env, the med
 steps/s of greedy (both checkouts' runs) and of hj in each checkout, and the median and
 range of the per-pair hj / greedy ratios (each hj run against the greedy run just before
 it, in the same process), and the median share of an hj step spent in the defenders'
-``act``.
+``act``. ``--json PATH`` writes the after checkout's figures as a result record
+(``benchmarks/result_file.py``), keyed ``NAME.SCENARIO.ENV``.
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+from result_file import write_result
 
 HARNESS = Path(__file__).with_name("training_throughput.py")
 
@@ -42,9 +46,21 @@ def share(timed: list[list[float]]) -> float:
     return statistics.median(defenders for _, defenders, _ in timed)
 
 
+def ratios(hj: list[float], greedy: list[float]) -> list[float]:
+    """Each hj run's rate over the greedy run just before it (same process)."""
+    return [h / g for h, g in zip(hj, greedy, strict=True)]
+
+
 def ratio_cell(hj: list[float], greedy: list[float]) -> str:
-    ratios = [h / g for h, g in zip(hj, greedy, strict=True)]
-    return f"{statistics.median(ratios):.0%} ({min(ratios):.0%}-{max(ratios):.0%})"
+    pairs = ratios(hj, greedy)
+    return f"{statistics.median(pairs):.0%} ({min(pairs):.0%}-{max(pairs):.0%})"
+
+
+def row_key(kind: str) -> str:
+    """``paper_8v4: attackers shortest-path`` -> ``paper_8v4.attackers_shortest_path``."""
+    scenario, env = kind.split(": ")
+    env = "single_attacker" if env == "single" else env.replace(" ", "_").replace("-", "_")
+    return f"{scenario}.{env}"
 
 
 def main() -> None:
@@ -52,6 +68,7 @@ def main() -> None:
     parser.add_argument("before", type=Path, help="checkout of the code before")
     parser.add_argument("after", type=Path, help="checkout of the code after")
     parser.add_argument("--rounds", type=int, default=3, help="processes per checkout")
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     ours, options = sys.argv[1:], []
     if "--" in ours:
         cut = ours.index("--")
@@ -69,6 +86,7 @@ def main() -> None:
                     runs[side].setdefault(label, []).extend(timed)
     print("\n| env | greedy | hj before | hj after | hj / greedy before | "
           "hj / greedy after | hj's act, share of its step |\n|---|---|---|---|---|---|---|")
+    figures: dict[str, float] = {}
     for label in runs["after"]:
         if not label.endswith(", hj"):
             continue
@@ -82,6 +100,20 @@ def main() -> None:
               f"{ratio_cell(rates['before']['hj'], rates['before']['greedy'])} | "
               f"{ratio_cell(rates['after']['hj'], rates['after']['greedy'])} | "
               f"{share(runs['before'][label]):.0%} -> {share(runs['after'][label]):.0%} |")
+        key = row_key(kind)
+        figures |= {
+            f"hj_steps_per_cpu_s.{key}": statistics.median(rates["after"]["hj"]),
+            f"hj_steps_per_cpu_s_before.{key}": statistics.median(rates["before"]["hj"]),
+            f"greedy_steps_per_cpu_s.{key}": statistics.median(greedy),
+            f"hj_over_greedy_percent.{key}": 100 * statistics.median(
+                ratios(rates["after"]["hj"], rates["after"]["greedy"]))}
+    if args.json:
+        write_result(args.json, "training_throughput", figures, {
+            "hj_steps_per_cpu_s": "median env steps per CPU second with HJ defenders, the "
+                                  "after checkout (_before: the before checkout)",
+            "greedy_steps_per_cpu_s": "median with greedy defenders, both checkouts' runs",
+            "hj_over_greedy_percent": "median of the per-pair ratios hj / greedy, after, "
+                                      "percent"})
 
 
 if __name__ == "__main__":

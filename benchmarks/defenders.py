@@ -15,6 +15,10 @@ interval), the mean arrivals, and the paired difference of the capture rate agai
 
     python benchmarks/defenders.py --grid1 45 --grid2 30 --seeds 200 --results d.jsonl
     python benchmarks/defenders.py --results d.jsonl --report      # tables only
+
+``--json PATH`` also writes the tables' figures as a result record
+(``benchmarks/result_file.py``), keyed ``capture_percent.CONFIG.ATTACKERS.METHOD``,
+``minus_hj_points...`` and ``bound_percent.CONFIG.ATTACKERS``.
 """
 
 from __future__ import annotations
@@ -31,6 +35,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
+from result_file import write_result
 
 import reachavoid_env
 from policies.geodesic import distance_field
@@ -131,8 +136,11 @@ def mean_interval(samples: np.ndarray) -> tuple[float, float, float]:
     return mean, mean - half, mean + half
 
 
-def report(rows: list[dict[str, Any]], grid: tuple[int, int] | None = None) -> str:
-    """The tables of ``rows`` (those on tubes ``grid`` if given), one per cell."""
+def report(rows: list[dict[str, Any]], grid: tuple[int, int] | None = None,
+           figures: dict[str, Any] | None = None) -> str:
+    """The tables of ``rows`` (those on tubes ``grid`` if given), one per cell; their
+    figures (percent) go into ``figures`` when given, keyed as the result record's."""
+    figures = {} if figures is None else figures
     cells: dict[tuple, dict[str, dict[int, dict]]] = defaultdict(lambda: defaultdict(dict))
     for row in rows:
         if grid is None or (row["grid1"], row["grid2"]) == grid:
@@ -141,8 +149,12 @@ def report(rows: list[dict[str, Any]], grid: tuple[int, int] | None = None) -> s
     lines = []
     for (config, attackers, g1, g2), methods in sorted(cells.items()):
         lines += [f"\n{config}, {attackers} attackers, tubes {g1}/{g2}", ""]
+        cell = f"{config}.{attackers}"
         if attackers == "shortest-path":
-            lines += [_headroom(methods), ""]
+            line, bound = _headroom(methods)
+            lines += [line, ""]
+            if bound is not None:
+                figures[f"bound_percent.{cell}"] = 100 * bound
         lines += [
                   "| method | episodes | capture rate | all captured | arrivals | "
                   f"minus {REFERENCE}, paired (seeds) |", "|---|---|---|---|---|---|"]
@@ -163,6 +175,9 @@ def report(rows: list[dict[str, Any]], grid: tuple[int, int] | None = None) -> s
                 d, d_low, d_high = mean_interval(diffs)
                 paired = (f"{100 * d:+.1f} [{100 * d_low:+.1f}, {100 * d_high:+.1f}] "
                           f"({len(common)})")
+                figures[f"minus_hj_points.{cell}.{method}"] = [100 * d, 100 * d_low,
+                                                               100 * d_high]
+            figures[f"capture_percent.{cell}.{method}"] = 100 * rate
             share = everyone / len(episodes)
             lines.append(f"| {method} | {len(episodes)} | {100 * rate:.1f}% "
                          f"[{100 * low:.1f}, {100 * high:.1f}] | {100 * share:.1f}% "
@@ -171,17 +186,19 @@ def report(rows: list[dict[str, Any]], grid: tuple[int, int] | None = None) -> s
     return "\n".join(lines)
 
 
-def _headroom(methods: dict[str, dict[int, dict]]) -> str:
-    """The cell's bound (``interceptable``) and the episodes of any method above it."""
+def _headroom(methods: dict[str, dict[int, dict]]) -> tuple[str, float | None]:
+    """The cell's bound (``interceptable``) and the episodes of any method above it: the
+    line, and the bound (a share; None where not recorded)."""
     starts = {seed: row for episodes in methods.values() for seed, row in episodes.items()
               if "interceptable" in row}
     if not starts:
-        return "bound: not recorded"
+        return "bound: not recorded", None
     bound = np.mean([row["interceptable"] / row["attackers_total"] for row in starts.values()])
     above = sum(row["captured"] > row.get("interceptable", math.inf)
                 for episodes in methods.values() for row in episodes.values())
     return (f"bound: {100 * bound:.1f}% of the attackers can be intercepted at the start "
-            f"({len(starts)} seeds; episodes of any method capturing more: {above})")
+            f"({len(starts)} seeds; episodes of any method capturing more: {above})",
+            float(bound))
 
 
 def main() -> None:
@@ -197,6 +214,7 @@ def main() -> None:
                         help="JSON lines file the episodes are appended to (resumable)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--report", action="store_true", help="only print the tables")
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
     split = lambda text: [x.strip() for x in text.split(",") if x.strip()]  # noqa: E731
     grid = (args.grid1, args.grid2)
@@ -214,7 +232,16 @@ def main() -> None:
                 print(f"{count} / {len(tasks)} in {time.perf_counter() - started:.0f} s",
                       flush=True)
         print(f"wall time {time.perf_counter() - started:.0f} s")
-    print(report(stored(args.results), grid))
+    figures: dict[str, Any] = {}
+    print(report(stored(args.results), grid, figures))
+    if args.json:
+        write_result(args.json, "defenders", figures, {
+            "capture_percent": f"mean share of attackers captured, percent, tubes "
+                               f"{args.grid1}^4 / {args.grid2}^6",
+            "minus_hj_points": "paired per-seed difference against hj, percentage points: "
+                               "[difference, 95% low, 95% high]",
+            "bound_percent": "attackers interceptable at the start along their shortest "
+                             "paths (no defender policy captures more), percent"})
 
 
 if __name__ == "__main__":

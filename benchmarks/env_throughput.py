@@ -17,19 +17,23 @@ the best is the least disturbed). ``--profile`` prints where an env step spends 
 ``DIR`` (other revisions, e.g. ``git worktree add /tmp/base HEAD~1``) side by side: each
 of ``--repeats`` rounds runs one fresh process per tree (``cd`` into it, ``PYTHONPATH``
 set to it, this script's harness) and one for MPE, so every tree's ratio to MPE is taken
-within its round; the medians over the rounds are reported. ``--json PATH`` also writes
-the figures, the command, the machine, the date and the trees' commits as JSON.
+within its round.
 
     SDL_VIDEODRIVER=dummy .venv/bin/python benchmarks/env_throughput.py [--steps 5000]
-    taskset -c 0 .venv/bin/python benchmarks/env_throughput.py --against /tmp/base \
-        --repeats 7 --json env_throughput.json
+    taskset -c 0 .venv/bin/python benchmarks/env_throughput.py --against /tmp/base \\
+        --repeats 7 --json benchmarks/results/env_side_by_side.json
+
+``--json PATH`` writes the figures as a result record (``benchmarks/result_file.py``):
+``steps_per_s.*`` and ``ratio`` (best runs), or with ``--against``, per tree (``this_tree``,
+the others by their short commit) and for MPE, ``steps_per_cpu_s.*`` and the per-round
+``ratio_to_mpe.*`` as ``[median, lowest, highest]`` over the rounds, and each other tree's
+``relative_to_this_tree.*`` (median over median).
 """
 
 from __future__ import annotations
 
 import argparse
 import cProfile
-import datetime
 import inspect
 import os
 import platform
@@ -166,16 +170,16 @@ def step_rate(make: Callable[[], object], steps: int) -> float:
     return max(steps / run_steps(env, actions, steps, time.process_time) for _ in range(3))
 
 
-def commit(tree: Path) -> str | None:
-    """The commit checked out in ``tree`` (``+dirty`` with uncommitted changes), if any."""
+def short_commit(tree: Path) -> str:
+    """The commit checked out in ``tree``, short (``+dirty`` with uncommitted changes)."""
     try:
-        head = subprocess.run(["git", "-C", str(tree), "rev-parse", "HEAD"], check=True,
-                              capture_output=True, text=True).stdout.strip()
+        head = subprocess.run(["git", "-C", str(tree), "rev-parse", "--short", "HEAD"],
+                              check=True, capture_output=True, text=True).stdout.strip()
         dirty = subprocess.run(["git", "-C", str(tree), "status", "--porcelain",
                                 "--untracked-files=no"], check=True, capture_output=True,
                                text=True).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
-        return None
+        return tree.name
     return head + ("+dirty" if dirty else "")
 
 
@@ -191,11 +195,17 @@ def child_rate(tree: Path, option: str, steps: int) -> float:
     return float(done.stdout)
 
 
+def spread(values: list[float]) -> list[float]:
+    """``[median, lowest, highest]``: a figure with its range over the rounds."""
+    return [statistics.median(values), min(values), max(values)]
+
+
 def against(others: list[Path], steps: int, mpe_steps: int, rounds: int) -> dict:
     """Step-only rates of this tree, of ``others`` and of MPE in alternating fresh
-    processes, ``rounds`` rounds; each tree's ratio to the MPE run of the same round."""
+    processes, ``rounds`` rounds; each tree's ratio to the MPE run of the same round. The
+    figures of the result record."""
     here = Path(__file__).resolve().parents[1]
-    trees = {"this tree": here} | {str(other): other.resolve() for other in others}
+    trees = {"this_tree": here} | {short_commit(other): other.resolve() for other in others}
     rates: dict[str, list[float]] = {name: [] for name in trees}
     mpe: list[float] = []
     for round_ in range(rounds):
@@ -205,25 +215,21 @@ def against(others: list[Path], steps: int, mpe_steps: int, rounds: int) -> dict
         print(f"round {round_ + 1}: " + ", ".join(f"{name} {values[-1]:,.0f}/s"
                                                  for name, values in rates.items())
               + f", MPE {mpe[-1]:,.0f}/s; load average {os.getloadavg()[0]:.2f}", flush=True)
-    result = {"mpe": {"rates": mpe, "median": statistics.median(mpe)}, "trees": {}}
-    print(f"\n{'tree':<32} {'commit':<12} {'best':>9} {'median':>9}  ratio to MPE "
-          f"(median of rounds)  / this tree")
-    ours = statistics.median(rates["this tree"])
+    figures: dict = {"steps_per_cpu_s.mpe_simple_tag": spread(mpe)}
+    ours = statistics.median(rates["this_tree"])
+    print(f"\n{'tree':<16} {'median':>9} {'best':>9}  ratio to MPE, median (range)  "
+          f"/ this tree   ({OBSERVATION} observation, steps per CPU second)")
     for name, values in rates.items():
-        ratios = [rate / base for rate, base in zip(values, mpe, strict=True)]
-        sha = commit(trees[name])
-        row = {"path": str(trees[name]), "commit": sha, "rates": values,
-               "best": max(values), "median": statistics.median(values),
-               "ratios_to_mpe": ratios, "ratio_to_mpe": statistics.median(ratios),
-               "relative_to_this_tree": statistics.median(values) / ours}
-        result["trees"][name] = row
-        short = (sha or "?")[:10] + ("+" if sha and sha.endswith("+dirty") else "")
-        print(f"{name:<32} {short:<12} {row['best']:>9,.0f} {row['median']:>9,.0f}"
-              f"  {row['ratio_to_mpe']:>5.1f}x ({min(ratios):.1f}-{max(ratios):.1f})"
-              f"{'':>10}{row['relative_to_this_tree']:.3f}")
-    print(f"MPE simple_tag 8+4: median {result['mpe']['median']:,.0f}/s "
-          f"(steps per CPU second, best of 3 runs per process)")
-    return result
+        ratios = spread([rate / base for rate, base in zip(values, mpe, strict=True)])
+        figures[f"steps_per_cpu_s.{name}"] = spread(values)
+        figures[f"ratio_to_mpe.{name}"] = ratios
+        relative = statistics.median(values) / ours
+        if name != "this_tree":
+            figures[f"relative_to_this_tree.{name}"] = relative
+        print(f"{name:<16} {statistics.median(values):>9,.0f} {max(values):>9,.0f}  "
+              f"{ratios[0]:>5.1f}x ({ratios[1]:.1f}-{ratios[2]:.1f}){'':>12}{relative:.3f}")
+    print(f"MPE simple_tag 8+4: median {statistics.median(mpe):,.0f}/s")
+    return figures
 
 
 def main() -> None:
@@ -236,13 +242,12 @@ def main() -> None:
     parser.add_argument("--profile", action="store_true", help="cProfile an env run too")
     parser.add_argument("--against", type=Path, metavar="DIR", nargs="+",
                         help="compare the step rate with other checkouts, side by side")
-    parser.add_argument("--json", type=Path, metavar="PATH",
-                        help="also write the figures (and command, machine, date, commits)")
     parser.add_argument("--observation", choices=("v0", "v1"), default=OBSERVATION,
                         help="v0's global vector (default; every revision has it) or v1's "
                              "egocentric observation")
     parser.add_argument("--only-steps", type=int, metavar="N", help=argparse.SUPPRESS)
     parser.add_argument("--only-mpe", type=int, metavar="N", help=argparse.SUPPRESS)
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
     OBSERVATION = args.observation
     if args.only_steps:
@@ -252,67 +257,54 @@ def main() -> None:
         print(step_rate(make_mpe, args.only_mpe))
         return
 
-    machine = {"processor": platform.processor() or platform.machine(),
-               "cores": os.cpu_count(), "cores_used": sorted(os.sched_getaffinity(0)),
-               "python": platform.python_version(), "numpy": np.__version__,
-               "load_average_at_start": os.getloadavg()}
-    print(f"machine: {machine['processor']}, {machine['cores']} cores (this run on "
-          f"{machine['cores_used']}), Python {machine['python']}; load average "
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"Python {platform.python_version()}; load average "
           f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    report = {"command": [Path(sys.executable).name, *sys.argv],
-              "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-              "machine": machine, "commit": commit(Path(__file__).resolve().parents[1]),
-              "observation": OBSERVATION}
+    # imported here: ``--only-steps`` runs this file under another tree's PYTHONPATH
+    from result_file import write_result
+
     if args.against is not None:
-        report["side_by_side"] = against(args.against, args.steps, args.mpe_steps,
-                                         args.repeats)
-    else:
-        report["figures"] = figures(args)
-    report["load_average_at_end"] = os.getloadavg()
-    if args.json is not None:
-        from reachavoid_env.files import write_json  # not in older trees' children
-
-        write_json(args.json, report)
-        print(f"figures written to {args.json}")
-
-
-def figures(args: argparse.Namespace) -> dict[str, dict[str, float]]:
-    """Every figure of a plain run (step rates, render and encode), best and median."""
+        figures = against(args.against, args.steps, args.mpe_steps, args.repeats)
+        if args.json:
+            write_result(args.json, "env_throughput", figures, {
+                "steps_per_cpu_s": f"paper_8v4 parallel env ({OBSERVATION} observation) and "
+                                   "MPE simple_tag 8+4 steps per CPU second, random actions "
+                                   "drawn beforehand, best of 3 runs per process: [median, "
+                                   "lowest, highest] over the rounds; trees by short commit",
+                "ratio_to_mpe": "a tree's steps per CPU second over MPE's in the same "
+                                "round: [median, lowest, highest]",
+                "relative_to_this_tree": "a tree's median over this tree's"})
+        return
     ours, mpe = make_reachavoid(), make_mpe()
     ours_actions = random_actions(ours, args.steps, seed=0)
     mpe_actions = random_actions(mpe, args.mpe_steps, seed=0)
     r = args.repeats
-    out = {
-        "reach-avoid paper_8v4, step only": rate(
-            "reach-avoid paper_8v4, step only",
-            lambda: run_steps(ours, ours_actions, args.steps), args.steps, r),
-        "reach-avoid paper_8v4, with sampling": rate(
-            "reach-avoid paper_8v4, with sampling",
-            lambda: run_steps(ours, None, args.steps), args.steps, r),
-        "MPE simple_tag 8+4, step only": rate(
-            "MPE simple_tag 8 good/4 adv/2 obst, step only",
-            lambda: run_steps(mpe, mpe_actions, args.mpe_steps), args.mpe_steps, r),
-        "MPE simple_tag 8+4, with sampling": rate(
-            "MPE simple_tag 8 good/4 adv/2 obst, with sampling",
-            lambda: run_steps(mpe, None, args.mpe_steps), args.mpe_steps, r),
-    }
-    ours_step, mpe_step = out["reach-avoid paper_8v4, step only"], out[
-        "MPE simple_tag 8+4, step only"]
-    out["ratio to MPE, step only"] = {key: ours_step[key] / mpe_step[key]
-                                      for key in ("best", "median")}
-    print(f"ratio (step only): best {out['ratio to MPE, step only']['best']:.1f}x, "
-          f"median {out['ratio to MPE, step only']['median']:.1f}x  (goal: 20x)")
+    ours_step = rate("reach-avoid paper_8v4, step only",
+                     lambda: run_steps(ours, ours_actions, args.steps), args.steps, r)
+    rate("reach-avoid paper_8v4, with sampling",
+         lambda: run_steps(ours, None, args.steps), args.steps, r)
+    mpe_step = rate("MPE simple_tag 8 good/4 adv/2 obst, step only",
+                    lambda: run_steps(mpe, mpe_actions, args.mpe_steps), args.mpe_steps, r)
+    rate("MPE simple_tag 8 good/4 adv/2 obst, with sampling",
+         lambda: run_steps(mpe, None, args.mpe_steps), args.mpe_steps, r)
+    print(f"ratio (step only): best {ours_step['best'] / mpe_step['best']:.1f}x, "
+          f"median {ours_step['median'] / mpe_step['median']:.1f}x  (goal: 20x)")
+    if args.json:
+        write_result(args.json, "env_throughput", {
+            "steps_per_s.reachavoid_8v4": ours_step["best"],
+            "steps_per_s.mpe_simple_tag": mpe_step["best"],
+            "ratio": ours_step["best"] / mpe_step["best"]}, {
+            "steps_per_s": "best of --repeats runs, 12 agents, actions drawn beforehand",
+            "ratio": "reach-avoid over MPE simple_tag"})
     work, frames = render_fps(args.frames)
-    out["render rgb_array paper_8v4, frames"] = rate("render rgb_array paper_8v4 (frames)",
-                                                     work, args.frames, r)
+    rate("render rgb_array paper_8v4 (frames)", work, args.frames, r)
     print(f"  frame size {frames[0].shape[1]}x{frames[0].shape[0]}")
-    out["MP4 encode, frames"] = rate(
-        "MP4 encode via VideoWriter (frames)",
-        encode_fps(frames, reachavoid_env.ReachAvoidEnv.metadata["render_fps"]), len(frames),
-        min(r, 3))
+    rate("MP4 encode via VideoWriter (frames)",
+         encode_fps(frames, reachavoid_env.ReachAvoidEnv.metadata["render_fps"]), len(frames),
+         min(r, 3))
     if args.profile:
         profile(args.steps)
-    return out
+
 
 if __name__ == "__main__":
     main()

@@ -1,4 +1,4 @@
-"""Benchmark: how often Algorithm 1's guarantee breaks (BENCHMARKS.md "Guarantee").
+"""Benchmark: how often Algorithm 1's guarantee breaks (BENCHMARKS.md, "The guarantee").
 
 Seeded random starts of 4v2, 6v2 and 8v4 on the paper map and of 6v4 on the equal-speed
 scenario (``paper_6v4_equal``), against shortest-path, random and HJ attackers; the
@@ -12,12 +12,17 @@ policy's certificate. Every method plays the same starts (``reachavoid.compare_d
 
     python benchmarks/guarantee.py --episodes 84 --backend process            # 1,008 episodes
     python benchmarks/guarantee.py --episodes 84 --backend process --margin-cells 0
+
+``--json PATH`` writes the totals and the certified counts at the start as a result record
+(``benchmarks/result_file.py``).
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+
+from result_file import write_result
 
 import reachavoid_env
 from policies.defenders import CERTIFICATE_CELLS
@@ -42,6 +47,7 @@ def main() -> None:
     parser.add_argument("--margin-cells", type=float, default=CERTIFICATE_CELLS)
     parser.add_argument("--backend", choices=BACKENDS, default="serial")
     parser.add_argument("--workers", type=int, default=None)
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
     methods = [m.strip() for m in args.defenders.split(",") if m.strip()]
 
@@ -52,6 +58,7 @@ def main() -> None:
           "guaranteed at start | nominal at start | stopped | captured |")
     print("|---|---|---|---|---|---|---|---|---|")
     totals: dict[str, list[int]] = {m: [0, 0, 0] for m in methods}
+    figures: dict[str, float] = {}
     started = time.perf_counter()
     for name, m, n in CONFIGS:
         scenario = reachavoid_env.builtin_scenario(name).with_players(m, n)
@@ -70,10 +77,26 @@ def main() -> None:
                       f"{s.arrivals_beyond_promise} | {s.guaranteed_initial:.2f} | "
                       f"{s.nominal_initial:.2f} | {m - s.mean_arrived:.2f} | "
                       f"{s.mean_captured:.2f} |", flush=True)
+                method = "" if s.label == "hj" else "." + s.label.replace("-", "_")
+                config = f"{m}v{n}{'_equal' if name == PAIRS_ON else ''}"
+                figures[f"guaranteed_at_start.{config}{method}"] = s.guaranteed_initial
     for method, (violated, beyond, episodes) in totals.items():
         print(f"{method}: violated in {violated} / {episodes} episodes "
               f"({violated / max(episodes, 1):.1%}), arrivals beyond the promise in {beyond}")
-    print(f"wall time {time.perf_counter() - started:.0f} s")
+        key = method.replace("-", "_")
+        figures |= {f"episodes.{key}": episodes, f"violated.{key}": violated,
+                    f"violated_percent.{key}": 100 * violated / max(episodes, 1),
+                    f"arrived_beyond_promise.{key}": beyond}
+    wall = time.perf_counter() - started
+    print(f"wall time {wall:.0f} s")
+    if args.json:
+        write_result(args.json, "guarantee", figures | {"wall_s": wall}, {
+            "episodes": f"episodes played, tubes {args.grid1}^4 / {args.grid2}^6, margin "
+                        f"{args.margin_cells:g} cells",
+            "violated": "episodes whose guarantee fell or saw an arrival beyond it",
+            "guaranteed_at_start": "mean certified captures at the first decision (hj unless "
+                                   "a method is named)",
+            "wall_s": "wall seconds of the whole run"})
 
 
 if __name__ == "__main__":

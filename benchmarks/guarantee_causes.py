@@ -1,6 +1,6 @@
 """Study: why Algorithm 1's certified guarantee breaks, and what margin would make it hold.
 
-Two parts (BENCHMARKS.md, "Guarantee: causes"; the certificate rule itself now lives in
+Two parts (BENCHMARKS.md, "The guarantee"; the certificate rule itself now lives in
 the policy, ``policies/certificate.py``, and ``benchmarks/guarantee.py --margin-cells C``
 measures it):
 
@@ -38,7 +38,8 @@ game stays > 0 while the recorded attacker actions last. Every violating episode
 replayed whole with unassigned defenders standing still (``idle="stand"``) to show
 whether the shadowing of unassigned defenders matters.
 
-    python benchmarks/guarantee_causes.py tubes [--grids1 25 31 45] [--reference1 81]
+    python benchmarks/guarantee_causes.py tubes [--grids1 25 31 45] [--reference1 81] \\
+        [--json benchmarks/results/guarantee_causes.json]
     python benchmarks/guarantee_causes.py episodes --grid1 25 --grid2 13 --episodes 20
 """
 
@@ -49,6 +50,7 @@ import itertools
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from result_file import write_result
 from tqdm import tqdm
 
 import reachavoid_env
@@ -365,7 +367,10 @@ def _sample_states(game_map, players: int, count: int, capture_radius: float,
     return np.concatenate(kept)[:count]
 
 
-def _compare(vf: ValueFunction, reference: ValueFunction, states: np.ndarray) -> str:
+def _compare(vf: ValueFunction, reference: ValueFunction, states: np.ndarray,
+             figures: dict[str, float], game: str = "") -> str:
+    """The table row of ``vf`` against ``reference``; its figures go into ``figures``
+    (keys suffixed ``game``, by grid)."""
     coarse, ref = vf.value(states), reference.value(states)
     diff = np.abs(coarse - ref)
     false_wins = coarse[(ref <= 0)]
@@ -374,12 +379,32 @@ def _compare(vf: ValueFunction, reference: ValueFunction, states: np.ndarray) ->
     lost = np.mean(coarse[wins] <= margin) if wins.any() else 0.0
     disagree = np.mean((coarse > 0) != (ref > 0))
     spacing = vf.grid.spacing[0]
+    grid = vf.grid.shape[0]
+    figures |= {f"max_abs_diff{game}.{grid}": float(diff.max()),
+                f"p99_abs_diff{game}.{grid}": float(np.percentile(diff, 99)),
+                f"sign_disagrees_percent{game}.{grid}": 100 * float(disagree),
+                f"margin{game}.{grid}": margin,
+                f"wins_given_up_percent{game}.{grid}": 100 * float(lost)}
     return (f"| {vf.grid.shape[0]} | {spacing:.4f} | {diff.max():.4f} | "
             f"{np.percentile(diff, 99):.4f} | {disagree:.2%} | {margin:.4f} "
             f"({margin / spacing:.2f} h) | {lost:.1%} |")
 
 
 def tubes(args: argparse.Namespace) -> None:
+    figures: dict[str, float] = {}
+    _tubes(args, figures)
+    if args.json:
+        write_result(args.json, "guarantee_causes", figures, {
+            name: what + " (_2v1: the 2 vs 1 game), by grid" for name, what in (
+                ("max_abs_diff", "largest value error against the reference tube"),
+                ("p99_abs_diff", "99th percentile of the value error"),
+                ("sign_disagrees_percent", "states where the signs disagree, percent"),
+                ("margin", "the slack a certificate needs on this sample (map units)"),
+                ("wins_given_up_percent", "defender wins at or below that margin, percent"))
+            for name in (name, name + "_2v1")})
+
+
+def _tubes(args: argparse.Namespace, figures: dict[str, float]) -> None:
     base = reachavoid_env.builtin_scenario(args.scenario)
     rng = np.random.default_rng(args.seed)
     header = ("| grid | spacing h | max abs diff | p99 abs diff | sign disagrees | margin "
@@ -389,7 +414,7 @@ def tubes(args: argparse.Namespace) -> None:
     print(f"1 vs 1 against {args.reference1}^4, {len(states)} random states")
     print(header)
     for grid in args.grids1:
-        print(_compare(tube_1v1(base, grid), reference1, states), flush=True)
+        print(_compare(tube_1v1(base, grid), reference1, states, figures), flush=True)
     if not args.grids2:
         return
     vf11 = tube_1v1(base, args.base1)
@@ -399,8 +424,8 @@ def tubes(args: argparse.Namespace) -> None:
           f"{len(states)} random states")
     print(header)
     for grid in args.grids2:
-        print(_compare(solve_2v1(base.map, vf11, grid_points=grid), reference2, states),
-              flush=True)
+        print(_compare(solve_2v1(base.map, vf11, grid_points=grid), reference2, states,
+                       figures, "_2v1"), flush=True)
 
 
 def main() -> None:
@@ -417,6 +442,7 @@ def main() -> None:
     t.add_argument("--reference2", type=int, default=30)
     t.add_argument("--states", type=int, default=20000)
     t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     e = sub.add_parser("episodes", help="classify every violating episode")
     e.add_argument("--grid1", type=int, default=25)
     e.add_argument("--grid2", type=int, default=13)

@@ -137,6 +137,7 @@ def main() -> None:
     parser.add_argument("--no-hj-reachability", action="store_true")
     parser.add_argument("--base", help="another checkout to run side by side")
     parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     parser.add_argument("--worker", choices=["numba", "hj_reachability"], help=argparse.SUPPRESS)
     parser.add_argument("--horizon", type=float, default=0.0, help=argparse.SUPPRESS)
     parser.add_argument("--out", default="", help=argparse.SUPPRESS)
@@ -157,6 +158,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as scratch:
         ours_file = os.path.join(scratch, "ours.npy")
         base_file = os.path.join(scratch, "base.npy")
+        runs: dict[str, list[dict]] = {"": [], "_before": []}
         for _ in range(args.repeat):
             for checkout in [ROOT] + ([os.path.abspath(args.base)] if args.base else []):
                 result = _run_worker(["--worker", "numba", "--grid", str(args.grid), "--out",
@@ -166,6 +168,18 @@ def main() -> None:
                       flush=True)
                 if checkout == ROOT:
                     ours = result
+                runs["" if checkout == ROOT else "_before"].append(result)
+        if args.json:
+            from result_file import write_result  # here: workers run under another path
+
+            figures = {f"{name}{side}.{args.grid}": pick(r[key] for r in done)
+                       for side, done in runs.items() if done
+                       for key, name, pick in (("iterations", "sweeps", max),
+                                               ("seconds", "solve_s", min))}
+            write_result(args.json, "hj_1v1", figures, {
+                "sweeps": "sweeps to convergence, 1 vs 1 game on the paper map (_before: the "
+                          "--base checkout)",
+                "solve_s": "solve loop, seconds, the fastest of --repeat"})
         if args.base:
             a, b = np.load(ours_file), np.load(base_file)
             differ = (a <= 0) != (b <= 0)

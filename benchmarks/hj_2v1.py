@@ -126,6 +126,7 @@ def main() -> None:
     parser.add_argument("--probe", type=int, nargs="*", default=[36, 40, 45])
     parser.add_argument("--base", help="another checkout to run side by side")
     parser.add_argument("--sweeps", type=int)
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     parser.add_argument("--worker", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--out", default="", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -167,6 +168,22 @@ def main() -> None:
                   flush=True)
         for grid in args.probe:
             print(json.dumps(probe(grid)), flush=True)
+    if args.json:
+        from result_file import write_result  # here: workers run under another PYTHONPATH
+
+        figures: dict[str, float] = {}
+        for result in results:
+            grid, side = result["grid"].split("^")[0], "" if result["solver"] == root else \
+                "_before"
+            for key, name in (("iterations", "sweeps"), ("peak_rss_gb", "peak_rss_gb"),
+                              ("solve_s", "solve_s"), ("example_value", "example_value")):
+                figures[f"{name}{side}.{grid}"] = result[key]
+        write_result(args.json, "hj_2v1", figures, {
+            "sweeps": "red-black sweeps to convergence, 2 vs 1 game on the paper map, by grid "
+                      "(_before: the --base checkout)",
+            "peak_rss_gb": "peak resident memory of the solving process, GB",
+            "solve_s": "solve loop, seconds", "example_value":
+            "the paper's worked example: positive, a defender win"})
 
 
 if __name__ == "__main__":

@@ -15,6 +15,7 @@ every grid, so the errors are comparable:
   more accuracy per second).
 
     python benchmarks/hj_schemes.py [--grids 21 31 45] [--schemes godunov lax_friedrichs eno2]
+        [--json benchmarks/results/hj_schemes.json]
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import sys
 import time
 
 import numpy as np
+from result_file import write_result
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -53,7 +55,9 @@ def main() -> None:
     parser.add_argument("--grids", type=int, nargs="*", default=[21, 31, 45])
     parser.add_argument("--schemes", nargs="*", default=["godunov", "lax_friedrichs", "eno2"])
     parser.add_argument("--margin", type=float, default=0.02)
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
+    figures: dict[str, float] = {}
     game_map = GameMap((-2.0, 2.0, -2.0, 2.0), (Circle((0.0, 0.0), TARGET),))
     states, attacker_wins = certified_states(args.margin)
     print(f"# hj_schemes: open map, {len(states)} certified states ({attacker_wins.sum()} "
@@ -81,6 +85,14 @@ def main() -> None:
                 "wrong": float(np.mean(wrong_side > 0)), "excess": excess,
                 "order": order, "excess_x_s": excess * seconds,
                 "load": round(os.getloadavg()[0], 1)}), flush=True)
+            figures |= {f"wrong_percent.{scheme}.{grid}": 100 * float(np.mean(wrong_side > 0)),
+                        f"solve_s.{scheme}.{grid}": seconds,
+                        f"sweeps.{scheme}.{grid}": vf.solver["iterations"]}
+    if args.json:
+        write_result(args.json, "hj_schemes", figures, {
+            "wrong_percent": "certified 1 vs 1 states on the wrong side of the zero level, "
+                             "percent, by scheme and grid (open map, disc target)",
+            "solve_s": "seconds of the solve", "sweeps": "sweeps to convergence"})
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Benchmark: per-step decision latency of the defender policies (BENCHMARKS.md, "Policies").
+"""Benchmark: per-step decision latency of the defenders (BENCHMARKS.md, "Decision latency").
 
 One decision is ``defenders.act(state)``: the 1 vs 1 and 2 vs 1 (and, with teams, 1 vs 2)
 tube lookups at the current positions, the assignment (CP-SAT MIP or matching, reused when
@@ -7,6 +7,7 @@ and seeded random 8 vs 4 starts, played by shortest-path attackers. Reported: p5
 p99 and max over all decisions, with the share of steps that re-solved the assignment.
 
     python benchmarks/policy_latency.py [--grid1 45] [--grid2 30] [--episodes 10]
+        [--json benchmarks/results/policy_latency.json]
 
 The tubes are loaded from the cache (solved once if missing).
 """
@@ -18,6 +19,7 @@ import platform
 import time
 
 import numpy as np
+from result_file import write_result
 
 import reachavoid_env
 from policies import (
@@ -54,6 +56,7 @@ def main() -> None:
     parser.add_argument("--grid1", type=int, default=45)
     parser.add_argument("--grid2", type=int, default=30)
     parser.add_argument("--episodes", type=int, default=10)
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
 
     paper = reachavoid_env.builtin_scenario("paper_8v4")
@@ -62,6 +65,8 @@ def main() -> None:
                                   tube_1v2(paper, args.grid1, args.grid2))
     policies = {"hj (MIP)": reference, "hj-pairs": teams,
                 "matching": MatchingDefenderPolicy(reference.vf11)}
+    keys = {"hj (MIP)": "hj", "hj-pairs": "hj_pairs", "matching": "matching"}
+    figures: dict[str, float] = {}
     print(f"machine: {platform.processor() or platform.machine()}, "
           f"tubes {args.grid1}^4 and {args.grid2}^6")
     print(f"{'policy':<10} {'games':<22} {'decisions':>9} {'p50 ms':>8} {'p90 ms':>8} "
@@ -78,6 +83,18 @@ def main() -> None:
             p50, p90, p99 = np.percentile(times, [50, 90, 99]) * 1e3
             print(f"{label:<10} {games:<22} {count:>9} {p50:>8.3f} {p90:>8.3f} {p99:>8.3f} "
                   f"{times.max() * 1e3:>8.3f} {(solver.solves - solves_before) / count:>7.1%}")
+            row = f"{keys[label]}.{games.replace(' ', '_')}"
+            figures |= {f"p50_ms.{row}": p50, f"p99_ms.{row}": p99}
+    if args.json:
+        tails = [value for key, value in figures.items()
+                 if key.startswith(("p99_ms.hj.", "p99_ms.hj_pairs."))]
+        figures |= {"p99_ms.hj_and_hj_pairs.lowest": min(tails),
+                    "p99_ms.hj_and_hj_pairs.highest": max(tails)}
+        write_result(args.json, "policy_latency", figures,
+                     {"p50_ms": f"median decision latency (defenders.act), milliseconds, "
+                                f"tubes {args.grid1}^4 / {args.grid2}^6",
+                      "p99_ms": "99th percentile, milliseconds (hj_and_hj_pairs: lowest and "
+                                "highest over the hj and hj-pairs rows)"})
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ check, against the pairwise loop it replaced (``_edges_meet`` on every pair of e
 Each figure is the best of ``--repeats`` runs (the machine is shared).
 
     .venv/bin/python benchmarks/polygon_check.py [--vertices 250 500 1000] [--repeats 3]
+        [--json benchmarks/results/polygon_check.json]
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import argparse
 import time
 
 import numpy as np
+from result_file import write_result
 
 from reachavoid_env.shapes import MAX_POLYGON_VERTICES, Polygon, _edges_meet
 
@@ -47,13 +49,21 @@ def main() -> None:
     parser.add_argument("--vertices", type=int, nargs="+",
                         default=[250, 500, MAX_POLYGON_VERTICES])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
+    figures: dict[str, float] = {"vertices": max(args.vertices)}
     print(f"{'vertices':>8} {'Polygon() s':>12} {'pairwise s':>11}")
     for n in args.vertices:
         ring = star(n)
         now = best(lambda ring=ring: Polygon(ring), args.repeats)
         before = best(lambda ring=ring: pairwise(np.asarray(ring)), 1)
         print(f"{n:>8} {now:>12.3f} {before:>11.2f}")
+        figures |= {f"seconds.{n}.now": now, f"seconds.{n}.before": before}
+    if args.json:
+        write_result(args.json, "polygon_check", figures,
+                     {"seconds": "Polygon() on a simple ring of that many vertices, best of "
+                                 "--repeats (now) and the pairwise loop it replaced (before)",
+                      "vertices": "the largest ring measured"})
 
 
 if __name__ == "__main__":

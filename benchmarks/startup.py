@@ -12,7 +12,8 @@ a first untimed round fills numba's caches) its wall time, the time spent import
 modules (the top-level entries of ``-X importtime``, whenever they were imported: at start
 or on first use), the part of that spent in OR-Tools and pandas (which
 ``ortools.sat.python.cp_model`` imports), and the episode itself (``seconds`` of
-``play --json``).
+``play --json``). ``--json PATH`` writes the second checkout's medians as a result record
+(``benchmarks/result_file.py``; the first checkout's under ``*_before``).
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ import sys
 import time
 from collections import Counter
 from pathlib import Path
+
+from result_file import write_result
 
 _LINE = re.compile(r"import time:\s+(\d+) \|\s+(\d+) \|( +)(\S+)")
 
@@ -70,6 +73,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("checkouts", nargs=2, type=Path, metavar="CHECKOUT")
     parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     argv = sys.argv[1:]
     split = argv.index("--") if "--" in argv else len(argv)
     args = parser.parse_args(argv[:split])
@@ -83,12 +87,21 @@ def main() -> None:
     print(f"{args.rounds} rounds, medians in seconds; play {' '.join(args.play)}")
     print(f"  {'checkout':<20} {'--help':>7} {'play':>7} {'imports':>8} {'OR-Tools':>9} "
           f"{'imports w/o OR-Tools':>21} {'episode':>8}")
-    for checkout, runs in rows.items():
+    figures: dict[str, float] = {}
+    sides = ("_before", "")[-len(rows):]   # one checkout named twice: just its figures
+    for side, (checkout, runs) in zip(sides, rows.items(), strict=True):
         med = {key: statistics.median(r[key] for r in runs) for key in runs[0]}
+        figures |= {f"{key}_s{side}": med[key] for key in ("help", "play", "imports")}
         rest = statistics.median(r["imports"] - r["ortools"] for r in runs)
         print(f"  {str(checkout):<20} {med['help']:7.2f} {med['play']:7.2f} "
               f"{med['imports']:8.2f} {med['ortools']:9.2f} {rest:21.2f} "
               f"{med['episode']:8.2f}")
+    if args.json:
+        write_result(args.json, "startup", figures, {
+            "help_s": "median wall seconds of `reachavoid --help` (second checkout; _before: "
+                      "the first)",
+            "play_s": f"median wall seconds of a cached `play {' '.join(args.play)}`",
+            "imports_s": "of which imports"})
 
 
 if __name__ == "__main__":

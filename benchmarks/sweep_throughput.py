@@ -8,7 +8,10 @@ tubes: opening the cached value files (memory-mapped, what every worker does) ag
 round trip of the 2 vs 1 array through Ray's object store (what a cluster without a shared
 filesystem would do instead).
 
-    .venv/bin/python benchmarks/sweep_throughput.py [--episodes 40] [--workers 2]
+    .venv/bin/python benchmarks/sweep_throughput.py [--episodes 40] [--workers 2] [--json PATH]
+
+``--json`` writes each backend's wall seconds and episodes per second as a result record
+(``benchmarks/result_file.py``).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import time
 from dataclasses import asdict
 
 import numpy as np
+from result_file import write_result
 
 from policies.tubes import tube_2v1
 from reachavoid.sweep import run_sweep, sweep_of
@@ -39,7 +43,9 @@ def main() -> None:
     parser.add_argument("--grid1", type=int, default=PAPER_GRIDS.grid1)
     parser.add_argument("--grid2", type=int, default=PAPER_GRIDS.grid2)
     parser.add_argument("--backends", nargs="+", default=["serial", "process", "ray"])
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
+    figures: dict[str, float] = {}
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}; load average "
           f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
@@ -57,6 +63,14 @@ def main() -> None:
         same = "same as serial" if outcome(results) == reference else "DIFFERENT"
         print(f"{backend:<8} {args.episodes} episodes of {args.config} in {seconds:7.1f} s: "
               f"{args.episodes / seconds:6.2f} episodes/s ({same})", flush=True)
+        figures |= {f"wall_s.{backend}": seconds,
+                    f"episodes_per_s.{backend}": args.episodes / seconds}
+    if args.json:
+        write_result(args.json, "sweep_throughput", figures, {
+            "episodes_per_s": f"{args.episodes} random {args.config} starts, hj defenders at "
+                              f"{args.grid1}^4 / {args.grid2}^6 (cached), wall clock with "
+                              "worker start-up",
+            "wall_s": "wall seconds of the sweep"})
 
     path = os.path.dirname(vf21.values.filename)
     started = time.perf_counter()

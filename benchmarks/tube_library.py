@@ -7,6 +7,7 @@ empty cache folder of its own (so both solve everything), checks that both give 
 values bit for bit, and prints the wall times and the per-map solve seconds.
 
     python benchmarks/tube_library.py [--maps 32] [--grid1 25] [--grid2 15] [--workers 2]
+        [--json benchmarks/results/tube_library.json]
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import tempfile
 import time
 
 import numpy as np
+from result_file import write_result
 
 from reachavoid.solve import solve_library
 from reachavoid_env.maps import MapOptions, generate_map
@@ -30,6 +32,7 @@ def main() -> None:
     parser.add_argument("--grid1", type=int, default=25)
     parser.add_argument("--grid2", type=int, default=15)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}; load average "
@@ -58,6 +61,17 @@ def main() -> None:
                                                   for k in serial)
     print(f"values: {'the same bit for bit' if same else 'DIFFERENT'}; speed-up "
           f"{results['serial'][2] / results['process'][2]:.2f}x")
+    if args.json:
+        write_result(args.json, "tube_library", {
+            "maps": args.maps, "wall_s.serial": results["serial"][2],
+            "wall_s.process": results["process"][2],
+            "speedup": results["serial"][2] / results["process"][2],
+            "values_equal": int(same)}, {
+            "maps": f"generated maps (seed {args.seed})",
+            "wall_s": f"the tubes (1 vs 1 at {args.grid1}^4, 2 vs 1 at {args.grid2}^6) of "
+                      f"every map from an empty cache, serial and on {args.workers} workers",
+            "speedup": "serial wall time over the pool's",
+            "values_equal": "1 when every value is the same bit for bit on both backends"})
     print(f"{'map':<16} {'1v1 s':>7} {'2v1 s':>7}")
     by_map: dict[str, dict[str, float]] = {}
     for row in results["serial"][0]:

@@ -291,11 +291,12 @@ def test_policies_follow_the_protocol(policy_folder):
     assert isinstance(make_policy("defenders", "tmpmod:Mine", scenario), Policy)
 
 
-def test_readme_names_every_built_in_and_its_policy_file_plays(tmp_path, capsys,
-                                                               monkeypatch):
-    readme = (ROOT / "README.md").read_text()
-    assert all(f"`{name}`" in readme for name in builtin_names())
-    section = readme[readme.index("## Benchmark your defender"):]
+def test_the_guides_name_every_built_in_and_their_policy_file_plays(tmp_path, capsys,
+                                                                    monkeypatch):
+    environment = (ROOT / "docs" / "environment.md").read_text()
+    assert all(f"`{name}`" in environment for name in builtin_names())
+    defenders = (ROOT / "docs" / "defenders.md").read_text()
+    section = defenders[defenders.index("## Benchmark your defender"):]
     (tmp_path / "mine.py").write_text(section.split("```python\n")[1].split("```")[0])
     monkeypatch.syspath_prepend(str(tmp_path))
     assert main(["bench", "--defenders", "mine:Intercept,greedy", "--attackers", "straight",

@@ -243,7 +243,7 @@ def test_every_example_answers_help_with_its_defaults(name):
         pytest.skip(result.stderr.strip().splitlines()[-1])
     assert result.returncode == 0, result.stderr
     assert result.stdout.startswith("usage:") and "Traceback" not in result.stderr
-    if name == "train_attacker_sb3":    # what README's recipe says
+    if name == "train_attacker_sb3":    # what docs/training.md's recipe says
         for default in ("paper_1v1", "150000", "--action-repeat ACTION_REPEAT",
                         "(default: 10)", "(default: 200)"):
             assert default in " ".join(result.stdout.split()), default
