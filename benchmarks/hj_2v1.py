@@ -45,7 +45,7 @@ def worker(grid: int, sweeps: int | None, out: str) -> dict:
     game_map = builtin_map("paper")
     vf11 = solve_1v1(game_map, grid_points=45, progress=False)
     start = time.perf_counter()
-    solve_2v1(game_map, vf11, grid_points=7, cache=False, progress=False)
+    solve_2v1(game_map, vf11, grid_points=8, cache=False, progress=False)
     compile_seconds = time.perf_counter() - start
     settings = SolverSettings() if sweeps is None else SolverSettings(max_iterations=sweeps)
     start = time.perf_counter()

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import skfmm
 
-from reachavoid_env import GameMap
+from reachavoid_env import GameMap, ScenarioError
 from reachavoid_env.rules import unit_vectors
 
 DEFAULT_CELLS = 256
@@ -170,7 +170,7 @@ def distance_field(game_map: GameMap, clearance: float = 0.0,
     free = game_map.obstacle_signed_distance(nodes) > clearance
     phi = game_map.target_signed_distance(nodes)
     if not np.any(free & (phi <= 0)):
-        raise ValueError(f"map.target: no free grid node lies in the target (clearance "
+        raise ScenarioError(f"map.target: no free grid node lies in the target (clearance "
                          f"{clearance:g}, spacing {size:.3g}); use more cells")
     if np.all(phi[free] <= 0):
         raise ValueError("map: the free space lies inside the target; nothing to reach")

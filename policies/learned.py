@@ -157,6 +157,16 @@ def load_sb3(path: str | Path, side: str = "attackers", action_repeat: int | Non
                              max_cycles=trained.get("max_cycles"))
 
 
+def _installed(module: str) -> bool:
+    """Whether ``module`` can be imported (without importing it)."""
+    import importlib.util
+
+    try:
+        return importlib.util.find_spec(module) is not None
+    except (ImportError, ValueError):   # a parent missing, or a blocked entry (None)
+        return False
+
+
 def sb3_named_policy(side: str, spec: str) -> NamedPolicy:
     """The policy of the spec ``sb3:PATH`` (``policies.registry.SCHEMES``): built with
     ``load_sb3``'s ``action_repeat`` / ``algorithm`` options and checked against the
@@ -166,6 +176,9 @@ def sb3_named_policy(side: str, spec: str) -> NamedPolicy:
     path = Path(spec[len(SB3_PREFIX):])
     if not path.is_file():
         raise ValueError(f"{side}: model {str(path)!r} (in {spec!r}) is not a file")
+    if not _installed("stable_baselines3"):
+        raise ValueError(f"{side}: {spec!r} needs Stable-Baselines3 (pip install "
+                         "'reachavoid[rl]')")
 
     def build(scenario: Scenario, action_repeat: int | None = None,
               algorithm: str = "PPO") -> ObservationPolicy:

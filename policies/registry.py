@@ -190,8 +190,9 @@ def _import(reference: str, field: str) -> Any:
         raise ValueError(f"{field}: expected pkg.module:factory, got {reference!r}")
     try:
         target: Any = importlib.import_module(module_name)
-    except ImportError as err:
-        raise ValueError(f"{field}: cannot import {module_name!r} ({err})") from None
+    except Exception as err:   # a bad name (``..``), a missing module, or the module's own error
+        raise ValueError(f"{field}: cannot import {module_name!r} ({type(err).__name__}: "
+                         f"{err})") from None
     for part in attribute.split("."):
         if not hasattr(target, part):
             raise ValueError(f"{field}: module {module_name!r} has no {attribute!r}")

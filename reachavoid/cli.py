@@ -5,9 +5,10 @@ seeded starts of a suite (``suite``, ``evaluation``), ``maps`` a map library
 (``reachavoid_env.maps``), ``paper`` the paper's table (``paper``). Every argument, output
 path and the cache are checked before any work starts. Bad arguments or input files end
 with a one-line message and exit status 2; a failed write with one line naming the path and
-status 1; Ctrl-C (130), SIGTERM (143) and SIGHUP (129) stop the work and leave no partial
-file; a closed standard output (``| head``) ends quietly (141). Outputs follow one rule
-(README "Files and failures"): an existing file is replaced only with ``--force``.
+status 1, as a worker that died; Ctrl-C (130), SIGTERM (143) and SIGHUP (129) stop the work
+and leave no partial file; a closed standard output (``| head``) ends quietly (141).
+Outputs follow one rule (README "Files and failures"): an existing file is replaced only
+with ``--force``, and a file that appears meanwhile is kept.
 """
 
 from __future__ import annotations
@@ -48,9 +49,17 @@ from reachavoid.suite import (
     run_suite,
     suite_names,
 )
-from reachavoid.sweep import BACKENDS
+from reachavoid.sweep import BACKENDS, WorkerDied, check_backend
 from reachavoid_env import PolicyMismatch, Scenario, ScenarioError, checks, load_scenario
-from reachavoid_env.files import STDOUT, atomic_write, destination, is_stream, write_json
+from reachavoid_env.files import (
+    STDOUT,
+    atomic_write,
+    destination,
+    expect_new,
+    forget_expected,
+    is_stream,
+    write_json,
+)
 from reachavoid_env.maps import (
     MAX_MAPS,
     MapError,
@@ -65,7 +74,8 @@ from solvers.hj.cache import CacheLocationError, cache_dir, check_cache
 # the commands that use them, when they run, so that ``--help`` and bad arguments answer at
 # once.
 
-EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_PIPE = 2, 1, 130, 141
+EXIT_USAGE, EXIT_FAILED, EXIT_INTERRUPTED, EXIT_PIPE = 2, 1, 130, 141
+"""Exit statuses: bad input; a failed write or a dead worker; Ctrl-C; a closed pipe."""
 TEMPORARY_NAME_ROOM = 48
 """Characters an output's temporary names add to its file name (``.NAME.PID.RANDOM.tmp``)."""
 MAX_SEED = 2**63 - 1
@@ -134,6 +144,10 @@ def _backend_options(parser: argparse.ArgumentParser, where: str, workers: str) 
 
 
 def _check_backend_options(args: argparse.Namespace) -> None:
+    try:
+        check_backend(args.backend)   # Ray importable, before any tube is solved
+    except ValueError as err:
+        raise UsageError(f"--{err}") from None
     if args.workers is not None:
         _check(checks.integer, args.workers, "--workers", 1, 4096)
     if args.address is not None and args.backend != "ray":
@@ -408,6 +422,21 @@ def writable_file(path: str, field: str, force: bool = False, text: bool = False
     return path
 
 
+def distinct_outputs(outputs: Sequence[tuple[str, str | None]]) -> None:
+    """Refuse two of ``outputs`` (flag, path or None) that land on the same file, or both on
+    standard output (``-``); a device or FIFO may take several."""
+    seen: dict[Path | str, str] = {}
+    for flag, path in outputs:
+        if path is None or (path != STDOUT and is_stream(path)):
+            continue
+        where = STDOUT if path == STDOUT else destination(path)
+        if where in seen:
+            what = "standard output" if where == STDOUT else repr(path)
+            raise UsageError(f"{flag}: {what} is also {seen[where]}'s output; give each "
+                             "output its own file")
+        seen[where] = flag
+
+
 def _check_replace(target: Path, field: str, force: bool, path: str) -> None:
     """The overwrite rule: an existing ``target`` is replaced only with ``force``, and only
     when it is a regular file."""
@@ -417,6 +446,8 @@ def _check_replace(target: Path, field: str, force: bool, path: str) -> None:
         raise UsageError(f"{field}: {path!r} is not a regular file, a device or a FIFO")
     if target.exists() and not force:
         raise UsageError(f"{field}: {path!r} exists; pass --force to replace it")
+    if not force:   # and stays so: a file that appears there meanwhile is not replaced
+        expect_new(target)
 
 
 def writable_folder(path: str, field: str) -> Path:
@@ -563,6 +594,7 @@ def _validate(args: argparse.Namespace) -> int:
         try:
             scenario = load_scenario(source)
             reachavoid_env.parallel_env(scenario=scenario).reset(seed=0)
+            _playable(scenario)
         except (ScenarioError, ValueError, OSError) as err:
             bad += 1
             words = getattr(err, "strerror", None) or str(err)
@@ -574,6 +606,16 @@ def _validate(args: argparse.Namespace) -> int:
         print(f"{source}: ok ({scenario.name}: {scenario.num_attackers} attackers, "
               f"{scenario.num_defenders} defenders, {starts})")
     return EXIT_USAGE if bad else 0
+
+
+def _playable(scenario: Scenario) -> None:
+    """What ``play`` with its default policies would find wrong with ``scenario`` before
+    playing: the shortest-path field's grid and the tubes' grids must see the target."""
+    from policies.geodesic import distance_field
+    from solvers.hj.games import check_tube_grids
+
+    distance_field(scenario.map, scenario.player_radius)
+    check_tube_grids(scenario.map, DEFAULT_GRID["1v1"], DEFAULT_GRID["2v1"])
 
 
 def _json_report(result: EpisodeResult, args: argparse.Namespace) -> dict[str, object]:
@@ -672,7 +714,7 @@ def _solve_library(args: argparse.Namespace) -> int:
             raise UsageError(f"{flag}: not with --defenders (a library goes to the cache)")
     methods = _methods(args.defenders)
     _check_backend_options(args)
-    scenarios = [sc for source in args.scenario for sc in _library(source)]
+    scenarios = _library(args.scenario)
     try:
         rows = solve_library(scenarios, methods, args.grid1, args.grid2, backend=args.backend,
                              workers=args.workers, address=args.address,
@@ -698,11 +740,12 @@ def _methods(text: str) -> list[str]:
     return methods
 
 
-def _library(source: str) -> tuple[Scenario, ...]:
+def _library(source: str | list[str]) -> tuple[Scenario, ...]:
     try:
         return load_library(source)
     except OSError as err:
-        raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}") from None
+        raise UsageError(f"scenario: cannot read {err.filename or source!r}: "
+                         f"{err.strerror}") from None
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -713,9 +756,11 @@ def _bench(args: argparse.Namespace) -> int:
         raise UsageError(f"--baseline: {baseline!r} is not among --defenders "
                          f"({', '.join(methods)})")
     _check_backend_options(args)
-    for flag, path in (("--csv", args.csv), ("--plot", args.plot), ("--json", args.json)):
+    outputs = (("--csv", args.csv), ("--plot", args.plot), ("--json", args.json))
+    for flag, path in outputs:
         if path not in (None, "-"):
             writable_file(path, flag, args.force, text=flag != "--plot")
+    distinct_outputs(outputs)
     suite = _bench_suite(args)
     attackers = dict.fromkeys(cell.attackers for cell in suite.cells)
     _specs([*(("defenders", m) for m in methods), *(("attackers", a) for a in attackers)],
@@ -880,11 +925,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         with contextlib.suppress(OSError, ValueError):   # no file descriptor (captured)
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_PIPE
+    except WorkerDied as err:
+        print(f"reachavoid {args.command}: error: {err}", file=sys.stderr)
+        return EXIT_FAILED
     except OSError as err:
         where = f"{err.filename}: " if err.filename else ""
         print(f"reachavoid {args.command}: error: {where}{err.strerror or err}",
               file=sys.stderr)
-        return EXIT_WRITE
+        return EXIT_FAILED
     except Terminated as stop:
         print(f"reachavoid {args.command}: {STOP_SIGNALS[stop.signum]}", file=sys.stderr)
         return 128 + stop.signum
@@ -892,6 +940,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"reachavoid {args.command}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
+        forget_expected()
         for signum, handler in previous.items():
             signal.signal(signum, handler)
 

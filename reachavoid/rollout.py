@@ -156,10 +156,19 @@ def _start(env: ParallelEnv, attackers: Policy, defenders: Policy, seed: int | N
     return scenario
 
 
-def _decide(env: ParallelEnv, state: GameState, attackers: Policy, defenders: Policy
-            ) -> tuple[dict[str, np.ndarray], Overlay | None]:
-    """Both sides' actions at ``state``; their overlay goes to the env's next frames."""
-    actions = {**attackers.act(state), **defenders.act(state)}
+def _decide(env: ParallelEnv, state: GameState, attackers: Policy, defenders: Policy,
+            seed: int | None) -> tuple[dict[str, np.ndarray], Overlay | None]:
+    """Both sides' actions at ``state``; their overlay goes to the env's next frames. An
+    exception of a policy gets a note naming the policy, the step and the seed."""
+    actions = {}
+    for side, policy in (("attackers", attackers), ("defenders", defenders)):
+        try:
+            actions.update(policy.act(state))
+        except Exception as err:
+            err.add_note(f"reachavoid: raised by the {side}' policy "
+                         f"{type(policy).__module__}.{type(policy).__qualname__} at step "
+                         f"{state.step} of the episode with seed {seed}")
+            raise
     overlay = merged_overlay(attackers, defenders)
     env.unwrapped.set_overlay(overlay)
     return actions, overlay
@@ -174,7 +183,7 @@ def first_frame(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
         raise ValueError(f"first_frame needs render_mode='rgb_array', got "
                          f"{getattr(env, 'render_mode', None)!r}")
     _start(env, attackers, defenders, seed, title)
-    _decide(env, env.unwrapped.game_state(), attackers, defenders)
+    _decide(env, env.unwrapped.game_state(), attackers, defenders, seed)
     return env.render()
 
 
@@ -212,7 +221,7 @@ def run_episode(env: ParallelEnv, attackers: Policy, defenders: Policy, *,
         state = raw.game_state()
         while played.agents:
             live = set(played.agents)
-            actions, overlay = _decide(played, state, attackers, defenders)
+            actions, overlay = _decide(played, state, attackers, defenders, seed)
             if certifies and defenders.guaranteed_captures is not None:
                 guarantees.append(len(state.captured) + defenders.guaranteed_captures)
                 nominal = defenders.nominal_captures

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import os
 import re
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from importlib import resources
@@ -51,11 +50,7 @@ from reachavoid.rollout import EpisodeResult
 from reachavoid.sweep import Sweep, run_sweeps
 from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
 from reachavoid_env.files import atomic_write
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:
-    import tomli as tomllib
+from reachavoid_env.scenario import read_toml
 
 
 class SuiteError(ValueError):
@@ -129,10 +124,7 @@ def load_suite(source: str | os.PathLike[str]) -> Suite:
     else:
         raise SuiteError(f"suite: no such file or built-in {str(source)!r} "
                          f"(built-ins: {', '.join(suite_names())})")
-    try:
-        data = tomllib.loads(text.decode("utf-8"))
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
-        raise SuiteError(f"suite {where}: not valid UTF-8 TOML ({err})") from None
+    data = read_toml(text, f"suite {where}", SuiteError)
     try:
         return _suite(data, base)
     except ValueError as err:

@@ -14,15 +14,28 @@ tube into the cache (``$REACHAVOID_CACHE_DIR``); every worker then memory-maps i
 there. On one machine the workers share the page cache. A multi-machine Ray cluster needs
 the cache folder on a shared filesystem (the same path on every node; it is passed to the
 workers in ``runtime_env``), or a cache filled on each node beforehand.
+
+Ray workers import from the driver's ``sys.path`` less its working folder (unless
+``$PYTHONPATH`` names it) and any folder another user can write (``worker_path``); Ray's
+own "add the driver's working folder" is pointed at an empty private folder. A worker
+that dies (killed, out of memory, ``os._exit`` in a policy) ends the sweep with
+``WorkerDied`` saying how many tasks had finished; the command's signal handlers stay in
+place while Ray runs.
 """
 
 from __future__ import annotations
 
+import itertools
 import multiprocessing
 import os
 import signal
+import stat
+import sys
+import tempfile
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
@@ -35,6 +48,12 @@ from reachavoid_env import Policy, Scenario
 from solvers.hj.reach_avoid import available_memory
 
 BACKENDS = ("serial", "process", "ray")
+RAY_MISSING = "backend: 'ray' needs Ray (pip install 'reachavoid[ray]')"
+
+
+class WorkerDied(RuntimeError):
+    """A worker process ended without returning its task (killed, out of memory,
+    ``os._exit`` in a policy): reported in one line, exit status 1."""
 WORKER_BYTES = 200 << 20
 """Memory one pool worker holds (interpreter, numpy, numba, env, policies: about 190 MB)."""
 
@@ -124,9 +143,20 @@ def run_sweep(sweep: Sweep, backend: str = "serial", workers: int | None = None,
 
 
 def check_backend(backend: str) -> None:
-    """``ValueError`` naming ``backend`` unless it is one of ``BACKENDS``."""
+    """``ValueError`` naming ``backend`` unless it is one of ``BACKENDS`` and, for Ray,
+    Ray can be imported (checked before any work)."""
     if backend not in BACKENDS:
         raise ValueError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
+    if backend == "ray":
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise ValueError(RAY_MISSING) from None
+
+
+def _died(finished: int, total: int, how: str) -> WorkerDied:
+    return WorkerDied(f"a worker process died ({how}: killed, out of memory, or os._exit in "
+                      f"a policy) after {finished} of {total} task(s); nothing was written")
 
 
 def run_tasks(task: Callable[[Item], Result], items: Sequence[Item], backend: str = "serial",
@@ -148,18 +178,38 @@ def _serial(task: Callable[[Item], Result], items: Sequence[Item],
 
 def _process_pool(task: Callable[[Item], Result], items: Sequence[Item], workers: int | None,
                   **_: Any) -> Iterator[Result]:
+    """The items on a pool of spawned processes, at most a few tasks ahead per worker; a
+    worker that dies breaks the pool (``WorkerDied``) instead of losing its task."""
     size = pool_size(workers, len(items))
-    pool = multiprocessing.get_context("spawn").Pool(
-        size, initializer=_start_worker, initargs=(max(1, (os.cpu_count() or 1) // size),))
+    pool = ProcessPoolExecutor(size, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=_start_worker,
+                               initargs=(max(1, (os.cpu_count() or 1) // size),))
+    waiting = iter(items)
+    pending: set[Future] = {pool.submit(task, item)
+                            for item in itertools.islice(waiting, 4 * size)}
+    finished = 0
     try:
-        yield from pool.imap_unordered(task, items)
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                result = future.result()
+                finished += 1
+                pending.update(pool.submit(task, item) for item in itertools.islice(waiting, 1))
+                yield result
+    except BrokenProcessPool:
+        _stop(pool)
+        raise _died(finished, len(items), "the process pool broke") from None
     except BaseException:
-        pool.terminate()   # Ctrl-C or SIGTERM: no worker outlives the work
+        _stop(pool)   # Ctrl-C or SIGTERM: no worker outlives the work
         raise
-    else:
-        pool.close()
-    finally:
-        pool.join()
+    pool.shutdown(wait=True)
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """End ``pool`` now: its workers terminated, its waiting tasks dropped."""
+    for process in list((pool._processes or {}).values()):
+        process.terminate()
+    pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _start_worker(threads: int) -> None:
@@ -179,30 +229,85 @@ def _call(task: Callable[[Item], Result], item: Item) -> Result:
     return task(item)
 
 
+def _closed(entry: str) -> bool:
+    """Whether ``entry`` (a folder or archive on ``sys.path``) exists and only its owner,
+    this user or root, can write it (a sticky folder such as ``/tmp`` is not enough: anyone
+    can add a module there)."""
+    try:
+        status = os.stat(entry)
+    except OSError:
+        return False
+    return status.st_uid in (os.geteuid(), 0) and not stat.S_IMODE(status.st_mode) & 0o022
+
+
+def worker_path() -> list[str]:
+    """The driver's ``sys.path`` for Ray's workers: without its working folder (``''`` or
+    its path: a module planted where the command runs must not shadow a library), unless
+    ``$PYTHONPATH`` names it, and without any folder another user can write
+    (``_closed``)."""
+    here = os.path.realpath(os.getcwd())
+    named = {os.path.realpath(entry)
+             for entry in os.environ.get("PYTHONPATH", "").split(os.pathsep) if entry}
+    return [entry for entry in dict.fromkeys(sys.path)
+            if entry and (os.path.realpath(entry) != here or here in named) and _closed(entry)]
+
+
+def ray_runtime_env() -> dict[str, Any]:
+    """What a local Ray instance's workers are given: the cache folder and ``worker_path``
+    as ``PYTHONPATH``."""
+    from solvers.hj.cache import cache_dir
+
+    return {"env_vars": {"REACHAVOID_CACHE_DIR": str(cache_dir()),
+                         "PYTHONPATH": os.pathsep.join(worker_path())}}
+
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+def _ray_init(ray: Any, **options: Any) -> None:
+    """``ray.init(**options)`` from an empty private folder (Ray adds the driver's working
+    folder to its workers' ``sys.path``), keeping this process's signal handlers (Ray
+    replaces SIGTERM's and SIGHUP's with its own)."""
+    handlers = {signum: signal.getsignal(signum) for signum in STOP_SIGNALS}
+    here = os.getcwd()
+    with tempfile.TemporaryDirectory(prefix="reachavoid-ray-") as empty:
+        os.chdir(empty)
+        try:
+            ray.init(**options)
+        finally:
+            os.chdir(here)
+            for signum, handler in handlers.items():
+                if handler is not None:
+                    signal.signal(signum, handler)
+
+
 def _ray(task: Callable[[Item], Result], items: Sequence[Item], workers: int | None,
          address: str | None, **_: Any) -> Iterator[Result]:
     try:
         import ray
     except ImportError:
-        raise ValueError("backend: 'ray' needs Ray (pip install 'reachavoid[ray]')") from None
+        raise ValueError(RAY_MISSING) from None
     started = not ray.is_initialized()
     if started:
-        from solvers.hj.cache import cache_dir
-
-        env_vars = {"REACHAVOID_CACHE_DIR": str(cache_dir())}
-        if "PYTHONPATH" in os.environ:
-            env_vars["PYTHONPATH"] = os.environ["PYTHONPATH"]
-        ray.init(address=address,
-                 num_cpus=None if address else pool_size(workers, len(items)),
-                 include_dashboard=False, log_to_driver=False,
-                 runtime_env={"env_vars": env_vars})
+        _ray_init(ray, address=address,
+                  num_cpus=None if address else pool_size(workers, len(items)),
+                  include_dashboard=False, log_to_driver=False,
+                  runtime_env=ray_runtime_env())
+    died = tuple(getattr(ray.exceptions, name) for name in
+                 ("WorkerCrashedError", "OutOfMemoryError", "NodeDiedError", "ActorDiedError")
+                 if hasattr(ray.exceptions, name))
     remote = ray.remote(_call)
     shared = ray.put(task)
     pending = [remote.remote(shared, item) for item in items]
     try:
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
-            yield ray.get(done[0])
+            try:
+                result = ray.get(done[0])
+            except died as err:
+                raise _died(len(items) - len(pending) - 1, len(items),
+                            type(err).__name__) from None
+            yield result
     except BaseException:
         for ref in pending:
             ray.cancel(ref, force=True)

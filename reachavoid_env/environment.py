@@ -219,6 +219,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         self._all_active = True
         self._no_rewards = np.zeros(len(positions))
         self._status = np.zeros(m, dtype=np.int8)
+        self._longest_move = rules.longest_move(max(sc.attacker_speed, sc.defender_speed),
+                                                sc.dt)
         self._speeds = np.concatenate([np.full(m, sc.attacker_speed),
                                        np.full(self._n, sc.defender_speed)])[:, None]
         self._normaliser = Normaliser.of(sc.map)
@@ -282,7 +284,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             self._index[name] for name in live]
         velocities = self._controls(live, rows, actions)
         old, new = self._move(velocities)
-        events = self._resolve_events(old, new)
+        events = self._resolve_events(old, new, velocities)
         rewards = self._rewards(events, old, new)
         self._steps += 1
         return self._outputs(live, rows, events, rewards)
@@ -307,34 +309,43 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             new[~self._active] = old[~self._active]
         return old, new
 
-    def _resolve_events(self, old: np.ndarray, new: np.ndarray) -> rules.StepEvents:
-        """Phase 3: captures and arrivals along the step's segments (``rules``); attackers
+    def _resolve_events(self, old: np.ndarray, new: np.ndarray,
+                        velocities: np.ndarray) -> rules.StepEvents:
+        """Phase 3: captures and arrivals along the paths the world moved the players along
+        (``rules``: straight segments, sub-step polylines for players that slid); attackers
         that left stop where their event happened, and the defenders leave with the last.
         A step that ``rules.EventWatch`` knows to have no event skips the rules."""
         m = self._m
-        if self._watched_world is not self._world:
-            self._watch = rules.EventWatch(self.scenario.capture_radius, self._target_bounds)
-            self._watched_world = self._world
-        if self._watch.quiet(float(np.abs(new - old).max())):
-            events = rules.no_events(m)
-        else:
-            events = rules.resolve_events(self.scenario.map, self.scenario.capture_radius,
-                                          self._active[:m].copy(), old[:m], new[:m], old[m:],
-                                          new[m:], self._target_bounds)
-            left = events.left
-            if events.any_left:
-                t = events.times[left][:, None]
-                new[:m][left] = old[:m][left] + t * (new[:m][left] - old[:m][left])
-                self._status[events.captured] = _CAPTURED
-                self._status[events.arrived] = _ARRIVED
-                self._captured_count += int(events.captured.sum())
-                self._arrived_count += int(events.arrived.sum())
-                self._active[:m] &= ~left
-                if not self._active[:m].any():
-                    self._active[m:] = False
-                self._all_active = False
-            self._watch.anchor(self._active[:m], new[:m], new[m:])
+        world = self._world
+        if self._watched_world is not world:
+            self._watch = rules.EventWatch(self.scenario.capture_radius, self._target_bounds,
+                                           self._longest_move)
+            self._watched_world = world
+        if self._watch.quiet():
+            self._positions = new
+            if self.observation.egocentric:
+                self._velocities = (new - old) / self.scenario.dt
+                self._velocities[~self._active] = 0.0
+            return rules.no_events(m, new[:m])
+        moves = rules.Moves(velocities, self.scenario.dt,
+                            lambda players: world.replay(old[players], velocities[players]),
+                            self._longest_move)
+        events = rules.resolve_events(self.scenario.map, self.scenario.capture_radius,
+                                      self._active[:m].copy(), old[:m], new[:m], old[m:],
+                                      new[m:], self._target_bounds, moves)
+        left = events.left
+        if left.any():
+            new[:m][left] = events.stops[left]
+            self._status[events.captured] = _CAPTURED
+            self._status[events.arrived] = _ARRIVED
+            self._captured_count += int(events.captured.sum())
+            self._arrived_count += int(events.arrived.sum())
+            self._active[:m] &= ~left
+            if not self._active[:m].any():
+                self._active[m:] = False
+            self._all_active = False
         self._positions = new
+        self._watch.anchor(self._active[:m], new[:m], new[m:])
         if self.observation.egocentric:
             self._velocities = (new - old) / self.scenario.dt
             self._velocities[~self._active] = 0.0
@@ -345,7 +356,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         """Phase 4: ``(M + N,)`` rewards: +1 arrival, -1 capture, the shaping term for the
         attackers active at the start of the step; each defender gets minus their sum."""
         m = self._m
-        if not self.shaping and not events.any_left:
+        if not self.shaping and not events.left.any():
             return self._no_rewards
         rewards = events.arrived.astype(np.float64) - events.captured
         if self.shaping:
@@ -364,7 +375,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         observations = self._observations(live, rows)
         reward_dict = dict(zip(live, rewards[rows].tolist(), strict=True))
         infos = self._infos(live, events.captor)
-        if events.any_left or truncate:
+        if events.left.any() or truncate:
             ended = (~self._active[rows]).tolist()
             terminations = dict(zip(live, ended, strict=True))
             truncations = {name: truncate and not done
@@ -384,10 +395,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         for name in live:
             if name not in actions:
                 raise KeyError(f"step: no action for live agent {name!r}")
-            if isinstance(actions[name], complex) or getattr(
-                    getattr(actions[name], "dtype", None), "kind", "") == "c":
-                raise ValueError(f"action for {name}: expected real numbers, got complex "
-                                 f"{actions[name]!r}")
+            if getattr(getattr(actions[name], "dtype", None), "kind", "") not in REAL_KINDS:
+                _checked_action(name, actions[name])   # a list, or not real numbers: refused
         try:
             stacked = np.array([actions[name] for name in live], dtype=np.float64)
         except (TypeError, ValueError):
@@ -502,9 +511,29 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             self._renderer = None
 
 
+REAL_KINDS = ("i", "u", "f")
+"""numpy dtype kinds of real numbers (not bool, complex, strings or objects)."""
+
+
+def _real_number(value: Any) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) \
+        and not isinstance(value, (bool, np.bool_))
+
+
 def _checked_action(agent: str, action: Any) -> np.ndarray:
     """``action`` as a float64 ``(2,)`` array; ``ValueError`` naming ``agent`` if it is not
-    a finite 2-vector."""
+    a finite 2-vector of real numbers (an array of a real dtype, or a sequence of ints and
+    floats: not strings, booleans or complex numbers, which numpy would convert)."""
+    kind = getattr(getattr(action, "dtype", None), "kind", None)
+    if kind == "c" or isinstance(action, complex):
+        raise ValueError(f"action for {agent}: expected real numbers, got complex {action!r}")
+    if kind is None:
+        real = not isinstance(action, (str, bytes)) and all(map(_real_number, _items(action)))
+    else:
+        real = kind in REAL_KINDS
+    if not real:
+        raise ValueError(f"action for {agent}: expected a 2-vector of real numbers, "
+                         f"got {action!r}")
     try:
         array = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError):
@@ -515,6 +544,14 @@ def _checked_action(agent: str, action: Any) -> np.ndarray:
     if not np.isfinite(array).all():
         raise ValueError(f"action for {agent}: must be finite, got {array.tolist()}")
     return array
+
+
+def _items(action: Any) -> list[Any]:
+    """The elements of a sequence ``action`` (``[action]`` for anything else)."""
+    try:
+        return list(action)
+    except TypeError:
+        return [action]
 
 
 def check_agent_names(actions: dict[str, Any], agents: Sequence[str]) -> None:

@@ -5,10 +5,15 @@ A write lands on what its path names: through symbolic links on their target, a 
 device or FIFO written directly (``/dev/null``, ``/dev/stdout``, a named pipe), ``-`` for
 standard output where text is written. A regular file is written to a temporary name
 beside it and renamed onto it when complete, keeping an existing file's permissions.
+
+The overwrite rule holds until the end: a destination that was free when it was checked
+(``expect_new``) is published with a hard link that fails if a file appeared there
+meanwhile (``FileExistsError`` naming it; what appeared is kept), never renamed over it.
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import shutil
@@ -26,6 +31,44 @@ STDOUT = "-"
 
 class UnsafeFolderError(ValueError):
     """A folder that others could write to, a link, or one not ours: nothing is read from it."""
+
+
+_EXPECTED_NEW: set[Path] = set()
+"""Destinations checked to be free before the work (``expect_new``)."""
+
+
+def expect_new(path: str | os.PathLike[str]) -> None:
+    """Note that ``path``'s destination held no file when checked, so that publishing to
+    it never replaces a file that appears there later (``install``)."""
+    target = destination(path)
+    if not os.path.lexists(target):
+        _EXPECTED_NEW.add(target)
+
+
+def forget_expected() -> None:
+    """Drop every ``expect_new`` (a command's end)."""
+    _EXPECTED_NEW.clear()
+
+
+def _appeared(path: str | os.PathLike[str]) -> FileExistsError:
+    return FileExistsError(errno.EEXIST, "a file appeared there while this ran and was kept "
+                           "(pass --force to replace it)", str(path))
+
+
+def _publish_new(temporary: Path, target: Path, path: str | os.PathLike[str]) -> None:
+    """Put ``temporary`` at the free ``target``: a hard link, which fails where a file now
+    is; where the filesystem has no hard links, a check right before the rename."""
+    try:
+        os.link(temporary, target)
+    except FileExistsError:
+        raise _appeared(path) from None
+    except OSError as err:
+        if err.errno not in (errno.EPERM, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EXDEV,
+                             errno.EMLINK, errno.ENOSYS):
+            raise
+        if os.path.lexists(target):
+            raise _appeared(path) from None
+        os.replace(temporary, target)
 
 
 def destination(path: str | os.PathLike[str]) -> Path:
@@ -49,7 +92,9 @@ def is_stream(path: str | os.PathLike[str]) -> bool:
 def install(temporary: Path, path: str | os.PathLike[str]) -> None:
     """Put the finished file ``temporary`` at ``path``: copied into a device or FIFO, else
     renamed onto the link target with the permissions of the file it replaces (the usual
-    ``0666 & ~umask`` for a new one). ``temporary`` is gone afterwards either way."""
+    ``0666 & ~umask`` for a new one); to a destination of ``expect_new``, only while it is
+    still free (``FileExistsError`` otherwise). ``temporary`` is gone afterwards either
+    way."""
     try:
         if is_stream(path):   # opened by its own name: /dev/stdout may lead to "pipe:[N]"
             with open(temporary, "rb") as source, open(path, "wb") as sink:
@@ -63,7 +108,10 @@ def install(temporary: Path, path: str | os.PathLike[str]) -> None:
             os.umask(umask)
             mode = 0o666 & ~umask
         os.chmod(temporary, mode)
-        os.replace(temporary, target)
+        if target in _EXPECTED_NEW:
+            _publish_new(temporary, target, path)
+        else:
+            os.replace(temporary, target)
     finally:
         temporary.unlink(missing_ok=True)
 
@@ -87,8 +135,11 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "w", **open_kwargs: A
         sys.stdout.flush()
         return
     if is_stream(path):
-        with open(path, mode, **open_kwargs) as handle:
-            yield handle
+        try:
+            with open(path, mode, **open_kwargs) as handle:
+                yield handle
+        except OSError as err:
+            raise _named(err, path) from None
         return
     target = destination(path)
     if target.is_dir():
@@ -104,12 +155,17 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "w", **open_kwargs: A
         install(temporary, target)
     except OSError as err:
         temporary.unlink(missing_ok=True)
-        if err.filename is None:   # a full disk: name the destination, not nothing
-            raise OSError(err.errno, err.strerror or str(err), str(path)) from None
-        raise
+        raise _named(err, path) from None
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
+
+
+def _named(err: OSError, path: str | os.PathLike[str]) -> OSError:
+    """``err`` naming ``path`` where it names no file (a full disk or device)."""
+    if err.filename is not None:
+        return err
+    return OSError(err.errno, err.strerror or str(err), str(path))
 
 
 def write_json(path: str | os.PathLike[str], data: Any, indent: int = 2) -> None:

@@ -26,7 +26,6 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-import sys
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
@@ -45,13 +44,9 @@ from reachavoid_env.scenario import (
     Scenario,
     ScenarioError,
     load_scenario,
+    read_toml,
 )
 from reachavoid_env.shapes import SHAPES, Box, Circle, Polygon, Shape
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:
-    import tomli as tomllib
 
 INDEX = "index.toml"
 """The index file of a library folder."""
@@ -435,20 +430,47 @@ def library_files(options: MapOptions, seed: int, count: int) -> dict[str, bytes
     index_data = {"generator": {"version": GENERATOR_VERSION, "seed": seed, "count": count,
                                 "options": options.to_dict()},
                   "maps": entries}
-    files[INDEX] = (b"# A map library written by `reachavoid maps`; load it with "
-                    b"reachavoid_env.maps.load_library.\n" + _toml_bytes(index_data))
+    files[INDEX] = _sealed(b"# A map library written by `reachavoid maps`; load it with "
+                           b"reachavoid_env.maps.load_library.\n" + _toml_bytes(index_data))
     return files
+
+
+SEAL = b"# sha256 of the lines above: "
+"""The index's last line: the hash of what precedes it, so an edit shows."""
+
+
+def _sealed(text: bytes) -> bytes:
+    return text + SEAL + hashlib.sha256(text).hexdigest().encode() + b"\n"
+
+
+def unedited_index(data: bytes) -> bool:
+    """Whether ``data`` is an ``index.toml`` as ``write_library`` wrote it (its seal holds)."""
+    body, seal, digest = data.rpartition(SEAL)
+    return bool(seal) and digest == hashlib.sha256(body).hexdigest().encode() + b"\n"
 
 
 def read_index(path: Path) -> list[LibraryFile]:
     """The maps an ``index.toml`` lists; ``ValueError`` saying why it is not an index."""
+    data = read_toml(path.read_bytes(), repr(str(path)), ValueError)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-        entries = [LibraryFile(**entry) for entry in data["maps"]]
         checks.integer(data["generator"]["version"], "generator.version", 1)
+        if not isinstance(data["maps"], list):
+            raise TypeError("maps: expected an array of tables [[maps]]")
+        entries = [_entry(entry, k) for k, entry in enumerate(data["maps"])]
     except (ValueError, KeyError, TypeError) as err:
         raise ValueError(f"{str(path)!r} is not a map library index ({err})") from None
     return entries
+
+
+def _entry(entry: Any, k: int) -> LibraryFile:
+    """``maps[k]`` of an index: a table of three strings."""
+    names = [f.name for f in fields(LibraryFile)]
+    if not isinstance(entry, dict) or sorted(entry) != sorted(names):
+        raise TypeError(f"maps[{k}]: expected a table of {', '.join(names)}")
+    for key, value in entry.items():
+        if not isinstance(value, str) or not value:
+            raise TypeError(f"maps[{k}].{key}: expected a non-empty string, got {value!r}")
+    return LibraryFile(**entry)
 
 
 def _written_by_us(folder: Path) -> dict[str, str]:
@@ -469,8 +491,9 @@ def write_library(folder: str | os.PathLike[str], options: MapOptions, seed: int
     and return the paths written.
 
     Refuses (``MapError`` naming ``out``), before writing anything, to replace a file that
-    an earlier call did not write, or that changed since: an existing file of the same name
-    is replaced only when the folder's index lists it with its current content. Every file
+    an earlier call did not write, or that changed since: an existing map file is replaced
+    only when the folder's index lists it with its current content, an existing index only
+    when its last line (``SEAL``) still hashes what precedes it. Every file
     is written atomically; the same call always writes the same bytes.
     """
     folder = Path(folder)
@@ -483,8 +506,9 @@ def write_library(folder: str | os.PathLike[str], options: MapOptions, seed: int
         if not path.is_file():
             raise MapError(f"out: {path} exists and is not a file")
         current = path.read_bytes()
-        if current != data and name != INDEX and \
-                ours.get(name) != hashlib.sha256(current).hexdigest():
+        ours_unchanged = (unedited_index(current) if name == INDEX
+                          else ours.get(name) == hashlib.sha256(current).hexdigest())
+        if current != data and not ours_unchanged:
             raise MapError(f"out: {path} exists and was not written by `reachavoid maps` (or "
                            f"was changed since); choose another folder")
     folder.mkdir(parents=True, exist_ok=True)
@@ -499,24 +523,37 @@ def write_library(folder: str | os.PathLike[str], options: MapOptions, seed: int
 def load_library(source: ScenarioSource) -> tuple[Scenario, ...]:
     """The scenarios of a library: a folder (its ``index.toml``, else every ``*.toml`` in
     name order), an index file, a scenario (built-in name, TOML file or ``Scenario``) or a
-    list of any of these. ``ScenarioError`` naming the source when it holds none."""
+    list of any of these. ``ScenarioError`` naming the source when it holds none, naming
+    the file of a map that fails to load, and when two different maps share a name (tables
+    and caches tell maps apart by name); the same map listed twice counts once."""
+    named: dict[str, tuple[Scenario, str]] = {}
+    for scenario, origin in _load_library(source):
+        first = named.setdefault(scenario.name, (scenario, origin))
+        if first[0] != scenario:
+            raise ScenarioError(f"scenario: {first[1]} and {origin} are different maps named "
+                                f"{scenario.name!r}; names in a library are unique")
+    return tuple(scenario for scenario, _ in named.values())
+
+
+def _load_library(source: ScenarioSource) -> list[tuple[Scenario, str]]:
+    """``load_library``'s scenarios, each with where it came from."""
     if isinstance(source, Scenario):
-        return (source,)
+        return [(source, f"scenario {source.name!r}")]
     if isinstance(source, (list, tuple)):
         if not source:
             raise ScenarioError("scenario: an empty list of scenarios")
-        return tuple(s for item in source for s in load_library(item))
+        return [found for item in source for found in _load_library(item)]
     if not isinstance(source, (str, os.PathLike)):
         raise TypeError(f"scenario: expected a built-in name, a TOML file, a library folder "
                         f"or index, a Scenario or a list of them, got {type(source).__name__}")
     path = Path(source)
     if path.is_dir():
         if (path / INDEX).is_file():
-            return load_library(path / INDEX)
+            return _load_library(path / INDEX)
         files = sorted(path.glob("*.toml"))
         if not files:
             raise ScenarioError(f"scenario: folder {str(path)!r} holds no .toml scenario")
-        return tuple(load_scenario(f) for f in files)
+        return [(_load_map(f), str(f)) for f in files]
     if path.name == INDEX and path.is_file():
         try:
             entries = read_index(path)
@@ -524,5 +561,15 @@ def load_library(source: ScenarioSource) -> tuple[Scenario, ...]:
             raise ScenarioError(f"scenario: {err}") from None
         if not entries:
             raise ScenarioError(f"scenario: {str(path)!r} lists no maps")
-        return tuple(load_scenario(path.parent / entry.file) for entry in entries)
-    return (load_scenario(source),)
+        files = [path.parent / entry.file for entry in entries]
+        return [(_load_map(f), str(f)) for f in files]
+    return [(load_scenario(source), str(source))]
+
+
+def _load_map(path: Path) -> Scenario:
+    """A map file of a library; its errors name it."""
+    try:
+        return load_scenario(path)
+    except ScenarioError as err:
+        message = str(err)
+        raise ScenarioError(message if str(path) in message else f"{path}: {message}") from None

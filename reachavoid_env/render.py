@@ -206,11 +206,18 @@ class Renderer:
         key = f"{id(font)}:{pixels}:{line}"
         fitted = self._fitted.get(key)
         if fitted is None:
-            fitted, cut = line, len(line)
-            if font.size(line)[0] > pixels:
-                while cut > 0 and font.size(line[:cut] + "...")[0] > pixels:
-                    cut -= 1
-                fitted = line[:cut] + "..."
+            fitted = line
+            if len(line) > pixels or font.size(line)[0] > pixels:
+                # the longest prefix that fits, by bisection (a character is >= 1 pixel
+                # wide, so no more than ``pixels`` of them can fit)
+                low, high = 0, min(len(line), pixels)
+                while low < high:
+                    mid = (low + high + 1) // 2
+                    if font.size(line[:mid] + "...")[0] <= pixels:
+                        low = mid
+                    else:
+                        high = mid - 1
+                fitted = line[:low] + "..."
             if len(self._fitted) > 256:  # lines that change every frame
                 self._fitted.clear()
             self._fitted[key] = fitted

@@ -41,6 +41,9 @@ MAX_DT = 1.0
 """Longest step (seconds)."""
 MAX_STEPS = 10_000_000
 """Most steps in an episode."""
+MAX_PLAYERS = 1024
+"""Most attackers, and most defenders, in a scenario: the env's per-step tables grow with
+attackers times defenders, and every observation with all players."""
 MAX_SUBSTEPS = 10_000
 """Most physics sub-steps per step (``substeps_for``): a smaller ``player_radius`` or a
 longer ``dt`` would make every step crawl."""
@@ -98,6 +101,9 @@ class Scenario:
     paper_captures: tuple[tuple[str, int], ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
+        if not self.name or not self.name.isprintable():
+            raise ScenarioError(f"name: expected printable text (no control characters such "
+                                f"as NUL or a line break), got {self.name[:60]!r}")
         size = min(self.map.size)
         for name, high in (("attacker_speed", MAX_SPEED), ("defender_speed", MAX_SPEED),
                            ("capture_radius", size), ("dt", MAX_DT),
@@ -121,6 +127,8 @@ class Scenario:
         for role, count in (("attackers", self.num_attackers), ("defenders", self.num_defenders)):
             if count < 1:
                 raise ScenarioError(f"players.{role}: need at least one, got {count}")
+            if count > MAX_PLAYERS:
+                raise ScenarioError(f"players.{role}: at most {MAX_PLAYERS}, got {count}")
             starts = getattr(self, role)
             if starts is not None and len(starts) != count:
                 raise ScenarioError(f"players.{role}: {len(starts)} starts for {count} players")
@@ -298,17 +306,24 @@ def builtin_map(name: str = "paper") -> GameMap:
     return builtin_scenario(matches[0]).map
 
 
-def _parse(data: bytes, name: str, source: str) -> Scenario:
+def read_toml(data: bytes, source: str,
+              error: type[ValueError] = ScenarioError) -> dict[str, Any]:
+    """The table of the TOML text ``data`` (UTF-8, a byte-order mark allowed): what every
+    input file of the project (scenario, suite, library index) is read with; ``error``
+    naming ``source`` when it is not UTF-8, not TOML, or nested too deeply to read."""
     try:
-        parsed = tomllib.loads(data.decode("utf-8-sig"))   # a byte-order mark is allowed
+        return tomllib.loads(data.decode("utf-8-sig"))
     except UnicodeDecodeError as err:
-        raise ScenarioError(f"{source}: not UTF-8 text (byte {err.start}); TOML files are "
-                            f"UTF-8") from None
+        raise error(f"{source}: not UTF-8 text (byte {err.start}); TOML files are "
+                    f"UTF-8") from None
     except tomllib.TOMLDecodeError as err:
-        raise ScenarioError(f"{source}: malformed TOML: {err}") from None
+        raise error(f"{source}: malformed TOML: {err}") from None
     except RecursionError:
-        raise ScenarioError(f"{source}: arrays or tables nested too deeply") from None
-    return Scenario.from_dict(parsed, name=name)
+        raise error(f"{source}: arrays or tables nested too deeply") from None
+
+
+def _parse(data: bytes, name: str, source: str) -> Scenario:
+    return Scenario.from_dict(read_toml(data, source), name=name)
 
 
 def load_scenario(source: str | os.PathLike[str]) -> Scenario:

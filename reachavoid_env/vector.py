@@ -43,6 +43,7 @@ from gymnasium.utils import seeding
 
 from reachavoid_env import checks, rules
 from reachavoid_env.environment import (
+    REAL_KINDS,
     STARTS,
     check_agent_names,
     draw_scenario,
@@ -97,6 +98,7 @@ class ReachAvoidVectorEnv:
         self._speeds = np.concatenate([np.full(m, base.attacker_speed),
                                        np.full(n, base.defender_speed)])[:, None]
         self._fastest = max(base.attacker_speed, base.defender_speed)
+        self._longest = rules.longest_move(self._fastest, base.dt)
         self._worlds: dict[int, World] = {}
         self._observers: dict[int, Observer] = {}
         self._generators: list[np.random.Generator] = []
@@ -173,7 +175,7 @@ class ReachAvoidVectorEnv:
         live = self._active & self._running[:, None]
         velocities = self._controls(actions)
         old, new = self._move(velocities)
-        events = self._resolve_events(old, new)
+        events = self._resolve_events(old, new, velocities)
         rewards = self._rewards(events, old, new)
         self._steps += self._running
         return self._outputs(live, events, rewards)
@@ -188,10 +190,12 @@ class ReachAvoidVectorEnv:
         for i, name in enumerate(self.possible_agents):
             if name not in actions:
                 raise KeyError(f"step: no action for agent {name!r}")
-            array = np.asarray(actions[name], dtype=np.float64)
-            if array.shape != (self.num_envs, 2) or not np.isfinite(array).all():
-                raise ValueError(f"action for {name}: expected finite numbers of shape "
-                                 f"({self.num_envs}, 2), got shape {array.shape}")
+            array = np.asarray(actions[name])
+            if array.dtype.kind not in REAL_KINDS or array.shape != (self.num_envs, 2) \
+                    or not np.isfinite(array).all():
+                raise ValueError(f"action for {name}: expected finite real numbers of shape "
+                                 f"({self.num_envs}, 2), got {array.dtype} of shape "
+                                 f"{array.shape}")
             stacked[:, i] = array
         stacked[~(self._active & self._running[:, None])] = 0.0
         return rules.bounded_controls(stacked) * self._speeds
@@ -210,19 +214,25 @@ class ReachAvoidVectorEnv:
         new[still] = old[still]
         return old, new
 
-    def _resolve_events(self, old: np.ndarray, new: np.ndarray) -> rules.StepEvents:
-        """Phase 3: captures and arrivals of every copy (``rules.resolve_batch``); attackers
-        that left stop where their event happened, and the defenders leave with the last."""
+    def _resolve_events(self, old: np.ndarray, new: np.ndarray,
+                        velocities: np.ndarray) -> rules.StepEvents:
+        """Phase 3: captures and arrivals of every copy along the paths the world moved
+        the players along (``rules.resolve_batch``); attackers that left stop where their
+        event happened, and the defenders leave with the last."""
         m = self._m
-        maps = [self.scenarios[i].map for i in range(len(self.scenarios))]
+        maps = [scenario.map for scenario in self.scenarios]
+
+        def replay(copy: int, players: np.ndarray) -> np.ndarray:
+            world = self._worlds[int(self._map_of[copy])]
+            return world.replay(old[copy, players], velocities[copy, players])
+
+        moves = rules.BatchMoves(velocities, self.base_scenario.dt, replay, self._longest)
         events = rules.resolve_batch(maps, self._map_of, self.base_scenario.capture_radius,
                                      self._active[:, :m] & self._running[:, None],
-                                     old[:, :m], new[:, :m],
-                                     old[:, m:], new[:, m:])
+                                     old[:, :m], new[:, :m], old[:, m:], new[:, m:], moves)
         left = events.left
         if left.any():
-            t = events.times[left][:, None]
-            new[:, :m][left] = old[:, :m][left] + t * (new[:, :m][left] - old[:, :m][left])
+            new[:, :m][left] = events.stops[left]
             self._status[events.captured] = _CAPTURED
             self._status[events.arrived] = _ARRIVED
             self._counts[:, 0] += events.captured.sum(axis=1)

@@ -65,31 +65,13 @@ class World:
         if self.substeps < 1:
             raise ValueError(f"substeps must be at least 1, got {self.substeps}")
         self._h = self.dt / self.substeps
-        self.space = pymunk.Space()
-        self.space.collision_slop = 0.01 * player_radius
-        self.space.collision_bias = 0.0
-        static = self.space.static_body
-        walls = _domain_walls(game_map.domain, static)
-        for obstacle in game_map.obstacles:
-            walls.extend(static_shapes(obstacle, static))
-        for shape in walls:
-            shape.friction = 0.0
-            shape.elasticity = 0.0
-        self.space.add(*walls)
-        self.player_radius = player_radius
-        self.bodies = [self._add_player(x, y) for x, y in positions]
+        self._map = game_map
+        self._radius = float(player_radius)
+        self.space = _walled_space(game_map, player_radius)
+        self._replay_space: pymunk.Space | None = None
+        self.bodies = [_player(self.space, x, y, player_radius) for x, y in positions]
         self._index_bodies()
         self._get_buffer = pymunk.batch.Buffer()
-
-    def _add_player(self, x: float, y: float) -> pymunk.Body:
-        body = pymunk.Body(mass=1.0, moment=math.inf)
-        body.position = (float(x), float(y))
-        circle = pymunk.Circle(body, self.player_radius)
-        circle.filter = pymunk.ShapeFilter(group=_PLAYER_GROUP)
-        circle.friction = 0.0
-        circle.elasticity = 0.0
-        self.space.add(body, circle)
-        return body
 
     def _index_bodies(self) -> None:
         self._rows, body_count = self._body_rows()
@@ -108,7 +90,7 @@ class World:
                                strict=True):
             old = self.bodies[row]
             self.space.remove(old, *old.shapes)
-            self.bodies[row] = self._add_player(x, y)
+            self.bodies[row] = _player(self.space, x, y, self._radius)
         self._index_bodies()
 
     def _body_rows(self) -> tuple[slice | np.ndarray, int]:
@@ -143,6 +125,63 @@ class World:
         pymunk.batch.get_space_bodies(self.space, _GET_FIELDS, buffer)
         all_positions = np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 2)
         return all_positions[rows].copy()
+
+    def replay(self, starts: np.ndarray, velocities: np.ndarray) -> np.ndarray:
+        """The path a step moves players along: ``(substeps + 1, P, 2)`` positions at the
+        sub-step boundaries of players started at ``starts`` ``(P, 2)`` with desired
+        ``velocities`` ``(P, 2)``, the first row ``starts``.
+
+        Within a sub-step a player moves in a straight line; a wall changes its velocity
+        only between sub-steps. The players are moved again, alone, in a space of this
+        map's walls (players never meet each other, so alone is how ``step`` moved them;
+        the contact solver starts afresh, so positions agree to rounding). For the few
+        players whose step left its straight segment (``rules.resolve_events``)."""
+        if self._replay_space is None:
+            self._replay_space = _walled_space(self._map, self._radius)
+        space, h = self._replay_space, self._h
+        bodies = [_player(space, x, y, self._radius) for x, y in starts]
+        for body, (vx, vy) in zip(bodies, np.asarray(velocities, dtype=np.float64),
+                                  strict=True):
+            body.force = (vx / h, vy / h)
+        path = np.empty((self.substeps + 1, len(bodies), 2))
+        path[0] = starts
+        try:
+            space.step(h)   # as in ``step``: turns the force into a velocity, moves nobody
+            for k in range(1, self.substeps + 1):
+                space.step(h)
+                path[k] = [tuple(body.position) for body in bodies]
+        finally:
+            for body in bodies:
+                space.remove(body, *body.shapes)
+        return path
+
+
+def _walled_space(game_map: GameMap, player_radius: float) -> pymunk.Space:
+    """A space holding the map's walls and obstacles (no friction, no bounce)."""
+    space = pymunk.Space()
+    space.collision_slop = 0.01 * player_radius
+    space.collision_bias = 0.0
+    static = space.static_body
+    walls = _domain_walls(game_map.domain, static)
+    for obstacle in game_map.obstacles:
+        walls.extend(static_shapes(obstacle, static))
+    for shape in walls:
+        shape.friction = 0.0
+        shape.elasticity = 0.0
+    space.add(*walls)
+    return space
+
+
+def _player(space: pymunk.Space, x: float, y: float, player_radius: float) -> pymunk.Body:
+    """A player's body at ``(x, y)`` in ``space``: a circle that meets walls, not players."""
+    body = pymunk.Body(mass=1.0, moment=math.inf)
+    body.position = (float(x), float(y))
+    circle = pymunk.Circle(body, player_radius)
+    circle.filter = pymunk.ShapeFilter(group=_PLAYER_GROUP)
+    circle.friction = 0.0
+    circle.elasticity = 0.0
+    space.add(body, circle)
+    return body
 
 
 def _domain_walls(domain: tuple[float, float, float, float],

@@ -32,7 +32,7 @@ from reachavoid.suite import load_suite
 from reachavoid_env import Policy, builtin_names, builtin_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
-TINY = ("--grid1", "11", "--grid2", "7")
+TINY = ("--grid1", "11", "--grid2", "8")
 
 POLICY_MODULE = '''
 """A defender of one's own: chase the nearest attacker, aiming ``lead`` of the way from it

@@ -152,11 +152,11 @@ def test_unreadable_scenario_file_is_status_2(capsys, tmp_path, monkeypatch, com
 def test_solve_2v1_fills_the_cache_of_its_grid1(tmp_path, monkeypatch, capsys):
     """``solve --grid1`` sets the 1 vs 1 tube under a 2 vs 1 game, as ``play --grid1``."""
     monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path))
-    assert main(["solve", "--game", "2v1", "--grid", "5", "--grid1", "7"]) == 0
+    assert main(["solve", "--game", "2v1", "--grid", "8", "--grid1", "8"]) == 0
     solved = {tuple(path.name.split("-")[:2]) for path in tmp_path.iterdir()}
-    assert solved == {("1v1", "7"), ("2v1", "5")}
-    assert main(["solve", "--game", "1v1", "--grid1", "7"]) == 0
-    assert "1v1 value 7x7x7x7" in capsys.readouterr().out
+    assert solved == {("1v1", "8"), ("2v1", "8")}
+    assert main(["solve", "--game", "1v1", "--grid1", "8"]) == 0
+    assert "1v1 value 8x8x8x8" in capsys.readouterr().out
 
 
 def test_help_exits_zero(capsys):

@@ -218,3 +218,30 @@ def test_flags_are_python_bools_and_rewards_floats_and_dicts_fresh():
     assert all(type(v) is bool for v in [*terminations.values(), *truncations.values()])
     first[2]["__all__"] = True                  # RLlib writes into the dicts
     assert "__all__" not in env.step(actions)[2]
+
+
+def test_a_slid_attacker_is_judged_on_the_path_it_took():
+    """At 1000 map units per second an attacker runs into the right wall and slides up it,
+    through the target, to a defender: the chord from start to end misses the target and
+    passes the defender, but the path entered the target first."""
+    from reachavoid_env.world import World
+
+    data = {"name": "slide", "map": {"domain": [0.0, 10.0, 0.0, 10.0], "obstacles": [],
+                                     "target": {"type": "box", "min": [9.5, 5.6],
+                                                "max": [10.0, 6.1]}},
+            "players": {"attacker_speed": 1000.0, "defender_speed": 1.0,
+                        "capture_radius": 0.1, "attackers": [[7.0, 5.0]],
+                        "defenders": [[1.0, 1.0]]},
+            "sim": {"dt": 0.005, "max_steps": 10, "player_radius": 0.05}}
+    aim = np.array([1.0, 0.3]) / np.hypot(1.0, 0.3)
+    probe = Scenario.from_dict(data, name="slide")
+    end = World(probe.map, probe.player_radius, np.array([[7.0, 5.0]]), 1000.0,
+                probe.dt).step(aim[None] * 1000.0)[0]
+    assert end[0] > 9.9 and end[1] > 6.3     # slid up the wall past the target
+    data["players"]["defenders"] = [[float(end[0]) - 0.05, float(end[1])]]
+    env = start(Scenario.from_dict(data, name="slide"), [[7.0, 5.0]], data["players"]["defenders"])
+    *_, infos = env.step({"attacker_0": aim.astype(np.float32),
+                          "defender_0": np.zeros(2, dtype=np.float32)})
+    assert infos["attacker_0"]["arrived"] == 1 and infos["attacker_0"]["captured"] == 0
+    stop = env.game_state().attacker_positions
+    assert env.scenario.map.in_target(stop)[0]   # where the path entered (the chord never does)

@@ -90,3 +90,25 @@ def test_warm_start_agrees_with_cold(game):
     cold_values, warm_values = cold.full_values(), warm.full_values()
     assert np.mean((cold_values <= 0) == (warm_values <= 0)) >= 0.999
     assert np.abs(cold_values - warm_values).max() < 2e-3
+
+
+def test_a_grid_that_misses_the_target_is_refused(tmp_path, monkeypatch, capsys):
+    """A 0.2-wide target on a +-100 map falls between the nodes of a 15-node grid: the tube
+    would say the defender wins everywhere (nobody can arrive), so no tube is solved."""
+    from reachavoid.cli import main
+    from reachavoid_env import Box, GameMap
+    from solvers.hj import check_tubes_memory, solve_1v1
+
+    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path / "cache"))
+    wide = GameMap((-100.0, 100.0, -100.0, 100.0), (Box((30.1, 30.1), (30.3, 30.3)),))
+    with pytest.raises(ValueError, match="no free grid node lies in the target"):
+        solve_1v1(wide, grid_points=15, progress=False)
+    with pytest.raises(ValueError, match="on the 1v1 grid"):
+        check_tubes_memory(wide, (1.0, 1.5), 0.1, 15, 7)
+    scenario = tmp_path / "wide.toml"
+    scenario.write_text('name = "wide"\n[map]\ndomain = [-100.0, 100.0, -100.0, 100.0]\n'
+                        'target = { type = "box", min = [30.1, 30.1], max = [30.3, 30.3] }\n'
+                        '[players]\nattackers = [[-50.0, 0.0]]\ndefenders = [[30.0, -30.0]]\n')
+    assert main(["solve", "--scenario", str(scenario), "--game", "1v1", "--grid", "15"]) == 2
+    assert "no free grid node lies in the target" in capsys.readouterr().err
+    assert not list((tmp_path / "cache").glob("*.vf"))

@@ -272,3 +272,15 @@ def test_bench_over_a_library_plays_a_cell_per_map_and_pools_them(tmp_path, caps
                  "greedy", "--attackers", "straight", "--episodes", "1", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)["rows"]
     assert {r["num_attackers"] for r in rows} == {3}
+
+
+def test_a_hand_edited_index_is_not_replaced(tmp_path):
+    write_library(tmp_path, OPTIONS, 1, 2)
+    write_library(tmp_path, OPTIONS, 1, 2)             # unedited: rewritten
+    index = tmp_path / INDEX
+    edited = index.read_text().replace("[[maps]]", '[[maps]]\nfile = "mine.toml"\n'
+                                       'name = "mine"\nsha256 = "0"\n\n[[maps]]', 1)
+    index.write_text(edited)
+    with pytest.raises(MapError, match=r"^out: .*index.toml.* changed since"):
+        write_library(tmp_path, OPTIONS, 1, 2)
+    assert index.read_text() == edited

@@ -480,3 +480,113 @@ def test_actions_are_refused_clearly():
             env.step(actions)
     with pytest.raises(ValueError, match="complex"):
         env.step({agent: np.array([1 + 1j, 0.0]) for agent in env.agents})
+
+
+# numba's cache of compiled (pickled) code is a folder of ours, or refused
+
+def test_a_numba_cache_others_can_write_is_refused(tmp_path, cache_in_tmp, monkeypatch, capsys):
+    shared = tmp_path / "numba"
+    shared.mkdir()
+    shared.chmod(0o777)
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(shared))
+    fails_cleanly(capsys, ["solve", "--scenario", "paper_2v1", "--grid", "9"],
+                  "$NUMBA_CACHE_DIR")
+    assert list(shared.iterdir()) == []
+
+
+def test_a_numba_cache_another_user_owns_is_refused(tmp_path):
+    needs_root()
+    shared = tmp_path / "nc"
+    shared.mkdir(mode=0o700)
+    os.chown(shared, 65534, 65534)
+    result = subprocess.run(
+        [sys.executable, "-m", "reachavoid", "solve", "--scenario", "paper_2v1", "--grid", "9"],
+        capture_output=True, text=True, timeout=300, cwd=tmp_path,
+        env=dict(ENV, NUMBA_CACHE_DIR=str(shared), PYTHONPATH=str(ROOT),
+                 REACHAVOID_CACHE_DIR=str(tmp_path / "cache")))
+    assert result.returncode == 2 and "$NUMBA_CACHE_DIR" in result.stderr, result.stderr
+    assert result.stderr.count("\n") == 1 and list(shared.iterdir()) == []
+
+
+def test_a_numba_config_file_cannot_point_the_cache_elsewhere(tmp_path):
+    shared = tmp_path / "numba"
+    shared.mkdir()
+    shared.chmod(0o777)
+    (tmp_path / ".numba_config.yaml").write_text(f"cache_dir: {shared}\n")
+    result = subprocess.run([sys.executable, "-c", "import policies.lookups"],
+                            capture_output=True, text=True, timeout=300, cwd=tmp_path,
+                            env=dict(ENV, PYTHONPATH=str(ROOT)))
+    assert result.returncode != 0 and "CacheLocationError" in result.stderr
+    assert list(shared.iterdir()) == []
+
+
+# the overwrite rule holds until the end: what appears meanwhile is kept
+
+@pytest.mark.parametrize("flag", ["--csv", "--json", "--plot"])
+def test_a_bench_output_that_appears_while_running_is_kept(tmp_path, monkeypatch, capsys,
+                                                           flag):
+    import reachavoid.cli as cli
+
+    path = tmp_path / ("out.png" if flag == "--plot" else "out.txt")
+
+    def meanwhile(*args, **kwargs):
+        path.write_text("written by hand meanwhile")
+        return run_suite(*args, **kwargs)
+
+    run_suite = cli.run_suite
+    monkeypatch.setattr(cli, "run_suite", meanwhile)
+    err = fails_cleanly(capsys, [*BENCH, flag, str(path)], "appeared", status=1)
+    assert str(path) in err and path.read_text() == "written by hand meanwhile"
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]
+
+
+@pytest.mark.parametrize("flag", ["--video", "--preview"])
+def test_a_play_output_that_appears_while_running_is_kept(tmp_path, monkeypatch, capsys, flag):
+    import reachavoid.cli as cli
+
+    path = tmp_path / ("out.png" if flag == "--preview" else "out.gif")
+    name = "first_frame" if flag == "--preview" else "run_episode"
+    original = getattr(cli, name)
+
+    def meanwhile(*args, **kwargs):
+        path.write_text("written by hand meanwhile")
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(cli, name, meanwhile)
+    fails_cleanly(capsys, ["play", *SIMPLE, flag, str(path)], "appeared", status=1)
+    assert path.read_text() == "written by hand meanwhile"
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]
+    path.unlink()
+    monkeypatch.undo()
+    assert main(["play", *SIMPLE, flag, str(path)]) == 0 and path.stat().st_size > 100
+
+
+@pytest.mark.parametrize("outputs", [("--csv", "same.out", "--json", "same.out"),
+                                     ("--plot", "s.png", "--json", "s.png"),
+                                     ("--csv", "-", "--json")])
+def test_two_outputs_on_one_path_are_refused_before_work(tmp_path, monkeypatch, capsys,
+                                                         outputs):
+    monkeypatch.chdir(tmp_path)
+    fails_cleanly(capsys, [*BENCH, *outputs], "give each output its own file")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_failed_write_to_a_device_names_it(capsys):
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full here")
+    err = fails_cleanly(capsys, [*BENCH, "--csv", "/dev/full"], "No space left", status=1)
+    assert "/dev/full" in err
+
+
+@pytest.mark.parametrize("action", [["0.5", "0"], [True, False], np.array([True, False]),
+                                    np.array(["0.5", "0"]), "05", [1, "0"]])
+def test_actions_are_real_two_vectors_only(action):
+    env = reachavoid_env.parallel_env(scenario="paper_2v1")
+    env.reset(seed=0)
+    actions = {agent: np.zeros(2) for agent in env.agents}
+    actions["attacker_0"] = action
+    with pytest.raises(ValueError, match="action for attacker_0: expected a 2-vector of real"):
+        env.step(actions)
+    for fine in ([0.5, 0], (1, 0.0), np.array([0.5, 0], dtype=np.float32), [np.float32(1), 0]):
+        actions["attacker_0"] = fine
+        env.step(actions)

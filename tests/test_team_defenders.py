@@ -124,18 +124,18 @@ def test_registry_and_cli_offer_hj_pairs(capsys):
     with pytest.raises(ValueError, match="unknown option"):
         make_policy("defenders", "hj-pairs", sc, grid3=5)
     assert main(["play", "--json", "--scenario", SCENARIO, "--defenders", "hj-pairs",
-                 "--grid1", "9", "--grid2", "7"]) == 0
+                 "--grid1", "9", "--grid2", "8"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["defenders"] == "hj-pairs" and report["captured_count"] >= 0
 
 
 def test_solve_command_solves_the_1v2_game(tmp_path, capsys):
     plot = tmp_path / "team.png"
-    assert main(["solve", "--scenario", SCENARIO, "--game", "1v2", "--grid", "7",
+    assert main(["solve", "--scenario", SCENARIO, "--game", "1v2", "--grid", "8",
                  "--plot", str(plot)]) == 0
     printed = capsys.readouterr().out
-    assert printed.startswith("1v2 value 7x7x7x7x7x7") and plot.stat().st_size > 0
-    assert main(["solve", "--scenario", "paper_2v1", "--game", "1v2", "--grid", "7",
+    assert printed.startswith("1v2 value 8x8x8x8x8x8") and plot.stat().st_size > 0
+    assert main(["solve", "--scenario", "paper_2v1", "--game", "1v2", "--grid", "8",
                  "--plot", str(tmp_path / "x.png")]) == 2
     assert "2 defender" in capsys.readouterr().err
 

@@ -15,7 +15,7 @@ pytest.importorskip("supersuit")
 
 from checks import example  # noqa: E402
 
-TINY = ["--grid1", "11", "--grid2", "7", "--timesteps", "192", "--copies", "1",
+TINY = ["--grid1", "11", "--grid2", "8", "--timesteps", "192", "--copies", "1",
         "--n-steps", "16", "--batch-size", "48", "--episodes", "3", "--video-every", "20"]
 
 
@@ -23,7 +23,7 @@ def test_recipe_trains_evaluates_and_records(tmp_path):
     recipe = example("train_attacker_team")
     report = recipe.main([*TINY, "--out", str(tmp_path)])
 
-    assert report["defenders"] == "hj" and report["grids"] == [11, 7]
+    assert report["defenders"] == "hj" and report["grids"] == [11, 8]
     assert report["training"]["agent_steps"] >= 192
     assert report["training"]["game_steps"] == (
         report["training"]["agent_steps"] // 6 * report["action_repeat"])

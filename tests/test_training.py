@@ -37,7 +37,7 @@ from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 
 # Tubes coarse enough to solve in seconds (conftest.py points the cache at a throwaway
 # folder, so each grid is solved once per test session).
-COARSE = {"grid1": 11, "grid2": 7, "progress": False}
+COARSE = {"grid1": 11, "grid2": 8, "progress": False}
 
 
 # ------------------------------------------------------------------ named policies
@@ -152,7 +152,7 @@ def test_pettingzoo_id():
 def test_multi_agent_loop_example(capsys):
     loop = example("multi_agent_loop")
     results = loop.main(["--scenario", "paper_6v2", "--defenders", "hj", "--grid1", "11",
-                         "--grid2", "7", "--episodes", "1"])
+                         "--grid2", "8", "--episodes", "1"])
     assert set(results[0]["outcome"]) == {f"attacker_{i}" for i in range(6)}
     assert "episode 0:" in capsys.readouterr().out
 
@@ -169,9 +169,9 @@ def test_toward_target_hook_reads_positions_from_observations():
 def test_train_attacker_example_runs_against_hj_defenders(tmp_path):
     pytest.importorskip("stable_baselines3")
     train = example("train_attacker_sb3")
-    report = train.main(["--grid1", "11", "--grid2", "7", "--timesteps", "256", "--envs", "1",
+    report = train.main(["--grid1", "11", "--grid2", "8", "--timesteps", "256", "--envs", "1",
                          "--episodes", "2", "--no-video", "--out", str(tmp_path)])
-    assert report["defenders"] == "hj" and report["grids"] == [11, 7]
+    assert report["defenders"] == "hj" and report["grids"] == [11, 8]
     for attacker in ("trained", "random", "shortest-path"):
         rates = [report[attacker][f"{outcome}_rate"] for outcome in train.OUTCOMES]
         assert sum(rates) == pytest.approx(1.0)

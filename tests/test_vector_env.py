@@ -91,8 +91,12 @@ def test_bad_actions_name_the_agent():
     vec = vector_env("paper_2v1", num_envs=3)
     vec.reset(seed=0)
     good = {name: np.zeros((3, 2)) for name in vec.possible_agents}
-    with pytest.raises(ValueError, match="action for attacker_1: expected finite numbers"):
+    with pytest.raises(ValueError, match="action for attacker_1: expected finite real"):
         vec.step({**good, "attacker_1": np.zeros((2, 2))})
+    with pytest.raises(ValueError, match="action for defender_0: expected finite real"):
+        vec.step({**good, "defender_0": [["0.5", "0"]] * 3})
+    with pytest.raises(ValueError, match="action for defender_0: expected finite real"):
+        vec.step({**good, "defender_0": np.ones((3, 2), dtype=bool)})
     with pytest.raises(KeyError, match="no action for agent 'defender_0'"):
         vec.step({n: a for n, a in good.items() if n != "defender_0"})
     with pytest.raises(ValueError, match="num_envs"):

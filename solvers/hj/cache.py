@@ -10,7 +10,10 @@ one line saying why. A cache that cannot be written is read, and new solves are 
 Storing an entry removes the temporaries (``.NAME.PID.RANDOM.tmp`` / ``.old``) whose
 owner's lock (``value.owned_temporaries``) can be taken: their process is gone, whichever
 machine or PID namespace it ran in. The generated kernels live in ``kernels/``
-(``codegen.kernel_dir``).
+(``codegen.kernel_dir``). Numba's own cache of compiled code (pickled, so loading it runs
+code) goes where ``$NUMBA_CACHE_DIR`` (or a ``.numba_config.yaml``) says only when that is a
+folder of this user's that nobody else can write (``jit_cache.check_numba_cache``), checked before
+any compiled function can be loaded.
 """
 
 from __future__ import annotations
@@ -28,23 +31,13 @@ from typing import Any
 
 from reachavoid_env import GameMap
 from reachavoid_env.files import UnsafeFolderError, private_folder
+from solvers.hj.jit_cache import CacheLocationError, check_numba_cache, location_error
 from solvers.hj.value import ValueFunction, ValueFunctionError, abandoned, load_value_function
 
 _TEMPORARY = re.compile(r"^(?P<stem>\..+\.vf\.\d+\.[^.]+)\.(tmp|old|lock)$")
 UNLOCKED_AGE = 7 * 24 * 3600.0
 """Seconds after which a temporary without a lock file (written by an older version) is
 removed: far above any solve."""
-
-
-class CacheLocationError(ValueError):
-    """The cache folder cannot be a folder of this user's (reported in one line, exit 2)."""
-
-
-def location_error(what: str, folder: Path, err: Exception) -> CacheLocationError:
-    """``CacheLocationError``: ``what`` went wrong at ``folder`` because of ``err``."""
-    reason = f"{err.filename}: {err.strerror}" if isinstance(err, OSError) else str(err)
-    return CacheLocationError(f"cache: {what} {str(folder)!r} ({reason}); set "
-                              "$REACHAVOID_CACHE_DIR to a folder of yours")
 
 
 def cache_dir() -> Path:
@@ -57,6 +50,7 @@ def check_cache() -> bool:
     """Make the cache folder ready before any work: created (mode 0700) where missing.
     Returns whether solves can be stored there; ``CacheLocationError`` naming it and
     ``$REACHAVOID_CACHE_DIR`` when it cannot be a folder of this user's."""
+    check_numba_cache()
     folder = cache_dir()
     if folder.exists() and not folder.is_dir():
         raise CacheLocationError(f"cache: {str(folder)!r} ($REACHAVOID_CACHE_DIR) is not a "

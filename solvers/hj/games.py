@@ -54,7 +54,7 @@ from collections.abc import Sequence
 from reachavoid_env import GameMap
 from solvers.hj.game import Game, Player, attacker, defender, distance, maximum, minimum, table
 from solvers.hj.grid import Grid
-from solvers.hj.reach_avoid import check_memory
+from solvers.hj.reach_avoid import check_memory, check_target_seen
 from solvers.hj.settings import PAPER_GRIDS, SolverSettings
 from solvers.hj.solve import solve_declared
 from solvers.hj.value import ValueFunction
@@ -118,18 +118,29 @@ def _check_lower(vf11: ValueFunction, game_map: GameMap) -> None:
         raise ValueError("vf11: solved on another map than game_map")
 
 
+def check_tube_grids(game_map: GameMap, grid1: int, grid2: int | None = None) -> None:
+    """``ScenarioError`` when the 1 vs 1 grid of ``grid1`` nodes per axis, or the 2 vs 1 and
+    1 vs 2 grid of ``grid2``, has no free node in ``game_map``'s target
+    (``check_target_seen``): what ``validate`` checks of the tubes."""
+    for label, points in (("1v1", grid1), ("2v1 and 1v2", grid2)):
+        if points is not None:
+            check_target_seen(game_map, Grid.for_players(game_map.domain, 1, points), label)
+
+
 def check_tubes_memory(game_map: GameMap, speeds: tuple[float, float], capture_radius: float,
                        grid1: int, grid2: int | None = None,
                        settings: SolverSettings | None = None) -> None:
     """Raise ``InsufficientMemoryError`` before any solve when the 1 vs 1 game on ``grid1``
     nodes per axis, or (with ``grid2``) the 2 vs 1 or 1 vs 2 game on ``grid2``, would not
-    fit in memory: a command checks every tube it may solve before solving any."""
+    fit in memory, and ``ValueError`` when its grid has no free node in the target
+    (``check_target_seen``): a command checks every tube it may solve before solving any."""
     speeds = _checked_speeds(speeds, capture_radius)
     settings = settings or SolverSettings()
     games = [(game_1v1(speeds, capture_radius), 2, grid1)]
     if grid2 is not None:
         games += [(game_2v1(speeds, capture_radius), 3, grid2),
                   (game_1v2(speeds, capture_radius), 3, grid2)]
+    check_tube_grids(game_map, grid1, grid2)
     for game, players, points in games:
         check_memory(game, Grid.for_players(game_map.domain, players, points), settings,
                      f"{game.name} HJ solve")

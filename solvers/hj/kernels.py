@@ -32,6 +32,10 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
+from solvers.hj.jit_cache import check_numba_config
+
+check_numba_config()   # numba loads pickled code: only from a folder of ours
+
 FASTMATH = {"nnan", "ninf", "nsz", "reassoc", "contract"}
 _ZERO = np.float32(0.0)
 _HALF = np.float32(0.5)

@@ -23,6 +23,7 @@ from typing import NamedTuple
 import numpy as np
 from tqdm.auto import tqdm
 
+from reachavoid_env import GameMap, ScenarioError
 from solvers.hj import geometry
 from solvers.hj.codegen import TableSpec, compile_kernel
 from solvers.hj.game import PLANAR_TABLES, Coordinate, Expr, Game, Op, Table, evaluate
@@ -96,12 +97,29 @@ class Problem:
         return self.evaluate(self.game.target, span), self.evaluate(self.game.avoid, span)
 
 
+def check_target_seen(game_map: GameMap, plane: Grid, label: str) -> None:
+    """``ScenarioError`` (a ``ValueError``) unless a free node of the planar grid ``plane``
+    lies in the target of ``game_map``: a grid that cannot see the target solves a tube in
+    which nobody ever arrives (the defender "wins" everywhere)."""
+    inside = geometry.target_distance(game_map, plane) <= 0
+    if not np.any(inside & (geometry.free_distance(game_map, plane) > 0)):
+        spacing = ", ".join(f"{h:.3g}" for h in plane.spacing)
+        raise ScenarioError(f"map.target: no free grid node lies in the target on the {label} "
+                         f"grid ({'x'.join(map(str, plane.shape))} nodes, spacing {spacing}); "
+                         "use a finer grid or a larger target")
+
+
 def map_problem(game: Game, game_map, grid: Grid,
                 extra: Mapping[str, np.ndarray] | None = None) -> Problem:
-    """``game`` on ``game_map`` (a ``GameMap``): the planar tables from the map's shapes."""
+    """``game`` on ``game_map`` (a ``GameMap``): the planar tables from the map's shapes.
+
+    ``ValueError`` when no free node of a player's plane lies in the target: the grid
+    cannot see the target, and its tube would say nobody ever arrives."""
     planes = {p.name: grid.sub((2 * k, 2 * k + 1)) for k, p in enumerate(game.players)}
     planar = {"target": {n: geometry.target_distance(game_map, g) for n, g in planes.items()},
               "free": {n: geometry.free_distance(game_map, g) for n, g in planes.items()}}
+    for plane in {(g.lo, g.hi, g.shape): g for g in planes.values()}.values():
+        check_target_seen(game_map, plane, game.name)
     return Problem(game=game, grid=grid, planar=planar, extra=dict(extra or {}))
 
 

@@ -60,11 +60,14 @@ import numpy as np
 from numba import njit, prange
 
 from reachavoid_env.game_map import flood_fill
+from solvers.hj.jit_cache import check_numba_config
 from solvers.hj.schemes import GODUNOV
 
 if TYPE_CHECKING:
     from solvers.hj.layout import Layout
     from solvers.hj.reach_avoid import Marcher, Problem
+
+check_numba_config()   # numba loads pickled code: only from a folder of ours
 
 _HUGE = np.float32(1e30)
 

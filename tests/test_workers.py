@@ -1,0 +1,150 @@
+"""Workers of a sweep: what they import, how their death is reported, and the command's
+signal handlers while Ray runs (a fake ``ray`` module stands in where Ray is missing)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import types
+from pathlib import Path
+
+import pytest
+
+from reachavoid import sweep
+from reachavoid.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+DIES = '''
+import os
+
+import numpy as np
+
+
+class Dies:
+    """Stands still; its process ends abruptly on seed 1 (as a crashing extension would)."""
+
+    def __init__(self, scenario, seed=0):
+        self.seed = seed
+
+    def reset(self, scenario):
+        pass
+
+    def act(self, state):
+        if self.seed == 1:
+            os._exit(3)
+        return {name: np.zeros(2, dtype=np.float32) for name in state.defender_names}
+'''
+
+
+def test_worker_path_leaves_out_the_working_folder_and_open_folders(tmp_path, monkeypatch):
+    ours, open_, sticky = (tmp_path / name for name in ("ours", "open", "sticky"))
+    for folder, mode in ((ours, 0o755), (open_, 0o777), (sticky, 0o1777)):
+        folder.mkdir()
+        folder.chmod(mode)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("PYTHONPATH", raising=False)
+    monkeypatch.setattr(sys, "path", ["", str(tmp_path), str(ours), str(open_), str(sticky),
+                                      str(tmp_path / "missing"), str(ours)])
+    assert sweep.worker_path() == [str(ours)]
+    monkeypatch.setenv("PYTHONPATH", str(tmp_path))   # named on purpose: kept
+    assert sweep.worker_path() == [str(tmp_path), str(ours)]
+
+
+class _Crashed(Exception):
+    pass
+
+
+def _fake_ray(record: dict, crash_on: int | None = None) -> types.ModuleType:
+    """Just enough of Ray's API for ``sweep._ray``, run in this process."""
+    ray = types.ModuleType("ray")
+    ray.exceptions = types.SimpleNamespace(WorkerCrashedError=_Crashed)
+    state = {"up": False}
+
+    def init(**options):
+        record.update(cwd=os.getcwd(), listing=os.listdir("."), options=options)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)   # as Ray's own handlers do
+        signal.signal(signal.SIGHUP, signal.SIG_DFL)
+        state["up"] = True
+
+    def remote(function):
+        return types.SimpleNamespace(remote=lambda task, item: (function, task, item))
+
+    def get(ref):
+        function, task, item = ref
+        if item == crash_on:
+            raise _Crashed("the worker died")
+        return function(task, item)
+
+    ray.init = init
+    ray.is_initialized = lambda: state["up"]
+    ray.remote = remote
+    ray.put = lambda value: value
+    ray.wait = lambda pending, num_returns: (pending[:1], pending[1:])
+    ray.get = get
+    ray.cancel = lambda ref, force: None
+    ray.shutdown = lambda: state.update(up=False)
+    return ray
+
+
+def _twice(x: int) -> int:
+    return 2 * x
+
+
+def test_ray_starts_away_from_the_working_folder_and_keeps_our_handlers(tmp_path, monkeypatch):
+    monkeypatch.delenv("PYTHONPATH", raising=False)
+    record: dict = {}
+    monkeypatch.setitem(sys.modules, "ray", _fake_ray(record))
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "pymunk.py").write_text("raise SystemExit('planted')\n")
+    mine = signal.getsignal(signal.SIGTERM)
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        assert list(sweep.run_tasks(_twice, [1, 2, 3], "ray")) == [2, 4, 6]
+        assert signal.getsignal(signal.SIGTERM) is handler
+        assert signal.getsignal(signal.SIGHUP) is handler
+    finally:
+        for signum, old in previous.items():
+            signal.signal(signum, old)
+    assert mine is not handler
+    assert record["cwd"] != str(tmp_path) and record["listing"] == []
+    assert os.getcwd() == str(tmp_path)
+    path = record["options"]["runtime_env"]["env_vars"]["PYTHONPATH"].split(os.pathsep)
+    assert str(tmp_path) not in path and "" not in path
+
+
+def test_a_ray_worker_that_dies_is_one_error(monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", _fake_ray({}, crash_on=2))
+    with pytest.raises(sweep.WorkerDied, match="after 1 of 3 task"):
+        list(sweep.run_tasks(_twice, [1, 2, 3], "ray"))
+
+
+def test_a_process_pool_worker_that_dies_ends_the_command(tmp_path):
+    (tmp_path / "tmpmod.py").write_text(DIES)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(tmp_path), str(ROOT)]))
+    done = subprocess.run(
+        [sys.executable, "-m", "reachavoid", "bench", "--scenario", "paper_2v1", "--config",
+         "2v1", "--episodes", "4", "--defenders", "tmpmod:Dies", "--attackers", "straight",
+         "--backend", "process", "--workers", "2", "--csv", str(tmp_path / "rows.csv")],
+        capture_output=True, text=True, env=env, cwd=tmp_path, timeout=120)
+    assert done.returncode == 1 and done.stderr.count("\n") == 1, done.stderr
+    assert "worker process died" in done.stderr
+    assert not (tmp_path / "rows.csv").exists()
+
+
+def test_ray_missing_is_one_line_before_any_work(tmp_path, monkeypatch, capsys):
+    if sys.modules.get("ray") is None:
+        monkeypatch.setitem(sys.modules, "ray", None)   # import ray fails, as uninstalled
+    else:
+        pytest.skip("Ray is installed")
+    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path / "cache"))
+    assert main(["bench", "--scenario", "paper_2v1", "--config", "2v1", "--episodes", "2",
+                 "--backend", "ray"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and "needs Ray" in err, err
+    assert not list((tmp_path / "cache").glob("*.vf"))
