@@ -3,7 +3,8 @@
 Measures, in one run:
 
 - parallel ``step`` calls per second with random actions and no rendering, for
-  ``paper_8v4`` (8 attackers, 4 defenders) and for ``mpe2.simple_tag_v3`` with 8 good
+  ``paper_8v4`` (8 attackers, 4 defenders; v0's global observation, ``--observation v1``
+  for the egocentric one) and for ``mpe2.simple_tag_v3`` with 8 good
   agents, 4 adversaries, 2 obstacles and continuous actions. Both run 1000-step episodes
   (resets included). Actions are drawn beforehand ("step only") and, separately, by
   ``action_space(agent).sample()`` inside the loop ("with sampling");
@@ -12,21 +13,28 @@ Measures, in one run:
 
 Each figure is the best and the median of ``--repeats`` timed runs (the machine is shared;
 the best is the least disturbed). ``--profile`` prints where an env step spends its time.
-``--against DIR`` compares the step-only rate of this tree with the checkout in ``DIR``
-(another revision, e.g. ``git worktree add /tmp/base HEAD~1``) side by side: fresh
-processes alternate between the two trees, ``--repeats`` rounds.
+``--against DIR [DIR ...]`` compares the step-only rate of this tree with the checkouts in
+``DIR`` (other revisions, e.g. ``git worktree add /tmp/base HEAD~1``) side by side: each
+of ``--repeats`` rounds runs one fresh process per tree (``cd`` into it, ``PYTHONPATH``
+set to it, this script's harness) and one for MPE, so every tree's ratio to MPE is taken
+within its round.
 
     SDL_VIDEODRIVER=dummy .venv/bin/python benchmarks/env_throughput.py [--steps 5000]
+    taskset -c 0 .venv/bin/python benchmarks/env_throughput.py --against /tmp/base \\
+        --repeats 7 --json benchmarks/results/env_side_by_side.json
 
 ``--json PATH`` writes the figures as a result record (``benchmarks/result_file.py``):
-``steps_per_s.*`` and ``ratio`` (best runs), or with ``--against`` this tree's
-``steps_per_cpu_s.best`` / ``.median`` (the other tree's under ``steps_per_cpu_s_before``).
+``steps_per_s.*`` and ``ratio`` (best runs), or with ``--against``, per tree (``this_tree``,
+the others by their short commit) and for MPE, ``steps_per_cpu_s.*`` and the per-round
+``ratio_to_mpe.*`` as ``[median, lowest, highest]`` over the rounds, and each other tree's
+``relative_to_this_tree.*`` (median over median).
 """
 
 from __future__ import annotations
 
 import argparse
 import cProfile
+import inspect
 import os
 import platform
 import pstats
@@ -48,9 +56,19 @@ from reachavoid_env.video import VideoWriter  # noqa: E402
 EPISODE_STEPS = 1000
 
 
+OBSERVATION = "v0"
+"""The observation measured (``--observation``): v0's global vector (the only one before
+v1, so older trees compare like with like) or v1's egocentric one."""
+
+
 def make_reachavoid(render_mode: str | None = None):
+    options: dict = {}
+    if "observation" in inspect.signature(reachavoid_env.ReachAvoidEnv).parameters:
+        options["observation"] = {"egocentric": OBSERVATION == "v1"}
+    elif OBSERVATION == "v1":
+        sys.exit(f"{reachavoid_env.__file__}: this revision has no v1 observation")
     return reachavoid_env.parallel_env(scenario="paper_8v4", max_cycles=EPISODE_STEPS,
-                                       render_mode=render_mode)
+                                       render_mode=render_mode, **options)
 
 
 def make_mpe():
@@ -143,50 +161,100 @@ def profile(steps: int) -> None:
     pstats.Stats(profiler).sort_stats("tottime").print_stats(20)
 
 
-def step_rate(steps: int) -> float:
-    """Step-only ``paper_8v4`` steps per CPU second (process time, which other jobs on a
-    shared machine disturb less than wall time), best of three runs in this process."""
-    env = make_reachavoid()
+def step_rate(make: Callable[[], object], steps: int) -> float:
+    """Step-only steps per CPU second of the env ``make`` builds (process time, which other
+    jobs on a shared machine disturb less than wall time), best of three runs in this
+    process."""
+    env = make()
     actions = random_actions(env, steps, seed=0)
     return max(steps / run_steps(env, actions, steps, time.process_time) for _ in range(3))
 
 
-def against(other: Path, steps: int, rounds: int) -> dict[str, float]:
-    """Step-only rates of this tree and of ``other``, in alternating fresh processes; the
+def short_commit(tree: Path) -> str:
+    """The commit checked out in ``tree``, short (``+dirty`` with uncommitted changes)."""
+    try:
+        head = subprocess.run(["git", "-C", str(tree), "rev-parse", "--short", "HEAD"],
+                              check=True, capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(tree), "status", "--porcelain",
+                                "--untracked-files=no"], check=True, capture_output=True,
+                               text=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return tree.name
+    return head + ("+dirty" if dirty else "")
+
+
+def child_rate(tree: Path, option: str, steps: int) -> float:
+    """One fresh process of this script in ``tree`` (its ``reachavoid_env``) printing the
+    step-only rate ``option`` measures."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    done = subprocess.run([sys.executable, str(Path(__file__).resolve()), option, str(steps),
+                           "--observation", OBSERVATION],
+                          env=env, cwd=tree, capture_output=True, text=True)
+    if done.returncode != 0:
+        sys.exit(f"{option} in {tree} failed:\n{done.stderr}")
+    return float(done.stdout)
+
+
+def spread(values: list[float]) -> list[float]:
+    """``[median, lowest, highest]``: a figure with its range over the rounds."""
+    return [statistics.median(values), min(values), max(values)]
+
+
+def against(others: list[Path], steps: int, mpe_steps: int, rounds: int) -> dict:
+    """Step-only rates of this tree, of ``others`` and of MPE in alternating fresh
+    processes, ``rounds`` rounds; each tree's ratio to the MPE run of the same round. The
     figures of the result record."""
-    trees = {"this tree": Path(__file__).resolve().parents[1], str(other): other.resolve()}
+    here = Path(__file__).resolve().parents[1]
+    trees = {"this_tree": here} | {short_commit(other): other.resolve() for other in others}
     rates: dict[str, list[float]] = {name: [] for name in trees}
-    for _ in range(rounds):
+    mpe: list[float] = []
+    for round_ in range(rounds):
         for name, tree in trees.items():
-            env = dict(os.environ, PYTHONPATH=str(tree))
-            out = subprocess.run([sys.executable, __file__, "--only-steps", str(steps)],
-                                 env=env, check=True, capture_output=True, text=True).stdout
-            rates[name].append(float(out))
+            rates[name].append(child_rate(tree, "--only-steps", steps))
+        mpe.append(child_rate(here, "--only-mpe", mpe_steps))
+        print(f"round {round_ + 1}: " + ", ".join(f"{name} {values[-1]:,.0f}/s"
+                                                 for name, values in rates.items())
+              + f", MPE {mpe[-1]:,.0f}/s; load average {os.getloadavg()[0]:.2f}", flush=True)
+    figures: dict = {"steps_per_cpu_s.mpe_simple_tag": spread(mpe)}
+    ours = statistics.median(rates["this_tree"])
+    print(f"\n{'tree':<16} {'median':>9} {'best':>9}  ratio to MPE, median (range)  "
+          f"/ this tree   ({OBSERVATION} observation, steps per CPU second)")
     for name, values in rates.items():
-        print(f"{name:<40} step only, per CPU second: best {max(values):>9,.0f}/s   "
-              f"median {statistics.median(values):>9,.0f}/s")
-    base, ours = (statistics.median(v) for v in reversed(rates.values()))
-    print(f"this tree / {other}: {ours / base:.3f} (median of {rounds} rounds)")
-    (ours_rates, base_rates) = rates.values()
-    return {"steps_per_cpu_s.best": max(ours_rates), "steps_per_cpu_s.median": ours,
-            "steps_per_cpu_s_before.best": max(base_rates),
-            "steps_per_cpu_s_before.median": base, "ratio": ours / base}
+        ratios = spread([rate / base for rate, base in zip(values, mpe, strict=True)])
+        figures[f"steps_per_cpu_s.{name}"] = spread(values)
+        figures[f"ratio_to_mpe.{name}"] = ratios
+        relative = statistics.median(values) / ours
+        if name != "this_tree":
+            figures[f"relative_to_this_tree.{name}"] = relative
+        print(f"{name:<16} {statistics.median(values):>9,.0f} {max(values):>9,.0f}  "
+              f"{ratios[0]:>5.1f}x ({ratios[1]:.1f}-{ratios[2]:.1f}){'':>12}{relative:.3f}")
+    print(f"MPE simple_tag 8+4: median {statistics.median(mpe):,.0f}/s")
+    return figures
 
 
 def main() -> None:
+    global OBSERVATION
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=5000, help="steps per timed run")
     parser.add_argument("--mpe-steps", type=int, default=1000, help="MPE steps per timed run")
     parser.add_argument("--frames", type=int, default=300, help="frames to render and encode")
     parser.add_argument("--repeats", type=int, default=5, help="timed runs per figure")
     parser.add_argument("--profile", action="store_true", help="cProfile an env run too")
-    parser.add_argument("--against", type=Path, metavar="DIR",
-                        help="compare the step rate with another checkout, side by side")
+    parser.add_argument("--against", type=Path, metavar="DIR", nargs="+",
+                        help="compare the step rate with other checkouts, side by side")
+    parser.add_argument("--observation", choices=("v0", "v1"), default=OBSERVATION,
+                        help="v0's global vector (default; every revision has it) or v1's "
+                             "egocentric observation")
     parser.add_argument("--only-steps", type=int, metavar="N", help=argparse.SUPPRESS)
+    parser.add_argument("--only-mpe", type=int, metavar="N", help=argparse.SUPPRESS)
     parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
+    OBSERVATION = args.observation
     if args.only_steps:
-        print(step_rate(args.only_steps))
+        print(step_rate(make_reachavoid, args.only_steps))
+        return
+    if args.only_mpe:
+        print(step_rate(make_mpe, args.only_mpe))
         return
 
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
@@ -196,12 +264,16 @@ def main() -> None:
     from result_file import write_result
 
     if args.against is not None:
-        figures = against(args.against, args.steps, args.repeats)
+        figures = against(args.against, args.steps, args.mpe_steps, args.repeats)
         if args.json:
             write_result(args.json, "env_throughput", figures, {
-                "steps_per_cpu_s": "paper_8v4 parallel env steps per CPU second, random "
-                                   "actions drawn beforehand, this tree (_before: the other)",
-                "ratio": "this tree over the other, medians"})
+                "steps_per_cpu_s": f"paper_8v4 parallel env ({OBSERVATION} observation) and "
+                                   "MPE simple_tag 8+4 steps per CPU second, random actions "
+                                   "drawn beforehand, best of 3 runs per process: [median, "
+                                   "lowest, highest] over the rounds; trees by short commit",
+                "ratio_to_mpe": "a tree's steps per CPU second over MPE's in the same "
+                                "round: [median, lowest, highest]",
+                "relative_to_this_tree": "a tree's median over this tree's"})
         return
     ours, mpe = make_reachavoid(), make_mpe()
     ours_actions = random_actions(ours, args.steps, seed=0)

@@ -127,6 +127,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         "render_fps": 50,
         "is_parallelizable": True,
     }
+    _watch: rules.EventWatch | None = None
+    _watched_world: World | None = None  # the episode _watch belongs to (reset: a new world)
 
     def __init__(
         self,
@@ -311,9 +313,20 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                         velocities: np.ndarray) -> rules.StepEvents:
         """Phase 3: captures and arrivals along the paths the world moved the players along
         (``rules``: straight segments, sub-step polylines for players that slid); attackers
-        that left stop where their event happened, and the defenders leave with the last."""
+        that left stop where their event happened, and the defenders leave with the last.
+        A step that ``rules.EventWatch`` knows to have no event skips the rules."""
         m = self._m
         world = self._world
+        if self._watched_world is not world:
+            self._watch = rules.EventWatch(self.scenario.capture_radius, self._target_bounds,
+                                           self._longest_move)
+            self._watched_world = world
+        if self._watch.quiet():
+            self._positions = new
+            if self.observation.egocentric:
+                self._velocities = (new - old) / self.scenario.dt
+                self._velocities[~self._active] = 0.0
+            return rules.no_events(m, new[:m])
         moves = rules.Moves(velocities, self.scenario.dt,
                             lambda players: world.replay(old[players], velocities[players]),
                             self._longest_move)
@@ -332,6 +345,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
                 self._active[m:] = False
             self._all_active = False
         self._positions = new
+        self._watch.anchor(self._active[:m], new[:m], new[m:])
         if self.observation.egocentric:
             self._velocities = (new - old) / self.scenario.dt
             self._velocities[~self._active] = 0.0
@@ -408,22 +422,27 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         return dict(zip(agents, table[rows], strict=True))
 
     def _infos(self, agents: list[str], captor: np.ndarray) -> dict[str, dict[str, Any]]:
-        counts = {"captured": self._captured_count, "arrived": self._arrived_count}
+        """Every agent's info (fresh dicts): the episode's counts, and each attacker's
+        ``status`` and ``captured_by`` in ``info_format``."""
+        captured, arrived, m = self._captured_count, self._arrived_count, self._m
+        codes, captors = self._status.tolist(), captor.tolist()
+        numeric = self.info_format == "numeric"
         infos: dict[str, dict[str, Any]] = {}
-        m = self._m
         for name in agents:
             i = self._index[name]
-            info = dict(counts)
-            if i < m:
-                info.update(self._attacker_info(i, int(captor[i])))
-            infos[name] = info
+            if i >= m:
+                infos[name] = {"captured": captured, "arrived": arrived}
+            elif numeric:
+                infos[name] = {"captured": captured, "arrived": arrived, "status": codes[i],
+                               "captured_by": captors[i]}
+            else:
+                infos[name] = {"captured": captured, "arrived": arrived,
+                               **self._readable_info(codes[i], captors[i])}
         return infos
 
-    def _attacker_info(self, i: int, captor: int) -> dict[str, Any]:
-        """``status`` and ``captured_by`` of attacker ``i`` in ``info_format``."""
-        code = int(self._status[i])
-        if self.info_format == "numeric":
-            return {"status": code, "captured_by": captor}
+    def _readable_info(self, code: int, captor: int) -> dict[str, Any]:
+        """``status`` (an ``AttackerStatus``) and, on the step of a capture, ``captured_by``
+        (the defender's name) of an attacker."""
         if captor < 0:
             return {"status": _STATUSES[code]}
         return {"status": _STATUSES[code], "captured_by": self.possible_agents[self._m + captor]}

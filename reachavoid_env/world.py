@@ -72,7 +72,6 @@ class World:
         self.bodies = [_player(self.space, x, y, player_radius) for x, y in positions]
         self._index_bodies()
         self._get_buffer = pymunk.batch.Buffer()
-        self._positions = positions.copy()
 
     def _index_bodies(self) -> None:
         self._rows, body_count = self._body_rows()
@@ -94,13 +93,19 @@ class World:
             self.bodies[row] = _player(self.space, x, y, self._radius)
         self._index_bodies()
 
-    def _body_rows(self) -> tuple[np.ndarray, int]:
-        """Rows of the players' bodies in pymunk's batch order, and the number of rows."""
+    def _body_rows(self) -> tuple[slice | np.ndarray, int]:
+        """Rows of the players' bodies in pymunk's batch order (a slice where they are
+        consecutive, as they are when added in order: cheaper to index), and the number of
+        rows."""
         buffer = pymunk.batch.Buffer()
         pymunk.batch.get_space_bodies(self.space, pymunk.batch.BodyFields.BODY_ID, buffer)
         ids = list(memoryview(buffer.int_buf()).cast("P"))
         index = {body_id: row for row, body_id in enumerate(ids)}
-        return np.array([index[b.id] for b in self.bodies], dtype=np.intp), len(ids)
+        rows = np.array([index[b.id] for b in self.bodies], dtype=np.intp)
+        first = int(rows[0]) if len(rows) else 0
+        if np.array_equal(rows, np.arange(first, first + len(rows))):
+            return slice(first, first + len(rows)), len(ids)
+        return rows, len(ids)
 
     def step(self, velocities: np.ndarray) -> np.ndarray:
         """Advance ``dt`` seconds with desired ``velocities`` ``(K, 2)`` (map units/s).
@@ -119,8 +124,7 @@ class World:
         buffer.clear()
         pymunk.batch.get_space_bodies(self.space, _GET_FIELDS, buffer)
         all_positions = np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 2)
-        self._positions = all_positions[rows]
-        return self._positions.copy()
+        return all_positions[rows].copy()
 
     def replay(self, starts: np.ndarray, velocities: np.ndarray) -> np.ndarray:
         """The path a step moves players along: ``(substeps + 1, P, 2)`` positions at the
