@@ -1,5 +1,7 @@
 """Vector env throughput: K copies of paper_8v4 stepped together, against the single env
-and MPE2's simple_tag (8 good agents, 4 adversaries), in one run.
+and MPE2's simple_tag (8 good agents, 4 adversaries), in one run; and the attacker-only
+training view at K copies with the ``hj`` and ``greedy`` defenders (batched) against the
+single-env attacker-only view with ``hj``.
 
 Game steps per second (one game step = one step of one copy) with random actions drawn
 beforehand, resets included (autoreset in the vector env, ``reset()`` at the end of an
@@ -30,6 +32,7 @@ from reachavoid_env.vector import vector_env
 SCENARIO = "paper_8v4"
 EPISODE_STEPS = 1000
 OBSERVATIONS = {"v1": ObservationConfig(), "v0": GLOBAL}
+GRIDS = {"grid1": 31, "grid2": 15}      # the training recipes' tubes
 
 
 def vector_rate(copies: int, steps: int, observation: ObservationConfig) -> float:
@@ -74,9 +77,41 @@ def _parallel_rate(env: Any, steps: int) -> float:
     return steps / (time.perf_counter() - start)
 
 
+def view_rate(defenders: str, copies: int, steps: int) -> float:
+    """Game steps per second of the attacker-only vector view (random attacker actions)."""
+    from policies.training import make_attackers_vector_env
+
+    view = make_attackers_vector_env(SCENARIO, defenders=defenders, num_envs=copies,
+                                     defender_options=GRIDS if defenders == "hj" else None,
+                                     max_cycles=EPISODE_STEPS)
+    view.reset(seed=0)
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (8, copies, len(view.learners), 2))
+    start = time.perf_counter()
+    for i in range(steps):
+        view.step(actions[i % 8])
+    return copies * steps / (time.perf_counter() - start)
+
+
+def single_view_rate(steps: int) -> float:
+    """Game steps per second of the single-game attacker-only view with ``hj``."""
+    from policies.training import make_attackers_parallel_env
+
+    env = make_attackers_parallel_env(SCENARIO, defenders="hj", defender_options=GRIDS,
+                                      max_cycles=EPISODE_STEPS)
+    return _parallel_rate(env, steps)
+
+
 def measure(args: argparse.Namespace) -> dict[str, Any]:
     rows: dict[str, list[float]] = {}
     for _ in range(args.repeats):
+        if args.views:
+            rows.setdefault("attackers view hj, single env", []).append(
+                single_view_rate(args.view_steps))
+            for defenders in ("hj", "greedy"):
+                rows.setdefault(f"attackers view {defenders} K={args.view_copies}", []).append(
+                    view_rate(defenders, args.view_copies,
+                              max(5, args.view_steps // args.view_copies)))
         rows.setdefault("mpe2 simple_tag 8+4", []).append(mpe_rate(args.steps))
         for label, config in OBSERVATIONS.items():
             rows.setdefault(f"parallel_env {label}", []).append(single_rate(args.steps, config))
@@ -85,6 +120,13 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
                 rows.setdefault(f"vector {label} K={copies}", []).append(
                     vector_rate(copies, vector_steps, config))
     medians = {label: statistics.median(values) for label, values in rows.items()}
+    views = {}
+    if args.views:
+        k = args.view_copies
+        views = {"hj_over_greedy": medians[f"attackers view hj K={k}"]
+                 / medians[f"attackers view greedy K={k}"],
+                 "hj_over_single_hj": medians[f"attackers view hj K={k}"]
+                 / medians["attackers view hj, single env"]}
     return {
         "benchmark": "vector_throughput", "scenario": SCENARIO, "date": str(date.today()),
         "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
@@ -94,6 +136,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         "vector_over_single": {f"{label} K={k}": medians[f"vector {label} K={k}"]
                                / medians[f"parallel_env {label}"]
                                for label in OBSERVATIONS for k in args.copies},
+        "views": views, "grids": list(GRIDS.values()),
     }
 
 
@@ -103,6 +146,11 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=4000,
                         help="game steps per timed run (vector runs: steps / K vector steps)")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--views", action="store_true",
+                        help="also time the attacker-only views (hj and greedy defenders)")
+    parser.add_argument("--view-copies", type=int, default=64)
+    parser.add_argument("--view-steps", type=int, default=2000,
+                        help="game steps per timed run of a view")
     parser.add_argument("--json", type=Path, help="write the figures here")
     args = parser.parse_args()
     result = measure(args)
@@ -110,6 +158,8 @@ def main() -> None:
         print(f"{label:<28} {rate:>10,.0f} game steps/s")
     for label, ratio in result["vector_over_single"].items():
         print(f"vector / single {label:<12} {ratio:6.1f}x")
+    for label, ratio in result["views"].items():
+        print(f"attackers view {label:<20} {ratio:6.2f}x")
     if args.json:
         write_json(args.json, result)
 

@@ -42,7 +42,7 @@ def test_episode_ends_on_the_step_the_game_ends_and_dead_slots_are_black():
     assert not observations[8][1].any()                 # attacker_1's slot is zeroed
     np.testing.assert_array_equal(observations[9], start[:3])   # auto-reset
     assert infos[0]["TimeLimit.truncated"] is False      # a termination, not a time-out
-    assert infos[0]["terminal_observation"].shape == (11,)
+    assert infos[0]["terminal_observation"].shape == (34,)
     # the auto-reset's infos replace the last step's; "final_info" keeps them
     assert infos[0]["status"] == 0 and infos[0]["arrived"] == 0
     assert infos[0]["final_info"] == {"captured": 1, "arrived": 1, "status": 2, "captured_by": -1}

@@ -89,7 +89,7 @@ def test_attacker_only_env_against_hj_defenders(coarse_tubes):
     check_env_specs(env)
     assert env.group_map == {"attacker": ["attacker_0", "attacker_1"]}
     rollout = env.rollout(40, break_when_any_done=False)
-    assert rollout["next", "attacker", "observation"].shape == (40, 2, 11)
+    assert rollout["next", "attacker", "observation"].shape == (40, 2, 34)
     rewards = rollout["next", "attacker", "reward"]
     status = rollout["next", "attacker", "info", "status"]
     live = rollout["attacker", "mask"]

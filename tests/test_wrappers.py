@@ -316,7 +316,7 @@ def test_vector_envs(vector):
     envs = vector([make, make])
     try:
         obs, _ = envs.reset(seed=[0, 1])
-        assert obs.shape == (2, 8) and obs.dtype == np.float32
+        assert obs.shape == (2, 29) and obs.dtype == np.float32
         for _ in range(60):
             obs, rewards, terminated, truncated, infos = envs.step(
                 np.tile(np.array([1.0, 0.2], dtype=np.float32), (2, 1)))
