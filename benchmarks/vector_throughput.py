@@ -14,18 +14,13 @@ vector). Each figure is the median of ``--repeats`` timed runs. Pin it to one co
 from __future__ import annotations
 
 import argparse
-import platform
 import statistics
-import subprocess
 import time
-from datetime import date
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 import reachavoid_env
-from reachavoid_env.files import write_json
 from reachavoid_env.observations import GLOBAL, ObservationConfig
 from reachavoid_env.vector import vector_env
 
@@ -63,7 +58,7 @@ def mpe_rate(steps: int) -> float:
     return _parallel_rate(env, steps)
 
 
-def _parallel_rate(env: Any, steps: int) -> float:
+def _parallel_rate(env: object, steps: int) -> float:
     env.reset(seed=0)
     for i, name in enumerate(env.possible_agents):
         env.action_space(name).seed(i)
@@ -102,7 +97,7 @@ def single_view_rate(steps: int) -> float:
     return _parallel_rate(env, steps)
 
 
-def measure(args: argparse.Namespace) -> dict[str, Any]:
+def measure(args: argparse.Namespace) -> dict[str, float]:
     rows: dict[str, list[float]] = {}
     for _ in range(args.repeats):
         if args.views:
@@ -120,24 +115,27 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
                 rows.setdefault(f"vector {label} K={copies}", []).append(
                     vector_rate(copies, vector_steps, config))
     medians = {label: statistics.median(values) for label, values in rows.items()}
-    views = {}
+    figures: dict[str, float] = {}
+    for label, rate in medians.items():
+        figures[f"game_steps_per_s.{_key(label)}"] = rate
+    for label in OBSERVATIONS:
+        for k in args.copies:
+            figures[f"vector_over_single.{label}.k{k}"] = (
+                medians[f"vector {label} K={k}"] / medians[f"parallel_env {label}"])
+        figures[f"single_over_mpe.{label}"] = (medians[f"parallel_env {label}"]
+                                               / medians["mpe2 simple_tag 8+4"])
     if args.views:
         k = args.view_copies
-        views = {"hj_over_greedy": medians[f"attackers view hj K={k}"]
-                 / medians[f"attackers view greedy K={k}"],
-                 "hj_over_single_hj": medians[f"attackers view hj K={k}"]
-                 / medians["attackers view hj, single env"]}
-    return {
-        "benchmark": "vector_throughput", "scenario": SCENARIO, "date": str(date.today()),
-        "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                                 text=True, cwd=Path(__file__).parent).stdout.strip(),
-        "machine": f"{platform.machine()}, {platform.python_version()}",
-        "repeats": args.repeats, "game_steps_per_second": medians,
-        "vector_over_single": {f"{label} K={k}": medians[f"vector {label} K={k}"]
-                               / medians[f"parallel_env {label}"]
-                               for label in OBSERVATIONS for k in args.copies},
-        "views": views, "grids": list(GRIDS.values()),
-    }
+        view = medians[f"attackers view hj K={k}"]
+        figures["view_hj_over_greedy"] = view / medians[f"attackers view greedy K={k}"]
+        figures["view_hj_over_single_hj"] = view / medians["attackers view hj, single env"]
+    return figures
+
+
+def _key(label: str) -> str:
+    """A row label as a dotted key: ``vector v1 K=64`` -> ``vector.v1.k64``."""
+    return (label.replace("K=", "k").replace(",", "").replace("mpe2 simple_tag 8+4", "mpe")
+            .replace(" ", "."))
 
 
 def main() -> None:
@@ -153,15 +151,23 @@ def main() -> None:
                         help="game steps per timed run of a view")
     parser.add_argument("--json", type=Path, help="write the figures here")
     args = parser.parse_args()
-    result = measure(args)
-    for label, rate in result["game_steps_per_second"].items():
-        print(f"{label:<28} {rate:>10,.0f} game steps/s")
-    for label, ratio in result["vector_over_single"].items():
-        print(f"vector / single {label:<12} {ratio:6.1f}x")
-    for label, ratio in result["views"].items():
-        print(f"attackers view {label:<20} {ratio:6.2f}x")
+    figures = measure(args)
+    for key, value in figures.items():
+        print(f"{key:<44} {value:>12,.2f}")
     if args.json:
-        write_json(args.json, result)
+        from result_file import write_result
+
+        write_result(args.json, "vector_throughput", figures, {
+            "game_steps_per_s": f"{SCENARIO}, random actions, game steps (one step of one copy) "
+                                f"per second, median of the repeats; views with hj / greedy "
+                                f"defenders at grids {GRIDS['grid1']}/{GRIDS['grid2']}",
+            "vector_over_single": "the vector env's game steps/s over parallel_env's, same "
+                                  "observation",
+            "single_over_mpe": "parallel_env's steps/s over MPE2 simple_tag 8+4's",
+            "view_hj_over_greedy": "attacker-only vector view: hj's game steps/s over "
+                                   "greedy's",
+            "view_hj_over_single_hj": "attacker-only vector view with hj over the single-env "
+                                      "attacker-only view with hj"})
 
 
 if __name__ == "__main__":
