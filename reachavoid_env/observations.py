@@ -192,17 +192,22 @@ class Observer:
         from reachavoid_env.lidar_kernel import egocentric
 
         config, (k, p) = self.config, active.shape
-        distances = np.stack([shape.signed_distance(positions) for shape in self.target])
-        nearest = np.stack([shape.nearest_point(positions) for shape in self.target])
-        if len(self.target) > 1:
+        if len(self.target) == 1:
+            distance = self.target[0].signed_distance(positions)
+            nearest = self.target[0].nearest_point(positions)
+        else:
+            distances = np.stack([shape.signed_distance(positions) for shape in self.target])
             closest = distances.argmin(axis=0)[None, ..., None]
-            nearest = np.take_along_axis(nearest, closest, axis=0)
+            nearest = np.take_along_axis(
+                np.stack([shape.nearest_point(positions) for shape in self.target]),
+                closest, axis=0)[0]
+            distance = distances.min(axis=0)
         time_left = 1.0 - np.asarray(steps, dtype=np.float64) / self.max_cycles
         lidar = self.lidar
         observations = np.empty((k, p, self.size), dtype=np.float32)
         egocentric(np.ascontiguousarray(positions, dtype=np.float64),
                    np.ascontiguousarray(velocities, dtype=np.float64), active, time_left,
-                   nearest[0] - positions, distances.min(axis=0), self.others,
+                   nearest - positions, distance, self.others,
                    self.normaliser.centre, self.normaliser.half, self.diagonal,
                    self.fastest, config.velocities, config.time_left,
                    *(lidar.arrays() if lidar else _NO_LIDAR), observations)
