@@ -1,10 +1,10 @@
 """On-disk cache of solved games: ``$REACHAVOID_CACHE_DIR`` (default ``~/.cache/reachavoid``).
 
 An entry is a value-function directory named ``<game>-<grid>-<hash>.vf`` where the hash
-covers everything that decides the values: the game, map, speeds, parameters, grid, the
-value-relevant solver settings, the solver version and any lower game's value used. An
-entry is trusted only after it loads and matches what was asked (every key field, the
-solver version, finite values equal to their checksum); otherwise (whatever is there: an
+covers everything that decides the values: the game, map, speeds, parameters, grid, every
+solver setting (``SolverSettings.to_dict``), the solver version and any lower game's value
+used. An entry is trusted only after it loads and matches what was asked (every key field,
+the solver version, finite values equal to their checksum); otherwise (whatever is there: an
 edited ``meta.json``, a link, a plain file) it is removed, solved again and replaced, with
 one line saying why. A cache that cannot be written is read, and new solves are not kept.
 Storing an entry removes the temporaries (``.NAME.PID.RANDOM.tmp`` / ``.old``) whose
