@@ -17,7 +17,8 @@ from reachavoid_env import GameMap
 from solvers.hj import cache as value_cache
 from solvers.hj.game import Game
 from solvers.hj.grid import Grid
-from solvers.hj.reach_avoid import SolveResult, check_memory, map_problem, solve
+from solvers.hj.marcher import map_problem
+from solvers.hj.reach_avoid import SolveResult, check_memory, solve
 from solvers.hj.settings import SOLVER_VERSION, SolverSettings
 from solvers.hj.value import ValueFunction, checksum
 

@@ -64,7 +64,7 @@ from solvers.hj.schemes import GODUNOV
 
 if TYPE_CHECKING:
     from solvers.hj.layout import Layout
-    from solvers.hj.reach_avoid import Marcher, Problem
+    from solvers.hj.marcher import Marcher, Problem
 
 _HUGE = np.float32(1e30)
 
