@@ -27,7 +27,7 @@ from typing import Any, NoReturn
 
 import reachavoid_env
 import solvers.hj
-from policies.registry import PolicySpec, names_help, policy_specs
+from policies.registry import TABLES, PolicySpec, names_help, policy_specs
 from reachavoid.evaluation import (
     MIN_BOOTSTRAP,
     CaptureSummary,
@@ -80,8 +80,14 @@ GIF_MAX_FPS = 50.0
 hundredths of a second and players slow down delays under two."""
 
 
-class UsageError(ValueError):
-    """A bad argument or input file: reported in one line, exit status 2."""
+class UsageError(checks.FieldError):
+    """A bad argument or input file: reported in one line, exit status 2; ``field`` names
+    the flag (or the input's field)."""
+
+
+def _reported(err: Exception) -> UsageError:
+    """``err`` as a ``UsageError``: the same message and field."""
+    return UsageError(str(err), getattr(err, "field", None))
 
 
 class Terminated(KeyboardInterrupt):
@@ -137,7 +143,7 @@ def _check_backend_options(args: argparse.Namespace) -> None:
     if args.workers is not None:
         _check(checks.integer, args.workers, "--workers", 1, 4096)
     if args.address is not None and args.backend != "ray":
-        raise UsageError("--address: only with --backend ray")
+        raise UsageError("--address: only with --backend ray", field="--address")
 
 
 def _margin_option(parser: argparse.ArgumentParser) -> None:
@@ -357,7 +363,7 @@ def _check(check: Any, value: Any, field: str, *bounds: Any) -> Any:
     try:
         return check(value, field, *bounds)
     except ValueError as err:
-        raise UsageError(str(err)) from None
+        raise _reported(err) from None
 
 
 def _check_common(args: argparse.Namespace) -> None:
@@ -384,7 +390,7 @@ def _check_name(target: Path, field: str, path: str) -> None:
         limit = 255
     if len(os.fsencode(target.name)) + TEMPORARY_NAME_ROOM > limit:
         raise UsageError(f"{field}: the name {target.name[:40]!r}... of {path!r} is too long "
-                         f"(at most {limit - TEMPORARY_NAME_ROOM} bytes here)")
+                         f"(at most {limit - TEMPORARY_NAME_ROOM} bytes here)", field=field)
 
 
 def writable_file(path: str, field: str, force: bool = False, text: bool = False) -> str:
@@ -393,7 +399,8 @@ def writable_file(path: str, field: str, force: bool = False, text: bool = False
     is written directly; ``-`` (standard output) only where ``text`` is written."""
     if path == STDOUT:
         if not text:
-            raise UsageError(f"{field}: '-' (standard output) is for text outputs only")
+            raise UsageError(f"{field}: '-' (standard output) is for text outputs only",
+                             field=field)
         return path
     if is_stream(path):
         return path
@@ -401,9 +408,9 @@ def writable_file(path: str, field: str, force: bool = False, text: bool = False
     _check_replace(target, field, force, path)
     folder = target.parent
     if not folder.is_dir():
-        raise UsageError(f"{field}: folder {str(folder)!r} does not exist")
+        raise UsageError(f"{field}: folder {str(folder)!r} does not exist", field=field)
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise UsageError(f"{field}: folder {str(folder)!r} is not writable")
+        raise UsageError(f"{field}: folder {str(folder)!r} is not writable", field=field)
     _check_name(target, field, path)
     return path
 
@@ -412,21 +419,22 @@ def _check_replace(target: Path, field: str, force: bool, path: str) -> None:
     """The overwrite rule: an existing ``target`` is replaced only with ``force``, and only
     when it is a regular file."""
     if target.is_dir():
-        raise UsageError(f"{field}: {path!r} is a folder")
+        raise UsageError(f"{field}: {path!r} is a folder", field=field)
     if target.exists() and not target.is_file():
-        raise UsageError(f"{field}: {path!r} is not a regular file, a device or a FIFO")
+        raise UsageError(f"{field}: {path!r} is not a regular file, a device or a FIFO",
+                         field=field)
     if target.exists() and not force:
-        raise UsageError(f"{field}: {path!r} exists; pass --force to replace it")
+        raise UsageError(f"{field}: {path!r} exists; pass --force to replace it", field=field)
 
 
 def writable_folder(path: str, field: str) -> Path:
     """``path`` if it is a writable folder or can be created as one, else ``UsageError``."""
     target = Path(os.path.abspath(path))
     if target.exists() and not target.is_dir():
-        raise UsageError(f"{field}: {path!r} exists and is not a folder")
+        raise UsageError(f"{field}: {path!r} exists and is not a folder", field=field)
     existing = target if target.exists() else next(p for p in target.parents if p.exists())
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise UsageError(f"{field}: {str(existing)!r} is not a writable folder")
+        raise UsageError(f"{field}: {str(existing)!r} is not a writable folder", field=field)
     _check_name(target, field, path)
     return target
 
@@ -435,7 +443,8 @@ def _load(source: str) -> Scenario:
     try:
         return load_scenario(source)
     except OSError as err:
-        raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}") from None
+        raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}",
+                         field="scenario") from None
 
 
 def _specs(choices: list[tuple[str, str]], args: argparse.Namespace) -> list[PolicySpec]:
@@ -447,9 +456,10 @@ def _specs(choices: list[tuple[str, str]], args: argparse.Namespace) -> list[Pol
     try:
         return policy_specs(choices, options, OPTION_FLAGS)
     except ValueError as err:
-        message = str(err)
-        raise UsageError(f"--{message}" if message.startswith(("defenders", "attackers"))
-                         else message) from None
+        side = getattr(err, "field", None)
+        if side in TABLES:   # a choice on a side: name its flag
+            raise UsageError(f"--{err}", f"--{side}") from None
+        raise _reported(err) from None
 
 
 # -- commands -------------------------------------------------------------------------------
@@ -463,10 +473,10 @@ def _check_video_options(args: argparse.Namespace, scenario: Scenario) -> None:
         try:
             check_video_path(args.video)
         except ValueError as err:
-            raise UsageError(str(err)) from None
+            raise _reported(err) from None
         writable_file(args.video, "--video", args.force)
     if args.realtime and args.fps is not None:
-        raise UsageError("--realtime: sets the fps itself; drop --fps")
+        raise UsageError("--realtime: sets the fps itself; drop --fps", field="--realtime")
     if args.fps is not None:
         _check(checks.real, args.fps, "--fps", *FPS_RANGE)
     if args.every is not None:
@@ -480,7 +490,8 @@ def _check_video_options(args: argparse.Namespace, scenario: Scenario) -> None:
         if args.fps > most:
             raise UsageError(f"--realtime: --every {args.every} with {scenario.dt * 1e3:g} ms "
                              f"steps needs {args.fps:g} fps, above this format's {most:g}; use "
-                             f"--every {realtime_every(scenario.dt, most)} or more")
+                             f"--every {realtime_every(scenario.dt, most)} or more",
+                             field="--realtime")
     args.every = args.every or 1
     args.fps = args.fps or rate
 
@@ -488,9 +499,10 @@ def _check_video_options(args: argparse.Namespace, scenario: Scenario) -> None:
 def _play(args: argparse.Namespace) -> int:
     if args.preview is not None:
         if args.video is not None:
-            raise UsageError("--preview: draws the first frame without playing; drop --video")
+            raise UsageError("--preview: draws the first frame without playing; drop --video",
+                             field="--preview")
         if Path(args.preview).suffix.lower() != ".png":
-            raise UsageError(f"--preview: {args.preview!r} must end in .png")
+            raise UsageError(f"--preview: {args.preview!r} must end in .png", field="--preview")
         writable_file(args.preview, "--preview", args.force)
     scenarios = _library(args.scenario)
     scenario = _drawn_map(scenarios, args.seed)
@@ -509,7 +521,7 @@ def _play(args: argparse.Namespace) -> int:
                              side)
                 for spec, side in ((attacker_spec, "attackers"), (defender_spec, "defenders")))
     except ValueError as err:   # a policy that does not fit the scenario (a model's players)
-        raise UsageError(str(err)) from None
+        raise _reported(err) from None
     drawn = args.video is not None or args.preview is not None
     env = reachavoid_env.parallel_env(
         scenario=scenarios, render_mode="rgb_array" if drawn else None,
@@ -566,7 +578,7 @@ def _validate(args: argparse.Namespace) -> int:
         except (ScenarioError, ValueError, OSError) as err:
             bad += 1
             words = getattr(err, "strerror", None) or str(err)
-            if not words.startswith(source):
+            if getattr(err, "field", None) != source:   # the message names the file
                 words = f"{source}: {words}"
             print(f"reachavoid validate: error: {words}", file=sys.stderr)
             continue
@@ -619,7 +631,8 @@ def _solve(args: argparse.Namespace) -> int:
     if args.defenders is not None:
         return _solve_library(args)
     if len(args.scenario) != 1:
-        raise UsageError("--scenario: several scenarios need --defenders (which tubes to solve)")
+        raise UsageError("--scenario: several scenarios need --defenders (which tubes to solve)",
+                         field="--scenario")
     args.scenario = args.scenario[0]
     if args.grid is not None:
         _check(checks.integer, args.grid, "--grid",
@@ -635,7 +648,7 @@ def _solve(args: argparse.Namespace) -> int:
         report = solve_scenario(scenario, args.game, grid, out=args.out, grid_points_1v1=grid1,
                                 plot=args.plot, progress=args.progress)
     except (ValueError, MemoryError) as err:
-        raise UsageError(str(err)) from None
+        raise _reported(err) from None
     print(report.summary())
     return 0
 
@@ -646,13 +659,15 @@ def _bench_suite(args: argparse.Namespace) -> Suite:
         given = [f"--{key}" for key, default in ONE_CELL.items()
                  if getattr(args, key) not in (None, default)]
         if given:
-            raise UsageError(f"{given[0]}: not with --suite (the suite names its cells)")
+            raise UsageError(f"{given[0]}: not with --suite (the suite names its cells)",
+                             field=given[0])
         try:
             suite = load_suite(args.suite)
         except OSError as err:
-            raise UsageError(f"--suite: cannot read {args.suite!r}: {err.strerror}") from None
+            raise UsageError(f"--suite: cannot read {args.suite!r}: {err.strerror}",
+                             field="--suite") from None
         except ValueError as err:
-            raise UsageError(str(err)) from None
+            raise _reported(err) from None
         return suite if args.seed is None else Suite(suite.name, suite.version, args.seed,
                                                       suite.cells)
     players = (None if args.config is None
@@ -669,7 +684,8 @@ def _bench_suite(args: argparse.Namespace) -> Suite:
 def _solve_library(args: argparse.Namespace) -> int:
     for flag, value in (("--out", args.out), ("--plot", args.plot), ("--grid", args.grid)):
         if value is not None:
-            raise UsageError(f"{flag}: not with --defenders (a library goes to the cache)")
+            raise UsageError(f"{flag}: not with --defenders (a library goes to the cache)",
+                             field=flag)
     methods = _methods(args.defenders)
     _check_backend_options(args)
     scenarios = [sc for source in args.scenario for sc in _library(source)]
@@ -678,7 +694,9 @@ def _solve_library(args: argparse.Namespace) -> int:
                              workers=args.workers, address=args.address,
                              progress=args.progress)
     except (ValueError, MemoryError) as err:
-        raise UsageError(f"--{err}" if str(err).startswith("workers:") else str(err)) from None
+        if getattr(err, "field", None) == "workers":
+            raise UsageError(f"--{err}", "--workers") from None
+        raise _reported(err) from None
     print(f"{'map':<24} {'game':<5} {'grid':>5} {'seconds':>9} {'peak MiB':>9}")
     for row in rows:
         seconds = "cached" if row.seconds is None else f"{row.seconds:.1f}"
@@ -694,7 +712,8 @@ def _methods(text: str) -> list[str]:
     """Comma-separated defender methods (specs), each once, in order."""
     methods = list(dict.fromkeys(m.strip() for m in text.split(",") if m.strip()))
     if not methods:
-        raise UsageError(f"--defenders: expected comma-separated methods, got {text!r}")
+        raise UsageError(f"--defenders: expected comma-separated methods, got {text!r}",
+                         field="--defenders")
     return methods
 
 
@@ -702,7 +721,8 @@ def _library(source: str) -> tuple[Scenario, ...]:
     try:
         return load_library(source)
     except OSError as err:
-        raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}") from None
+        raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}",
+                         field="scenario") from None
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -711,7 +731,7 @@ def _bench(args: argparse.Namespace) -> int:
     baseline = args.baseline or ("hj" if "hj" in methods else methods[0])
     if baseline not in methods:
         raise UsageError(f"--baseline: {baseline!r} is not among --defenders "
-                         f"({', '.join(methods)})")
+                         f"({', '.join(methods)})", field="--baseline")
     _check_backend_options(args)
     for flag, path in (("--csv", args.csv), ("--plot", args.plot), ("--json", args.json)):
         if path not in (None, "-"):
@@ -734,7 +754,7 @@ def _bench(args: argparse.Namespace) -> int:
                            backend=args.backend, workers=args.workers, address=args.address,
                            progress=args.progress)
     except PolicyMismatch as err:   # a policy that cannot play a cell (a model's players)
-        raise UsageError(str(err)) from None
+        raise _reported(err) from None
     seconds = time.perf_counter() - started
     report = result.to_dict() | {"episodes": args.episodes, "wall_seconds": seconds}
     if args.csv:
@@ -829,8 +849,8 @@ def _maps(args: argparse.Namespace) -> int:
                                      for option in dataclasses.fields(MapOptions)})
         written = write_library(out, options, args.seed, args.count)
     except MapError as err:
-        option, _, reason = str(err).partition(":")
-        raise UsageError(f"--{option.replace('_', '-')}:{reason}") from None
+        flag = f"--{(err.field or '').replace('_', '-')}"
+        raise UsageError(err.renamed(flag), flag) from None
     print(f"{args.count} maps and {written[-1].name} -> {out}/")
     return 0
 
