@@ -168,15 +168,8 @@ def flood_fill(passable: np.ndarray, seeds: np.ndarray) -> np.ndarray:
     Returns:
         ``(nx, ny)`` bool, the reached cells.
     """
+    from scipy import ndimage  # only where a fill is made
+
     passable = np.asarray(passable, dtype=bool)
-    reached = passable & np.asarray(seeds, dtype=bool)
-    while True:
-        grown = reached.copy()
-        grown[1:] |= reached[:-1]
-        grown[:-1] |= reached[1:]
-        grown[:, 1:] |= reached[:, :-1]
-        grown[:, :-1] |= reached[:, 1:]
-        grown &= passable
-        if np.array_equal(grown, reached):
-            return reached
-        reached = grown
+    # the default structure joins 4-neighbours; seeds outside the mask would stay set
+    return ndimage.binary_propagation(passable & np.asarray(seeds, dtype=bool), mask=passable)
