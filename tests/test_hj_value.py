@@ -126,6 +126,15 @@ def test_cache_reuses_and_recomputes_corrupt_entries(cache_in_tmp):
         solve_1v1(game_map, grid_points=11, settings=LOW, progress=False)
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="XDG is the Linux convention")
+def test_cache_folder_follows_xdg_unless_configured(monkeypatch, tmp_path):
+    monkeypatch.delenv("REACHAVOID_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_dir() == tmp_path / "xdg" / "reachavoid"
+    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path / "mine"))
+    assert cache_dir() == tmp_path / "mine"
+
+
 def test_memory_guard_names_grid_and_need():
     grid = Grid.for_players((-1, 1, -1, 1), 3, 70)
     game = game_2v1((1.0, 1.5), 0.1)

@@ -1,4 +1,6 @@
-"""On-disk cache of solved games: ``$REACHAVOID_CACHE_DIR`` (default ``~/.cache/reachavoid``).
+"""On-disk cache of solved games: ``$REACHAVOID_CACHE_DIR``, else the platform's user cache
+folder (``platformdirs``: ``$XDG_CACHE_HOME/reachavoid``, by default ``~/.cache/reachavoid``,
+on Linux; ``~/Library/Caches/reachavoid`` on macOS).
 
 An entry is a value-function directory named ``<game>-<grid>-<hash>.vf`` where the hash
 covers everything that decides the values: the game, map, speeds, parameters, grid, every
@@ -26,6 +28,8 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+import platformdirs
+
 from reachavoid_env import GameMap
 from reachavoid_env.files import UnsafeFolderError, private_folder
 from solvers.hj.value import ValueFunction, ValueFunctionError, abandoned, load_value_function
@@ -48,9 +52,10 @@ def location_error(what: str, folder: Path, err: Exception) -> CacheLocationErro
 
 
 def cache_dir() -> Path:
-    """The cache directory (not created here)."""
+    """The cache directory (not created here): ``$REACHAVOID_CACHE_DIR``, else the user
+    cache folder (module docstring)."""
     configured = os.environ.get("REACHAVOID_CACHE_DIR")
-    return Path(configured) if configured else Path.home() / ".cache" / "reachavoid"
+    return Path(configured or platformdirs.user_cache_dir("reachavoid", appauthor=False))
 
 
 def check_cache() -> bool:
