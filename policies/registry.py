@@ -188,7 +188,9 @@ def names_help(side: str) -> str:
 
 def _import(reference: str, label: str, field: str | None = None) -> Any:
     """The object of ``module:attribute`` (dots allowed on both sides); an error's message
-    starts with ``label``, its ``field`` is ``field`` (default ``label``)."""
+    starts with ``label``, its ``field`` is ``field`` (default ``label``). Ours, not
+    ``pkgutil.resolve_name``: that raises a module's own errors as the same types as a
+    malformed name (``ValueError``) or a missing attribute (``AttributeError``)."""
     field = field or label
     module_name, _, attribute = reference.partition(":")
     if not module_name or not attribute:
