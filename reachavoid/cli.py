@@ -1,4 +1,5 @@
-"""The ``reachavoid`` command (design.md, "Command line"): argument parsing and printing.
+"""The ``reachavoid`` command (design.md, "Command line"): argument parsing, the checks made
+before any work and the commands (output paths: ``paths``; the tables printed: ``tables``).
 
 ``play`` runs one episode (``rollout``), ``solve`` one game (``solve``), ``bench`` many
 seeded starts of a suite (``suite``, ``evaluation``), ``maps`` a map library
@@ -28,12 +29,13 @@ from typing import Any, NoReturn
 import reachavoid_env
 import solvers.hj
 from policies.registry import TABLES, PolicySpec, names_help, policy_specs
-from reachavoid.evaluation import (
-    MIN_BOOTSTRAP,
-    CaptureSummary,
-    PairedDifference,
-    one_start,
-    write_csv,
+from reachavoid.evaluation import one_start, write_csv
+from reachavoid.paths import (
+    UsageError,
+    check_replace,
+    reported,
+    writable_file,
+    writable_folder,
 )
 from reachavoid.rollout import EpisodeResult, episode_title, first_frame, run_episode
 from reachavoid.solve import DEFAULT_GRID, GAMES, solve_library, solve_scenario
@@ -49,8 +51,9 @@ from reachavoid.suite import (
     suite_names,
 )
 from reachavoid.sweep import BACKENDS
+from reachavoid.tables import bench_tables, paper_lines
 from reachavoid_env import PolicyMismatch, Scenario, ScenarioError, checks, load_scenario
-from reachavoid_env.files import STDOUT, atomic_write, destination, is_stream, write_json
+from reachavoid_env.files import STDOUT, atomic_write, destination, write_json
 from reachavoid_env.maps import (
     MAX_MAPS,
     MapError,
@@ -66,8 +69,6 @@ from solvers.hj.cache import CacheLocationError, cache_dir, check_cache
 # once.
 
 EXIT_USAGE, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_PIPE = 2, 1, 130, 141
-TEMPORARY_NAME_ROOM = 48
-"""Characters an output's temporary names add to its file name (``.NAME.PID.RANDOM.tmp``)."""
 MAX_SEED = 2**63 - 1
 GRID_RANGE = {"grid1": (5, 201), "grid2": (5, 101)}
 """Nodes per axis accepted for the 1 vs 1 and 2 vs 1 tubes (the memory guard still
@@ -78,16 +79,6 @@ it; one that none takes is an error)."""
 GIF_MAX_FPS = 50.0
 """The highest video rates accepted (frames per second); a GIF's frame delay is counted in
 hundredths of a second and players slow down delays under two."""
-
-
-class UsageError(checks.FieldError):
-    """A bad argument or input file: reported in one line, exit status 2; ``field`` names
-    the flag (or the input's field)."""
-
-
-def _reported(err: Exception) -> UsageError:
-    """``err`` as a ``UsageError``: the same message and field."""
-    return UsageError(str(err), getattr(err, "field", None))
 
 
 class Terminated(KeyboardInterrupt):
@@ -363,7 +354,7 @@ def _check(check: Any, value: Any, field: str, *bounds: Any) -> Any:
     try:
         return check(value, field, *bounds)
     except ValueError as err:
-        raise _reported(err) from None
+        raise reported(err) from None
 
 
 def _check_common(args: argparse.Namespace) -> None:
@@ -380,63 +371,6 @@ def _check_common(args: argparse.Namespace) -> None:
         print(f"reachavoid {args.command}: warning: the cache ($REACHAVOID_CACHE_DIR) is "
               "not writable; what is solved now is not kept", file=sys.stderr)
     args.progress = sys.stderr.isatty()
-
-
-def _check_name(target: Path, field: str, path: str) -> None:
-    """Refuse a file name too long for its folder once temporary names are added to it."""
-    try:
-        limit = os.pathconf(target.parent, "PC_NAME_MAX")
-    except (OSError, ValueError):
-        limit = 255
-    if len(os.fsencode(target.name)) + TEMPORARY_NAME_ROOM > limit:
-        raise UsageError(f"{field}: the name {target.name[:40]!r}... of {path!r} is too long "
-                         f"(at most {limit - TEMPORARY_NAME_ROOM} bytes here)", field=field)
-
-
-def writable_file(path: str, field: str, force: bool = False, text: bool = False) -> str:
-    """``path`` if a file can be written there under the overwrite rule (module docstring),
-    else ``UsageError`` naming ``field``. A link is followed to its target; a device or FIFO
-    is written directly; ``-`` (standard output) only where ``text`` is written."""
-    if path == STDOUT:
-        if not text:
-            raise UsageError(f"{field}: '-' (standard output) is for text outputs only",
-                             field=field)
-        return path
-    if is_stream(path):
-        return path
-    target = destination(path)
-    _check_replace(target, field, force, path)
-    folder = target.parent
-    if not folder.is_dir():
-        raise UsageError(f"{field}: folder {str(folder)!r} does not exist", field=field)
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise UsageError(f"{field}: folder {str(folder)!r} is not writable", field=field)
-    _check_name(target, field, path)
-    return path
-
-
-def _check_replace(target: Path, field: str, force: bool, path: str) -> None:
-    """The overwrite rule: an existing ``target`` is replaced only with ``force``, and only
-    when it is a regular file."""
-    if target.is_dir():
-        raise UsageError(f"{field}: {path!r} is a folder", field=field)
-    if target.exists() and not target.is_file():
-        raise UsageError(f"{field}: {path!r} is not a regular file, a device or a FIFO",
-                         field=field)
-    if target.exists() and not force:
-        raise UsageError(f"{field}: {path!r} exists; pass --force to replace it", field=field)
-
-
-def writable_folder(path: str, field: str) -> Path:
-    """``path`` if it is a writable folder or can be created as one, else ``UsageError``."""
-    target = Path(os.path.abspath(path))
-    if target.exists() and not target.is_dir():
-        raise UsageError(f"{field}: {path!r} exists and is not a folder", field=field)
-    existing = target if target.exists() else next(p for p in target.parents if p.exists())
-    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise UsageError(f"{field}: {str(existing)!r} is not a writable folder", field=field)
-    _check_name(target, field, path)
-    return target
 
 
 def _load(source: str) -> Scenario:
@@ -459,7 +393,7 @@ def _specs(choices: list[tuple[str, str]], args: argparse.Namespace) -> list[Pol
         side = getattr(err, "field", None)
         if side in TABLES:   # a choice on a side: name its flag
             raise UsageError(f"--{err}", f"--{side}") from None
-        raise _reported(err) from None
+        raise reported(err) from None
 
 
 # -- commands -------------------------------------------------------------------------------
@@ -473,7 +407,7 @@ def _check_video_options(args: argparse.Namespace, scenario: Scenario) -> None:
         try:
             check_video_path(args.video)
         except ValueError as err:
-            raise _reported(err) from None
+            raise reported(err) from None
         writable_file(args.video, "--video", args.force)
     if args.realtime and args.fps is not None:
         raise UsageError("--realtime: sets the fps itself; drop --fps", field="--realtime")
@@ -521,7 +455,7 @@ def _play(args: argparse.Namespace) -> int:
                              side)
                 for spec, side in ((attacker_spec, "attackers"), (defender_spec, "defenders")))
     except ValueError as err:   # a policy that does not fit the scenario (a model's players)
-        raise _reported(err) from None
+        raise reported(err) from None
     drawn = args.video is not None or args.preview is not None
     env = reachavoid_env.parallel_env(
         scenario=scenarios, render_mode="rgb_array" if drawn else None,
@@ -544,12 +478,14 @@ def _play(args: argparse.Namespace) -> int:
 
 
 def _drawn_map(scenarios: tuple[Scenario, ...], seed: int) -> Scenario:
-    """The map an env over ``scenarios`` plays after ``reset(seed=seed)``."""
+    """The map an env over ``scenarios`` plays after ``reset(seed=seed)``: the first draw
+    of the env's generator seeded with ``seed`` (``ReachAvoidEnv.reset``)."""
     if len(scenarios) == 1:
         return scenarios[0]
-    env = reachavoid_env.parallel_env(scenario=scenarios)
-    env.reset(seed=seed)
-    return next(s for s in scenarios if s.name == env.scenario.name)
+    from gymnasium.utils import seeding
+
+    generator, _ = seeding.np_random(seed)
+    return scenarios[int(generator.integers(len(scenarios)))]
 
 
 def _preview(env: Any, attackers: Any, defenders: Any, title: str,
@@ -648,7 +584,7 @@ def _solve(args: argparse.Namespace) -> int:
         report = solve_scenario(scenario, args.game, grid, out=args.out, grid_points_1v1=grid1,
                                 plot=args.plot, progress=args.progress)
     except (ValueError, MemoryError) as err:
-        raise _reported(err) from None
+        raise reported(err) from None
     print(report.summary())
     return 0
 
@@ -667,7 +603,7 @@ def _bench_suite(args: argparse.Namespace) -> Suite:
             raise UsageError(f"--suite: cannot read {args.suite!r}: {err.strerror}",
                              field="--suite") from None
         except ValueError as err:
-            raise _reported(err) from None
+            raise reported(err) from None
         return suite if args.seed is None else Suite(suite.name, suite.version, args.seed,
                                                       suite.cells)
     players = (None if args.config is None
@@ -696,7 +632,7 @@ def _solve_library(args: argparse.Namespace) -> int:
     except (ValueError, MemoryError) as err:
         if getattr(err, "field", None) == "workers":
             raise UsageError(f"--{err}", "--workers") from None
-        raise _reported(err) from None
+        raise reported(err) from None
     print(f"{'map':<24} {'game':<5} {'grid':>5} {'seconds':>9} {'peak MiB':>9}")
     for row in rows:
         seconds = "cached" if row.seconds is None else f"{row.seconds:.1f}"
@@ -754,7 +690,7 @@ def _bench(args: argparse.Namespace) -> int:
                            backend=args.backend, workers=args.workers, address=args.address,
                            progress=args.progress)
     except PolicyMismatch as err:   # a policy that cannot play a cell (a model's players)
-        raise _reported(err) from None
+        raise reported(err) from None
     seconds = time.perf_counter() - started
     report = result.to_dict() | {"episodes": args.episodes, "wall_seconds": seconds}
     if args.csv:
@@ -775,70 +711,11 @@ def _print_bench(args: argparse.Namespace, result: SuiteResult, report: dict[str
         return 0
     if args.json:
         write_json(args.json, report, indent=1)
-    print(_bench_tables(result, seconds))
+    print(bench_tables(result, seconds))
     for flag, path in (("per-episode rows", args.csv), ("JSON", args.json), ("plot", args.plot)):
         if path:
             print(f"{flag}: {path}")
     return 0
-
-
-INTERVALS = ("95% intervals: a proportion (every value 0 or 1) gets the Wilson interval; "
-             f"a mean the percentile bootstrap over episodes when there are >= {MIN_BOOTSTRAP} "
-             "and they vary, else the Wilson bound (never too narrow); differences are "
-             "per seed, against the baseline")
-
-
-def _percent(value: float, interval: tuple[float, float], method: str = "") -> str:
-    tag = {"wilson": " W", "wilson-bound": " Wb", "bootstrap": " B", "": ""}[method]
-    return f"{value:6.1%} [{interval[0]:.1%}, {interval[1]:.1%}]{tag}"
-
-
-def _bench_tables(result: SuiteResult, seconds: float) -> str:
-    """A table per cell, then per pooled attacker policy: each method's capture rates, then
-    its paired difference."""
-    suite = result.suite
-    width = max(10, *(len(m) for m in result.methods))
-    title = (f"suite {suite.name} v{suite.version}, {len(suite.cells)} cells"
-             if suite.version else suite.name)
-    lines = [f"{title}; defenders {', '.join(result.methods)}; baseline {result.baseline}; "
-             f"{seconds:.0f} s wall time", INTERVALS + " (W Wilson, Wb Wilson bound, "
-             "B bootstrap)"]
-    for cell in result.cells:
-        comparison = cell.comparison
-        episodes = comparison.summaries[0].episodes
-        lines += ["", f"{cell.cell.label}: {episodes} episode(s), seeds {suite.seed}.."
-                      f"{suite.seed + episodes - 1}" + (" (all from one start)"
-                                                        if cell.one_start else "")]
-        lines += _method_rows(comparison.summaries, comparison.differences, width,
-                              cell.seconds_per_episode)
-    for pooled in result.pooled:
-        lines += ["", f"pooled / {pooled.attackers}: {pooled.cells} maps, "
-                      f"{pooled.summaries[0].episodes} episodes (differences paired by map "
-                      f"and seed)"]
-        lines += _method_rows(pooled.summaries, pooled.differences, width)
-    return "\n".join(lines)
-
-
-def _method_rows(summaries: Sequence[CaptureSummary], differences: Sequence[PairedDifference],
-                 width: int, seconds: dict[str, float] | None = None) -> list[str]:
-    """A header, a row per method's summary (``seconds`` per episode when given), then a
-    row per paired difference."""
-    lines = [f"  {'defenders':<{width}} {'capture rate [95% CI]':<29} "
-             f"{'all captured [95% CI]':<26} {'guaranteed':>10} {'nominal':>8} "
-             f"{'violations':>10}" + (f" {'s/episode':>9}" if seconds else "")]
-    for s in summaries:
-        guaranteed, nominal = ("-" if x is None else f"{x:.2f}"
-                               for x in (s.guaranteed_initial, s.nominal_initial))
-        rate = _percent(s.capture_rate, s.capture_rate_ci, s.capture_rate_method)
-        lines.append(f"  {s.label:<{width}} {rate:<29} "
-                     f"{_percent(s.all_captured_rate, s.all_captured_ci):<26} "
-                     f"{guaranteed:>10} {nominal:>8} {s.guarantee_violations:>10}"
-                     + (f" {seconds[s.label]:>9.2f}" if seconds else ""))
-    for d in differences:
-        lines.append(f"  {d.label} - {d.baseline}: capture rate {d.difference:+.1%} "
-                     f"[{d.ci[0]:+.1%}, {d.ci[1]:+.1%}] ({d.method}, {d.episodes} "
-                     f"paired seed(s))")
-    return lines
 
 
 def _maps(args: argparse.Namespace) -> int:
@@ -860,19 +737,11 @@ def _paper(args: argparse.Namespace) -> int:
 
     out = writable_folder(args.out, "--out")
     for path in paper_table.outputs(out, videos=not args.no_video):
-        _check_replace(destination(path), "--out", args.force, str(path))
+        check_replace(destination(path), "--out", args.force, str(path))
     out.mkdir(parents=True, exist_ok=True)
     rows = paper_table.reproduce(out, args.grid1, args.grid2, videos=not args.no_video,
                                  progress=args.progress)
-    print(f"Attackers captured (grids {args.grid1}^4 and {args.grid2}^6; "
-          f"{paper_table.ATTACKERS} attackers)")
-    print(f"  {'game':<10} {'ours':>6} {'paper':>6} {'baseline':>9} {'paper':>6}")
-    for row in rows:
-        ours, baseline = row.measured["paper"], row.measured["matching"]
-        print(f"  {row.scenario.split('_')[-1]:<10} {ours['captured_count']:>6} "
-              f"{row.reported['paper']:>6} {baseline['captured_count']:>9} "
-              f"{row.reported['matching']:>6}")
-    print(f"  videos, table.json and tubes.png in {out}/")
+    print(paper_lines(rows, args.grid1, args.grid2, paper_table.ATTACKERS, out))
     return 0
 
 
