@@ -74,7 +74,7 @@ def worker_hj_reachability(grid: int, horizon: float, out: str) -> dict:
     from reachavoid_env import builtin_map
     from solvers.hj import game_1v1
     from solvers.hj.grid import Grid
-    from solvers.hj.reach_avoid import map_problem
+    from solvers.hj.marcher import map_problem
 
     game_map = builtin_map("paper")
     ours = Grid.for_players(game_map.domain, 2, grid)

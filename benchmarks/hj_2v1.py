@@ -10,7 +10,7 @@ available memory, and whether the solver refuses (checked by calling it).
     python benchmarks/hj_2v1.py [--grids 20 25 30] [--threads 2] [--store] [--probe 36 40 45]
                                 [--base /tmp/hj-base] [--sweeps N]
 
-``--store`` solves into the real cache (``$REACHAVOID_CACHE_DIR`` or ``~/.cache/reachavoid``)
+``--store`` solves into the real cache (``solvers.hj.cache.cache_dir``)
 and leaves the tubes there for the policies; without it a temporary cache is used. The 1 vs
 1 value is the 45^4 solve (the paper's), from the same cache. ``--base DIR``: also run every
 grid with the solver of another checkout (e.g. ``git worktree add /tmp/hj-base f5f4333``),

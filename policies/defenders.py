@@ -333,7 +333,6 @@ class _AssignmentDefender(ABC):
         played)."""
         if self._assignment is None:
             return Overlay()
-        method = "MIP" if self.solver.method == "mip" else "matching"
         games = (games_of(self._assignment) if self.free == "assignment"
                  else self._certified)
         edges, kinds = [], []
@@ -349,8 +348,9 @@ class _AssignmentDefender(ABC):
             edges += [(f"defender_{j}", f"attacker_{i}") for j, i in self._races]
             kinds += [EdgeKind.RACE] * len(self._races)
         return Overlay(edges=tuple(edges), kinds=tuple(kinds),
-                       lines=(f"{method}: {self.guaranteed_captures} guaranteed, "
-                              f"{self.nominal_captures} nominal",))
+                       lines=(f"guaranteed: {self.guaranteed_captures} of "
+                              f"{int(self._decision.state.active_attackers.sum())}, "
+                              f"program's count: {self.nominal_captures}",))
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
         """One decision: the assignment keeping the certified games (``_decide``), the

@@ -36,6 +36,8 @@ from dataclasses import dataclass
 from importlib import metadata
 from typing import TYPE_CHECKING, Any
 
+from reachavoid_env.checks import FieldError
+
 if TYPE_CHECKING:
     from reachavoid_env import BatchPolicy, Policy, Scenario
 
@@ -52,7 +54,7 @@ SCHEMES: dict[str, str] = {"sb3": "policies.learned:sb3_named_policy"}
 """Spec prefixes: a spec ``SCHEME:REST`` is resolved by the function ``SCHEMES[SCHEME]`` (a
 ``module:function`` reference, imported on first use) called as ``function(side, spec)``;
 it returns the ``NamedPolicy`` (options from its ``build``'s signature) or raises a
-``ValueError`` naming ``side``. A prefix listed here wins over a module of that name."""
+``FieldError`` naming ``side``. A prefix listed here wins over a module of that name."""
 
 
 def scenario_free(policy: type) -> Factory:
@@ -102,12 +104,13 @@ def factory_options(factory: Factory) -> frozenset[str] | None:
     try:
         parameters = list(inspect.signature(factory).parameters.values())
     except (TypeError, ValueError):
-        raise ValueError(f"{_label(factory)}: cannot read the factory's signature") from None
+        raise FieldError(f"{_label(factory)}: cannot read the factory's signature",
+                         _label(factory)) from None
     positional = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD,
                   inspect.Parameter.VAR_POSITIONAL)
     if not parameters or parameters[0].kind not in positional:
-        raise ValueError(f"{_label(factory)}: a policy factory takes the scenario first, "
-                         f"as factory(scenario, **options)")
+        raise FieldError(f"{_label(factory)}: a policy factory takes the scenario first, "
+                         f"as factory(scenario, **options)", _label(factory))
     rest = parameters[1:]
     if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in rest):
         return None
@@ -162,7 +165,7 @@ TABLES = {"defenders": DEFENDERS, "attackers": ATTACKERS}
 
 def _check_side(side: str) -> None:
     if side not in TABLES:
-        raise ValueError(f"side: expected 'defenders' or 'attackers', got {side!r}")
+        raise FieldError(f"side: expected 'defenders' or 'attackers', got {side!r}", "side")
 
 
 def installed(side: str) -> dict[str, metadata.EntryPoint]:
@@ -187,29 +190,33 @@ def names_help(side: str) -> str:
     return "; ".join(built_in + plugins)
 
 
-def _import(reference: str, field: str) -> Any:
-    """The object of ``module:attribute`` (dots allowed on both sides)."""
+def _import(reference: str, label: str, field: str | None = None) -> Any:
+    """The object of ``module:attribute`` (dots allowed on both sides); an error's message
+    starts with ``label``, its ``field`` is ``field`` (default ``label``). Ours, not
+    ``pkgutil.resolve_name``: that raises a module's own errors as the same types as a
+    malformed name (``ValueError``) or a missing attribute (``AttributeError``)."""
+    field = field or label
     module_name, _, attribute = reference.partition(":")
     if not module_name or not attribute:
-        raise ValueError(f"{field}: expected pkg.module:factory, got {reference!r}")
+        raise FieldError(f"{label}: expected pkg.module:factory, got {reference!r}", field)
     try:
         target: Any = importlib.import_module(module_name)
     except Exception as err:   # a bad name (``..``), a missing module, or the module's own error
-        raise ValueError(f"{field}: cannot import {module_name!r} ({type(err).__name__}: "
-                         f"{err})") from None
+        raise FieldError(f"{label}: cannot import {module_name!r} ({type(err).__name__}: "
+                         f"{err})", field) from None
     for part in attribute.split("."):
         if not hasattr(target, part):
-            raise ValueError(f"{field}: module {module_name!r} has no {attribute!r}")
+            raise FieldError(f"{label}: module {module_name!r} has no {attribute!r}", field)
         target = getattr(target, part)
     if not callable(target):
-        raise ValueError(f"{field}: {reference!r} is not callable")
+        raise FieldError(f"{label}: {reference!r} is not callable", field)
     return target
 
 
 @functools.cache
 def resolve(side: str, spec: str) -> NamedPolicy:
     """The policy of a string ``spec`` on ``side`` (see the module docstring); a spec that
-    names nothing is a ``ValueError`` naming ``side``."""
+    names nothing is a ``FieldError`` naming ``side``."""
     _check_side(side)
     if spec in TABLES[side]:
         return TABLES[side][spec]
@@ -220,14 +227,14 @@ def resolve(side: str, spec: str) -> NamedPolicy:
         return NamedPolicy(_first_line(factory), factory)
     scheme, colon, _ = spec.partition(":")
     if colon and scheme in SCHEMES:
-        choice = _import(SCHEMES[scheme], f"{side} scheme {scheme!r}")(side, spec)
+        choice = _import(SCHEMES[scheme], f"{side} scheme {scheme!r}", side)(side, spec)
         factory_options(choice.build)
         return choice
     if colon:
         factory = _import(spec, side)
     else:
-        raise ValueError(f"{side}: unknown policy {spec!r} (choices: "
-                         f"{', '.join(policy_names(side))}, or pkg.module:factory)")
+        raise FieldError(f"{side}: unknown policy {spec!r} (choices: "
+                         f"{', '.join(policy_names(side))}, or pkg.module:factory)", side)
     factory_options(factory)
     return NamedPolicy(_first_line(factory), factory)
 
@@ -253,8 +260,8 @@ class PolicySpec:
         unknown = sorted(key for key, _ in self.options if not choice.takes(key))
         if unknown:
             accepted = ", ".join(sorted(choice.options or ())) or "none"
-            raise ValueError(f"{self.side} {self.label!r}: unknown option(s) {unknown} "
-                             f"(accepted: {accepted})")
+            raise FieldError(f"{self.side} {self.label!r}: unknown option(s) {unknown} "
+                             f"(accepted: {accepted})", self.side)
 
     @classmethod
     def of(cls, side: str, source: str | Factory, **options: Any) -> PolicySpec:
@@ -281,8 +288,8 @@ class PolicySpec:
     def __call__(self, scenario: Scenario, **supplied: Any) -> Policy:
         unknown = sorted(set(supplied) - set(SUPPLIED))
         if unknown:
-            raise ValueError(f"{unknown}: not supplied options ({', '.join(SUPPLIED)}); "
-                             f"options go in the spec")
+            raise FieldError(f"{unknown}: not supplied options ({', '.join(SUPPLIED)}); "
+                             f"options go in the spec", unknown[0])
         choice = self.choice
         extra = {key: value for key, value in supplied.items() if choice.takes(key)}
         return choice.build(scenario, **(dict(self.options) | extra))
@@ -324,18 +331,18 @@ def make_batch_policy(side: str, source: str | Factory, scenario: Scenario,
 def policy_specs(choices: Sequence[tuple[str, str | Factory]], options: Mapping[str, Any],
                  names: Mapping[str, str] | None = None) -> list[PolicySpec]:
     """One ``PolicySpec`` per ``(side, source)`` choice, each with the ``options`` its
-    factory takes. An option that no choice takes is a ``ValueError`` naming it (as
+    factory takes. An option that no choice takes is a ``FieldError`` naming it (as
     ``names[option]`` when given, e.g. the command-line flag); ``seed`` and ``progress``
     are supplied when building, not here."""
     resolved = [PolicySpec(side, source) for side, source in choices]
     for option in options:
         if option in SUPPLIED:
-            raise ValueError(f"{option}: supplied to each policy when it is built, "
-                             f"not an option here")
+            raise FieldError(f"{option}: supplied to each policy when it is built, "
+                             f"not an option here", option)
         if not any(spec.choice.takes(option) for spec in resolved):
             field = (names or {}).get(option, option)
             chosen = ", ".join(spec.label for spec in resolved)
-            raise ValueError(f"{field}: no chosen policy takes it ({chosen})")
+            raise FieldError(f"{field}: no chosen policy takes it ({chosen})", field)
     return [PolicySpec.of(spec.side, spec.source,
                           **{k: v for k, v in options.items() if spec.choice.takes(k)})
             for spec in resolved]

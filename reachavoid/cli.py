@@ -1,4 +1,5 @@
-"""The ``reachavoid`` command (design.md, "Command line"): argument parsing and printing.
+"""The ``reachavoid`` command (design.md, "Command line"): argument parsing, the checks made
+before any work and the commands (output paths: ``paths``; the tables printed: ``tables``).
 
 ``play`` runs one episode (``rollout``), ``solve`` one game (``solve``), ``bench`` many
 seeded starts of a suite (``suite``, ``evaluation``), ``maps`` a map library
@@ -28,13 +29,15 @@ from typing import Any, NoReturn
 
 import reachavoid_env
 import solvers.hj
-from policies.registry import PolicySpec, names_help, policy_specs
-from reachavoid.evaluation import (
-    MIN_BOOTSTRAP,
-    CaptureSummary,
-    PairedDifference,
-    one_start,
-    write_csv,
+from policies.registry import TABLES, PolicySpec, names_help, policy_specs
+from reachavoid.evaluation import one_start, write_csv
+from reachavoid.paths import (
+    UsageError,
+    check_replace,
+    distinct_outputs,
+    reported,
+    writable_file,
+    writable_folder,
 )
 from reachavoid.rollout import EpisodeResult, episode_title, first_frame, run_episode
 from reachavoid.solve import DEFAULT_GRID, GAMES, solve_library, solve_scenario
@@ -50,14 +53,13 @@ from reachavoid.suite import (
     suite_names,
 )
 from reachavoid.sweep import BACKENDS, WorkerDied, check_backend
+from reachavoid.tables import bench_tables, paper_lines
 from reachavoid_env import PolicyMismatch, Scenario, ScenarioError, checks, load_scenario
 from reachavoid_env.files import (
     STDOUT,
     atomic_write,
     destination,
-    expect_new,
     forget_expected,
-    is_stream,
     write_json,
 )
 from reachavoid_env.maps import (
@@ -76,8 +78,6 @@ from solvers.hj.cache import CacheLocationError, cache_dir, check_cache
 
 EXIT_USAGE, EXIT_FAILED, EXIT_INTERRUPTED, EXIT_PIPE = 2, 1, 130, 141
 """Exit statuses: bad input; a failed write or a dead worker; Ctrl-C; a closed pipe."""
-TEMPORARY_NAME_ROOM = 48
-"""Characters an output's temporary names add to its file name (``.NAME.PID.RANDOM.tmp``)."""
 MAX_SEED = 2**63 - 1
 GRID_RANGE = {"grid1": (5, 201), "grid2": (5, 101)}
 """Nodes per axis accepted for the 1 vs 1 and 2 vs 1 tubes (the memory guard still
@@ -88,10 +88,6 @@ it; one that none takes is an error)."""
 GIF_MAX_FPS = 50.0
 """The highest video rates accepted (frames per second); a GIF's frame delay is counted in
 hundredths of a second and players slow down delays under two."""
-
-
-class UsageError(ValueError):
-    """A bad argument or input file: reported in one line, exit status 2."""
 
 
 class Terminated(KeyboardInterrupt):
@@ -151,7 +147,7 @@ def _check_backend_options(args: argparse.Namespace) -> None:
     if args.workers is not None:
         _check(checks.integer, args.workers, "--workers", 1, 4096)
     if args.address is not None and args.backend != "ray":
-        raise UsageError("--address: only with --backend ray")
+        raise UsageError("--address: only with --backend ray", field="--address")
 
 
 def _margin_option(parser: argparse.ArgumentParser) -> None:
@@ -371,7 +367,7 @@ def _check(check: Any, value: Any, field: str, *bounds: Any) -> Any:
     try:
         return check(value, field, *bounds)
     except ValueError as err:
-        raise UsageError(str(err)) from None
+        raise reported(err) from None
 
 
 def _check_common(args: argparse.Namespace) -> None:
@@ -390,83 +386,12 @@ def _check_common(args: argparse.Namespace) -> None:
     args.progress = sys.stderr.isatty()
 
 
-def _check_name(target: Path, field: str, path: str) -> None:
-    """Refuse a file name too long for its folder once temporary names are added to it."""
-    try:
-        limit = os.pathconf(target.parent, "PC_NAME_MAX")
-    except (OSError, ValueError):
-        limit = 255
-    if len(os.fsencode(target.name)) + TEMPORARY_NAME_ROOM > limit:
-        raise UsageError(f"{field}: the name {target.name[:40]!r}... of {path!r} is too long "
-                         f"(at most {limit - TEMPORARY_NAME_ROOM} bytes here)")
-
-
-def writable_file(path: str, field: str, force: bool = False, text: bool = False) -> str:
-    """``path`` if a file can be written there under the overwrite rule (module docstring),
-    else ``UsageError`` naming ``field``. A link is followed to its target; a device or FIFO
-    is written directly; ``-`` (standard output) only where ``text`` is written."""
-    if path == STDOUT:
-        if not text:
-            raise UsageError(f"{field}: '-' (standard output) is for text outputs only")
-        return path
-    if is_stream(path):
-        return path
-    target = destination(path)
-    _check_replace(target, field, force, path)
-    folder = target.parent
-    if not folder.is_dir():
-        raise UsageError(f"{field}: folder {str(folder)!r} does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise UsageError(f"{field}: folder {str(folder)!r} is not writable")
-    _check_name(target, field, path)
-    return path
-
-
-def distinct_outputs(outputs: Sequence[tuple[str, str | None]]) -> None:
-    """Refuse two of ``outputs`` (flag, path or None) that land on the same file, or both on
-    standard output (``-``); a device or FIFO may take several."""
-    seen: dict[Path | str, str] = {}
-    for flag, path in outputs:
-        if path is None or (path != STDOUT and is_stream(path)):
-            continue
-        where = STDOUT if path == STDOUT else destination(path)
-        if where in seen:
-            what = "standard output" if where == STDOUT else repr(path)
-            raise UsageError(f"{flag}: {what} is also {seen[where]}'s output; give each "
-                             "output its own file")
-        seen[where] = flag
-
-
-def _check_replace(target: Path, field: str, force: bool, path: str) -> None:
-    """The overwrite rule: an existing ``target`` is replaced only with ``force``, and only
-    when it is a regular file."""
-    if target.is_dir():
-        raise UsageError(f"{field}: {path!r} is a folder")
-    if target.exists() and not target.is_file():
-        raise UsageError(f"{field}: {path!r} is not a regular file, a device or a FIFO")
-    if target.exists() and not force:
-        raise UsageError(f"{field}: {path!r} exists; pass --force to replace it")
-    if not force:   # and stays so: a file that appears there meanwhile is not replaced
-        expect_new(target)
-
-
-def writable_folder(path: str, field: str) -> Path:
-    """``path`` if it is a writable folder or can be created as one, else ``UsageError``."""
-    target = Path(os.path.abspath(path))
-    if target.exists() and not target.is_dir():
-        raise UsageError(f"{field}: {path!r} exists and is not a folder")
-    existing = target if target.exists() else next(p for p in target.parents if p.exists())
-    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise UsageError(f"{field}: {str(existing)!r} is not a writable folder")
-    _check_name(target, field, path)
-    return target
-
-
 def _load(source: str) -> Scenario:
     try:
         return load_scenario(source)
     except OSError as err:
-        raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}") from None
+        raise UsageError(f"scenario: cannot read {source!r}: {err.strerror}",
+                         field="scenario") from None
 
 
 def _specs(choices: list[tuple[str, str]], args: argparse.Namespace) -> list[PolicySpec]:
@@ -478,9 +403,10 @@ def _specs(choices: list[tuple[str, str]], args: argparse.Namespace) -> list[Pol
     try:
         return policy_specs(choices, options, OPTION_FLAGS)
     except ValueError as err:
-        message = str(err)
-        raise UsageError(f"--{message}" if message.startswith(("defenders", "attackers"))
-                         else message) from None
+        side = getattr(err, "field", None)
+        if side in TABLES:   # a choice on a side: name its flag
+            raise UsageError(f"--{err}", f"--{side}") from None
+        raise reported(err) from None
 
 
 # -- commands -------------------------------------------------------------------------------
@@ -494,10 +420,10 @@ def _check_video_options(args: argparse.Namespace, scenario: Scenario) -> None:
         try:
             check_video_path(args.video)
         except ValueError as err:
-            raise UsageError(str(err)) from None
+            raise reported(err) from None
         writable_file(args.video, "--video", args.force)
     if args.realtime and args.fps is not None:
-        raise UsageError("--realtime: sets the fps itself; drop --fps")
+        raise UsageError("--realtime: sets the fps itself; drop --fps", field="--realtime")
     if args.fps is not None:
         _check(checks.real, args.fps, "--fps", *FPS_RANGE)
     if args.every is not None:
@@ -511,7 +437,8 @@ def _check_video_options(args: argparse.Namespace, scenario: Scenario) -> None:
         if args.fps > most:
             raise UsageError(f"--realtime: --every {args.every} with {scenario.dt * 1e3:g} ms "
                              f"steps needs {args.fps:g} fps, above this format's {most:g}; use "
-                             f"--every {realtime_every(scenario.dt, most)} or more")
+                             f"--every {realtime_every(scenario.dt, most)} or more",
+                             field="--realtime")
     args.every = args.every or 1
     args.fps = args.fps or rate
 
@@ -519,9 +446,10 @@ def _check_video_options(args: argparse.Namespace, scenario: Scenario) -> None:
 def _play(args: argparse.Namespace) -> int:
     if args.preview is not None:
         if args.video is not None:
-            raise UsageError("--preview: draws the first frame without playing; drop --video")
+            raise UsageError("--preview: draws the first frame without playing; drop --video",
+                             field="--preview")
         if Path(args.preview).suffix.lower() != ".png":
-            raise UsageError(f"--preview: {args.preview!r} must end in .png")
+            raise UsageError(f"--preview: {args.preview!r} must end in .png", field="--preview")
         writable_file(args.preview, "--preview", args.force)
     scenarios = _library(args.scenario)
     scenario = _drawn_map(scenarios, args.seed)
@@ -540,7 +468,7 @@ def _play(args: argparse.Namespace) -> int:
                              side)
                 for spec, side in ((attacker_spec, "attackers"), (defender_spec, "defenders")))
     except ValueError as err:   # a policy that does not fit the scenario (a model's players)
-        raise UsageError(str(err)) from None
+        raise reported(err) from None
     drawn = args.video is not None or args.preview is not None
     env = reachavoid_env.parallel_env(
         scenario=scenarios, render_mode="rgb_array" if drawn else None,
@@ -563,12 +491,14 @@ def _play(args: argparse.Namespace) -> int:
 
 
 def _drawn_map(scenarios: tuple[Scenario, ...], seed: int) -> Scenario:
-    """The map an env over ``scenarios`` plays after ``reset(seed=seed)``."""
+    """The map an env over ``scenarios`` plays after ``reset(seed=seed)``: the first draw
+    of the env's generator seeded with ``seed`` (``ReachAvoidEnv.reset``)."""
     if len(scenarios) == 1:
         return scenarios[0]
-    env = reachavoid_env.parallel_env(scenario=scenarios)
-    env.reset(seed=seed)
-    return next(s for s in scenarios if s.name == env.scenario.name)
+    from gymnasium.utils import seeding
+
+    generator, _ = seeding.np_random(seed)
+    return scenarios[int(generator.integers(len(scenarios)))]
 
 
 def _preview(env: Any, attackers: Any, defenders: Any, title: str,
@@ -598,7 +528,7 @@ def _validate(args: argparse.Namespace) -> int:
         except (ScenarioError, ValueError, OSError) as err:
             bad += 1
             words = getattr(err, "strerror", None) or str(err)
-            if not words.startswith(source):
+            if getattr(err, "field", None) != source:   # the message names the file
                 words = f"{source}: {words}"
             print(f"reachavoid validate: error: {words}", file=sys.stderr)
             continue
@@ -661,7 +591,8 @@ def _solve(args: argparse.Namespace) -> int:
     if args.defenders is not None:
         return _solve_library(args)
     if len(args.scenario) != 1:
-        raise UsageError("--scenario: several scenarios need --defenders (which tubes to solve)")
+        raise UsageError("--scenario: several scenarios need --defenders (which tubes to solve)",
+                         field="--scenario")
     args.scenario = args.scenario[0]
     if args.grid is not None:
         _check(checks.integer, args.grid, "--grid",
@@ -677,7 +608,7 @@ def _solve(args: argparse.Namespace) -> int:
         report = solve_scenario(scenario, args.game, grid, out=args.out, grid_points_1v1=grid1,
                                 plot=args.plot, progress=args.progress)
     except (ValueError, MemoryError) as err:
-        raise UsageError(str(err)) from None
+        raise reported(err) from None
     print(report.summary())
     return 0
 
@@ -688,13 +619,15 @@ def _bench_suite(args: argparse.Namespace) -> Suite:
         given = [f"--{key}" for key, default in ONE_CELL.items()
                  if getattr(args, key) not in (None, default)]
         if given:
-            raise UsageError(f"{given[0]}: not with --suite (the suite names its cells)")
+            raise UsageError(f"{given[0]}: not with --suite (the suite names its cells)",
+                             field=given[0])
         try:
             suite = load_suite(args.suite)
         except OSError as err:
-            raise UsageError(f"--suite: cannot read {args.suite!r}: {err.strerror}") from None
+            raise UsageError(f"--suite: cannot read {args.suite!r}: {err.strerror}",
+                             field="--suite") from None
         except ValueError as err:
-            raise UsageError(str(err)) from None
+            raise reported(err) from None
         return suite if args.seed is None else Suite(suite.name, suite.version, args.seed,
                                                       suite.cells)
     players = (None if args.config is None
@@ -711,7 +644,8 @@ def _bench_suite(args: argparse.Namespace) -> Suite:
 def _solve_library(args: argparse.Namespace) -> int:
     for flag, value in (("--out", args.out), ("--plot", args.plot), ("--grid", args.grid)):
         if value is not None:
-            raise UsageError(f"{flag}: not with --defenders (a library goes to the cache)")
+            raise UsageError(f"{flag}: not with --defenders (a library goes to the cache)",
+                             field=flag)
     methods = _methods(args.defenders)
     _check_backend_options(args)
     scenarios = _library(args.scenario)
@@ -720,7 +654,9 @@ def _solve_library(args: argparse.Namespace) -> int:
                              workers=args.workers, address=args.address,
                              progress=args.progress)
     except (ValueError, MemoryError) as err:
-        raise UsageError(f"--{err}" if str(err).startswith("workers:") else str(err)) from None
+        if getattr(err, "field", None) == "workers":
+            raise UsageError(f"--{err}", "--workers") from None
+        raise reported(err) from None
     print(f"{'map':<24} {'game':<5} {'grid':>5} {'seconds':>9} {'peak MiB':>9}")
     for row in rows:
         seconds = "cached" if row.seconds is None else f"{row.seconds:.1f}"
@@ -736,7 +672,8 @@ def _methods(text: str) -> list[str]:
     """Comma-separated defender methods (specs), each once, in order."""
     methods = list(dict.fromkeys(m.strip() for m in text.split(",") if m.strip()))
     if not methods:
-        raise UsageError(f"--defenders: expected comma-separated methods, got {text!r}")
+        raise UsageError(f"--defenders: expected comma-separated methods, got {text!r}",
+                         field="--defenders")
     return methods
 
 
@@ -745,7 +682,7 @@ def _library(source: str | list[str]) -> tuple[Scenario, ...]:
         return load_library(source)
     except OSError as err:
         raise UsageError(f"scenario: cannot read {err.filename or source!r}: "
-                         f"{err.strerror}") from None
+                         f"{err.strerror}", field="scenario") from None
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -754,7 +691,7 @@ def _bench(args: argparse.Namespace) -> int:
     baseline = args.baseline or ("hj" if "hj" in methods else methods[0])
     if baseline not in methods:
         raise UsageError(f"--baseline: {baseline!r} is not among --defenders "
-                         f"({', '.join(methods)})")
+                         f"({', '.join(methods)})", field="--baseline")
     _check_backend_options(args)
     outputs = (("--csv", args.csv), ("--plot", args.plot), ("--json", args.json))
     for flag, path in outputs:
@@ -779,7 +716,7 @@ def _bench(args: argparse.Namespace) -> int:
                            backend=args.backend, workers=args.workers, address=args.address,
                            progress=args.progress)
     except PolicyMismatch as err:   # a policy that cannot play a cell (a model's players)
-        raise UsageError(str(err)) from None
+        raise reported(err) from None
     seconds = time.perf_counter() - started
     report = result.to_dict() | {"episodes": args.episodes, "wall_seconds": seconds}
     if args.csv:
@@ -800,70 +737,11 @@ def _print_bench(args: argparse.Namespace, result: SuiteResult, report: dict[str
         return 0
     if args.json:
         write_json(args.json, report, indent=1)
-    print(_bench_tables(result, seconds))
+    print(bench_tables(result, seconds))
     for flag, path in (("per-episode rows", args.csv), ("JSON", args.json), ("plot", args.plot)):
         if path:
             print(f"{flag}: {path}")
     return 0
-
-
-INTERVALS = ("95% intervals: a proportion (every value 0 or 1) gets the Wilson interval; "
-             f"a mean the percentile bootstrap over episodes when there are >= {MIN_BOOTSTRAP} "
-             "and they vary, else the Wilson bound (never too narrow); differences are "
-             "per seed, against the baseline")
-
-
-def _percent(value: float, interval: tuple[float, float], method: str = "") -> str:
-    tag = {"wilson": " W", "wilson-bound": " Wb", "bootstrap": " B", "": ""}[method]
-    return f"{value:6.1%} [{interval[0]:.1%}, {interval[1]:.1%}]{tag}"
-
-
-def _bench_tables(result: SuiteResult, seconds: float) -> str:
-    """A table per cell, then per pooled attacker policy: each method's capture rates, then
-    its paired difference."""
-    suite = result.suite
-    width = max(10, *(len(m) for m in result.methods))
-    title = (f"suite {suite.name} v{suite.version}, {len(suite.cells)} cells"
-             if suite.version else suite.name)
-    lines = [f"{title}; defenders {', '.join(result.methods)}; baseline {result.baseline}; "
-             f"{seconds:.0f} s wall time", INTERVALS + " (W Wilson, Wb Wilson bound, "
-             "B bootstrap)"]
-    for cell in result.cells:
-        comparison = cell.comparison
-        episodes = comparison.summaries[0].episodes
-        lines += ["", f"{cell.cell.label}: {episodes} episode(s), seeds {suite.seed}.."
-                      f"{suite.seed + episodes - 1}" + (" (all from one start)"
-                                                        if cell.one_start else "")]
-        lines += _method_rows(comparison.summaries, comparison.differences, width,
-                              cell.seconds_per_episode)
-    for pooled in result.pooled:
-        lines += ["", f"pooled / {pooled.attackers}: {pooled.cells} maps, "
-                      f"{pooled.summaries[0].episodes} episodes (differences paired by map "
-                      f"and seed)"]
-        lines += _method_rows(pooled.summaries, pooled.differences, width)
-    return "\n".join(lines)
-
-
-def _method_rows(summaries: Sequence[CaptureSummary], differences: Sequence[PairedDifference],
-                 width: int, seconds: dict[str, float] | None = None) -> list[str]:
-    """A header, a row per method's summary (``seconds`` per episode when given), then a
-    row per paired difference."""
-    lines = [f"  {'defenders':<{width}} {'capture rate [95% CI]':<29} "
-             f"{'all captured [95% CI]':<26} {'guaranteed':>10} {'nominal':>8} "
-             f"{'violations':>10}" + (f" {'s/episode':>9}" if seconds else "")]
-    for s in summaries:
-        guaranteed, nominal = ("-" if x is None else f"{x:.2f}"
-                               for x in (s.guaranteed_initial, s.nominal_initial))
-        rate = _percent(s.capture_rate, s.capture_rate_ci, s.capture_rate_method)
-        lines.append(f"  {s.label:<{width}} {rate:<29} "
-                     f"{_percent(s.all_captured_rate, s.all_captured_ci):<26} "
-                     f"{guaranteed:>10} {nominal:>8} {s.guarantee_violations:>10}"
-                     + (f" {seconds[s.label]:>9.2f}" if seconds else ""))
-    for d in differences:
-        lines.append(f"  {d.label} - {d.baseline}: capture rate {d.difference:+.1%} "
-                     f"[{d.ci[0]:+.1%}, {d.ci[1]:+.1%}] ({d.method}, {d.episodes} "
-                     f"paired seed(s))")
-    return lines
 
 
 def _maps(args: argparse.Namespace) -> int:
@@ -874,8 +752,8 @@ def _maps(args: argparse.Namespace) -> int:
                                      for option in dataclasses.fields(MapOptions)})
         written = write_library(out, options, args.seed, args.count)
     except MapError as err:
-        option, _, reason = str(err).partition(":")
-        raise UsageError(f"--{option.replace('_', '-')}:{reason}") from None
+        flag = f"--{(err.field or '').replace('_', '-')}"
+        raise UsageError(err.renamed(flag), flag) from None
     print(f"{args.count} maps and {written[-1].name} -> {out}/")
     return 0
 
@@ -885,19 +763,11 @@ def _paper(args: argparse.Namespace) -> int:
 
     out = writable_folder(args.out, "--out")
     for path in paper_table.outputs(out, videos=not args.no_video):
-        _check_replace(destination(path), "--out", args.force, str(path))
+        check_replace(destination(path), "--out", args.force, str(path))
     out.mkdir(parents=True, exist_ok=True)
     rows = paper_table.reproduce(out, args.grid1, args.grid2, videos=not args.no_video,
                                  progress=args.progress)
-    print(f"Attackers captured (grids {args.grid1}^4 and {args.grid2}^6; "
-          f"{paper_table.ATTACKERS} attackers)")
-    print(f"  {'game':<10} {'ours':>6} {'paper':>6} {'baseline':>9} {'paper':>6}")
-    for row in rows:
-        ours, baseline = row.measured["paper"], row.measured["matching"]
-        print(f"  {row.scenario.split('_')[-1]:<10} {ours['captured_count']:>6} "
-              f"{row.reported['paper']:>6} {baseline['captured_count']:>9} "
-              f"{row.reported['matching']:>6}")
-    print(f"  videos, table.json and tubes.png in {out}/")
+    print(paper_lines(rows, args.grid1, args.grid2, paper_table.ATTACKERS, out))
     return 0
 
 

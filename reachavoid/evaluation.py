@@ -69,7 +69,9 @@ def wilson_interval(successes: float, trials: int) -> tuple[float, float]:
     """95% Wilson score interval of a binomial proportion ``successes / trials``.
 
     A fractional ``successes`` (a mean of values in [0, 1] times ``trials``) gives the
-    interval at the Bernoulli variance ``p (1 - p)``, the largest that mean allows."""
+    interval at the Bernoulli variance ``p (1 - p)``, the largest that mean allows.
+    Ours, not ``scipy.stats.binomtest(...).proportion_ci("wilson")``: that takes whole
+    successes only, and the Wilson bound needs a fractional count."""
     if trials == 0:
         return (0.0, 1.0)
     p = successes / trials
@@ -83,14 +85,15 @@ def bootstrap_interval(samples: Sequence[float], resamples: int = 4000,
                        seed: int = 0) -> tuple[float, float]:
     """95% percentile bootstrap interval of the mean of ``samples`` (no judgement of
     whether there are enough: ``mean_interval`` makes it)."""
+    from scipy import stats  # heavy: only where intervals are made
+
     data = np.asarray(samples, dtype=np.float64)
     if len(data) < 2:
         value = float(data.mean()) if len(data) else 0.0
         return (value, value)
-    rng = np.random.default_rng(seed)
-    means = data[rng.integers(0, len(data), size=(resamples, len(data)))].mean(axis=1)
-    low, high = np.percentile(means, [2.5, 97.5])
-    return (float(low), float(high))
+    found = stats.bootstrap((data,), np.mean, n_resamples=resamples, method="percentile",
+                            rng=np.random.default_rng(seed)).confidence_interval
+    return (float(found.low), float(found.high))
 
 
 def mean_interval(samples: Sequence[float], low: float = 0.0, high: float = 1.0) -> Interval:

@@ -17,6 +17,7 @@ from policies.registry import PolicySpec
 from policies.tubes import loaded_tubes
 from reachavoid.sweep import check_backend, run_tasks
 from reachavoid_env import Scenario, load_scenario
+from reachavoid_env.checks import FieldError
 from solvers.hj import ValueFunction, check_tubes_memory, solve_1v1, solve_1v2, solve_2v1
 from solvers.hj.cache import cache_dir
 from solvers.hj.games import game_1v1, game_1v2, game_2v1
@@ -191,10 +192,11 @@ def solve_library(scenarios: Sequence[Scenario], defenders: Sequence[str], grid1
         count = 1 if backend == "serial" else (workers or os.cpu_count() or 1)
         need, have = library_memory(unique, specs, grid1, grid2), available_memory()
         if count * need > have:
-            raise ValueError(f"workers: {count} concurrent solves need about "
+            raise FieldError(f"workers: {count} concurrent solves need about "
                              f"{count * need / 2**30:.1f} GiB ({need / 2**30:.2f} GiB each) but "
                              f"{have / 2**30:.1f} GiB is available; use at most "
-                             f"{max(1, have // max(need, 1))} workers or coarser grids")
+                             f"{max(1, have // max(need, 1))} workers or coarser grids",
+                             "workers")
     rows: dict[str, list[TubeSolve]] = {}
     task = functools.partial(map_tubes, specs, grid1, grid2)
     with tqdm(total=len(unique), desc="tubes", unit="map", disable=not progress) as bar:

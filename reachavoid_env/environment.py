@@ -18,7 +18,6 @@ Version History (``reachavoid/ReachAvoid-vN``, ``reach_avoid_vN``):
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from typing import Any
@@ -46,7 +45,6 @@ _STATUSES = tuple(AttackerStatus)   # index = AttackerStatus.code
 _CAPTURED, _ARRIVED = AttackerStatus.CAPTURED.code, AttackerStatus.ARRIVED.code
 INFO_FORMATS = ("numeric", "readable")
 STARTS = ("scenario", "random")
-_PLAYER_FIELD = re.compile(r"players\.(attacker|defender)s\[(\d+)\]")
 _RESET_OPTIONS = ("scenario", "attackers", "defenders")
 
 
@@ -208,7 +206,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             attackers, defenders = scenario.starts(self.np_random)
             self.scenario = scenario.with_starts(attackers, defenders)
         except ScenarioError as err:
-            raise ScenarioError(f"reset: {_name_player(str(err))}") from None
+            raise ScenarioError(f"reset: {_name_player(err, self._m, self._n)}",
+                                err.field) from None
         sc = self.scenario
         m = self._m
         positions = np.concatenate([attackers, defenders])
@@ -630,10 +629,14 @@ def _start_points(value: Any, count: int, role: str) -> tuple[tuple[float, float
     return tuple((float(x), float(y)) for x, y in points)
 
 
-def _name_player(message: str) -> str:
-    """Append the agent name to a scenario error about ``players.attackers[i]``."""
-    match = _PLAYER_FIELD.search(message)
-    return f"{message} ({match[1]}_{match[2]})" if match else message
+def _name_player(err: ScenarioError, attackers: int, defenders: int) -> str:
+    """The message of ``err``, with the agent's name when its field is one player's start
+    (``players.attackers[i]``)."""
+    agents = {f"players.{role}s[{i}]": f"{role}_{i}"
+              for role, count in (("attacker", attackers), ("defender", defenders))
+              for i in range(count)}
+    agent = agents.get(err.field or "")
+    return f"{err} ({agent})" if agent else str(err)
 
 
 def observation_config(value: ObservationConfig | Mapping[str, Any] | None,

@@ -21,8 +21,8 @@ MIN_EXTENT = 1e-3
 """Smallest width and height of a domain (map units)."""
 
 
-class ScenarioError(ValueError):
-    """A scenario or map is invalid; the message starts with the offending field."""
+class ScenarioError(checks.FieldError):
+    """A scenario or map is invalid; ``field`` names the offending field."""
 
 
 @dataclass(frozen=True)
@@ -44,17 +44,18 @@ class GameMap:
         xmin, xmax, ymin, ymax = self.domain
         if not (xmax - xmin >= MIN_EXTENT and ymax - ymin >= MIN_EXTENT):
             raise ScenarioError(f"map.domain: need xmin < xmax and ymin < ymax, each extent at "
-                                f"least {MIN_EXTENT:g}, got {self.domain}")
+                                f"least {MIN_EXTENT:g}, got {self.domain}", field="map.domain")
         if not self.target:
-            raise ScenarioError("map.target: at least one target shape is required")
+            raise ScenarioError("map.target: at least one target shape is required",
+                                field="map.target")
         for i, shape in enumerate(self.target):
             name = "map.target" if len(self.target) == 1 else f"map.target[{i}]"
             bx0, bx1, by0, by1 = shape.bounds()
             if bx0 < xmin or bx1 > xmax or by0 < ymin or by1 > ymax:
-                raise ScenarioError(f"{name}: extends outside the domain {self.domain}")
+                raise ScenarioError(f"{name}: extends outside the domain {self.domain}", field=name)
             for k, obstacle in enumerate(self.obstacles):
                 if _shapes_overlap(shape, obstacle):
-                    raise ScenarioError(f"{name}: overlaps obstacle {k}")
+                    raise ScenarioError(f"{name}: overlaps obstacle {k}", field=name)
 
     @property
     def size(self) -> tuple[float, float]:
@@ -104,27 +105,28 @@ class GameMap:
     @classmethod
     def from_dict(cls, data: Any, field_name: str = "map") -> GameMap:
         if not isinstance(data, dict):
-            raise ScenarioError(f"{field_name}: expected a table")
+            raise ScenarioError(f"{field_name}: expected a table", field=field_name)
         unknown = set(data) - {"domain", "target", "obstacles"}
         if unknown:
-            raise ScenarioError(f"{field_name}: unknown keys {sorted(unknown)}")
+            raise ScenarioError(f"{field_name}: unknown keys {sorted(unknown)}", field=field_name)
         if "domain" not in data:
-            raise ScenarioError(f"{field_name}.domain: missing")
+            raise ScenarioError(f"{field_name}.domain: missing", field=f"{field_name}.domain")
         domain = data["domain"]
         if not isinstance(domain, list) or len(domain) != 4:
             raise ScenarioError(
                 f"{field_name}.domain: expected [xmin, xmax, ymin, ymax], got {domain!r}"
-            )
+            , field=f"{field_name}.domain")
         domain_t = tuple(checks.real(v, f"{field_name}.domain[{i}]", -MAX_COORDINATE,
                                      MAX_COORDINATE, error=ScenarioError)
                          for i, v in enumerate(domain))
         if "target" not in data:
-            raise ScenarioError(f"{field_name}.target: missing")
+            raise ScenarioError(f"{field_name}.target: missing", field=f"{field_name}.target")
         target = data["target"]
         targets = target if isinstance(target, list) else [target]
         obstacles = data.get("obstacles", [])
         if not isinstance(obstacles, list):
-            raise ScenarioError(f"{field_name}.obstacles: expected a list of shape tables")
+            raise ScenarioError(f"{field_name}.obstacles: expected a list of shape tables",
+                                field=f"{field_name}.obstacles")
         try:
             target_shapes = tuple(
                 shape_from_dict(t, f"{field_name}.target" + (f"[{i}]" if isinstance(target, list)
@@ -135,7 +137,7 @@ class GameMap:
                 shape_from_dict(o, f"{field_name}.obstacles[{i}]") for i, o in enumerate(obstacles)
             )
         except ShapeError as err:
-            raise ScenarioError(str(err)) from None
+            raise ScenarioError(str(err), err.field) from None
         return cls(domain_t, target_shapes, obstacle_shapes)  # type: ignore[arg-type]
 
 
@@ -166,15 +168,8 @@ def flood_fill(passable: np.ndarray, seeds: np.ndarray) -> np.ndarray:
     Returns:
         ``(nx, ny)`` bool, the reached cells.
     """
+    from scipy import ndimage  # only where a fill is made
+
     passable = np.asarray(passable, dtype=bool)
-    reached = passable & np.asarray(seeds, dtype=bool)
-    while True:
-        grown = reached.copy()
-        grown[1:] |= reached[:-1]
-        grown[:-1] |= reached[1:]
-        grown[:, 1:] |= reached[:, :-1]
-        grown[:, :-1] |= reached[:, 1:]
-        grown &= passable
-        if np.array_equal(grown, reached):
-            return reached
-        reached = grown
+    # the default structure joins 4-neighbours; seeds outside the mask would stay set
+    return ndimage.binary_propagation(passable & np.asarray(seeds, dtype=bool), mask=passable)

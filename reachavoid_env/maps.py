@@ -67,7 +67,7 @@ ScenarioSource = Union[str, "os.PathLike[str]", Scenario, Sequence[Any]]
 ``Scenario``, or a list of these."""
 
 
-class MapError(ValueError):
+class MapError(checks.FieldError):
     """A generator option is invalid, or no map satisfies the options; the message names
     the option."""
 
@@ -112,7 +112,7 @@ class MapOptions:
         d = tuple(_real(v, f"domain[{i}]", -MAX_COORDINATE, MAX_COORDINATE)
                   for i, v in enumerate(_sequence(self.domain, "domain", 4)))
         if not (d[1] > d[0] and d[3] > d[2]):
-            raise MapError(f"domain: need xmin < xmax and ymin < ymax, got {d}")
+            raise MapError(f"domain: need xmin < xmax and ymin < ymax, got {d}", field="domain")
         object.__setattr__(self, "domain", d)
         small = min(d[1] - d[0], d[3] - d[2])
         low, high = _range(self.obstacles, "obstacles", 0, MAX_OBSTACLES, integer=True)
@@ -120,7 +120,8 @@ class MapOptions:
         kinds = _sequence(self.shapes, "shapes")
         unknown = [k for k in kinds if k not in _DRAW]
         if not kinds or unknown:
-            raise MapError(f"shapes: expected some of {', '.join(_DRAW)}, got {list(kinds)}")
+            raise MapError(f"shapes: expected some of {', '.join(_DRAW)}, got {list(kinds)}",
+                           field="shapes")
         object.__setattr__(self, "shapes", tuple(kinds))
         object.__setattr__(self, "obstacle_size",
                            _range(self.obstacle_size, "obstacle_size", 0.0, small, open_low=True))
@@ -129,7 +130,7 @@ class MapOptions:
         if covered < self.density[0]:
             raise MapError(f"density: at least {self.density[0]:g} of the domain cannot be "
                            f"covered by at most {high} obstacles of extent at most "
-                           f"{self.obstacle_size[1]:g} (at most {covered:.3g})")
+                           f"{self.obstacle_size[1]:g} (at most {covered:.3g})", field="density")
         object.__setattr__(self, "clearance", _real(self.clearance, "clearance", 0.0, small / 2))
         object.__setattr__(self, "target_size",
                            _range(self.target_size, "target_size", 0.0, small, open_low=True))
@@ -137,10 +138,11 @@ class MapOptions:
             r = tuple(_real(v, f"target_region[{i}]", -MAX_COORDINATE, MAX_COORDINATE)
                       for i, v in enumerate(_sequence(self.target_region, "target_region", 4)))
             if not (d[0] <= r[0] and r[1] <= d[1] and d[2] <= r[2] and r[3] <= d[3]):
-                raise MapError(f"target_region: {r} must lie within the domain {d}")
+                raise MapError(f"target_region: {r} must lie within the domain {d}",
+                               field="target_region")
             if min(r[1] - r[0], r[3] - r[2]) < self.target_size[0]:
                 raise MapError(f"target_region: {r} is smaller than the smallest target "
-                               f"{self.target_size[0]:g}")
+                               f"{self.target_size[0]:g}", field="target_region")
             object.__setattr__(self, "target_region", r)
         for name in ("attackers", "defenders"):
             object.__setattr__(self, name, checks.integer(getattr(self, name), name, 1, 64,
@@ -157,7 +159,7 @@ class MapOptions:
         if cell >= self.free_clearance:
             raise MapError(f"raster: a cell's diagonal {cell:.3g} must be below the start "
                            f"clearance {self.free_clearance:g} for a sound connectivity check; "
-                           f"raise raster or start_clearance")
+                           f"raise raster or start_clearance", field="raster")
 
     @property
     def free_clearance(self) -> float:
@@ -186,7 +188,7 @@ def options_from_text(texts: dict[str, str | None]) -> MapOptions:
             items = tuple(kind(item.strip()) for item in text.split(","))
         except ValueError:
             raise MapError(f"{option.name}: expected {kind.__name__} values separated by commas, "
-                           f"got {text!r}") from None
+                           f"got {text!r}", field=option.name) from None
         values[option.name] = items if isinstance(example, tuple) else items[0] \
             if len(items) == 1 else items
     return MapOptions(**values)
@@ -200,7 +202,7 @@ def _sequence(value: Any, name: str, length: int | None = None) -> tuple:
     if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) \
             or (length is not None and len(value) != length):
         size = f"{length} values" if length else "a list"
-        raise MapError(f"{name}: expected {size}, got {value!r}")
+        raise MapError(f"{name}: expected {size}, got {value!r}", field=name)
     return tuple(value)
 
 
@@ -214,7 +216,7 @@ def _range(value: Any, name: str, low: float, high: float, integer: bool = False
         a, b = (checks.real(v, f"{name}[{i}]", low, high, low_open=open_low, error=MapError)
                 for i, v in enumerate(pair))
     if a > b:
-        raise MapError(f"{name}: the low end {a:g} exceeds the high end {b:g}")
+        raise MapError(f"{name}: the low end {a:g} exceeds the high end {b:g}", field=name)
     return (a, b)
 
 
@@ -347,7 +349,7 @@ def generate_map(options: MapOptions, seed: int, index: int = 0,
     raise MapError(f"{worst}: no map of seed {seed}, index {index} met the options in "
                    f"{attempts} draws (rejections: "
                    f"{', '.join(f'{k} {v}' for k, v in sorted(reasons.items()))}); relax "
-                   f"{worst}")
+                   f"{worst}", field=worst)
 
 
 def _attempt(options: MapOptions, rng: np.random.Generator,
@@ -482,7 +484,7 @@ def _written_by_us(folder: Path) -> dict[str, str]:
     try:
         return {entry.file: entry.sha256 for entry in read_index(index)}
     except ValueError as err:
-        raise MapError(f"out: {err}; choose another folder") from None
+        raise MapError(f"out: {err}; choose another folder", field="out") from None
 
 
 def write_library(folder: str | os.PathLike[str], options: MapOptions, seed: int,
@@ -504,13 +506,13 @@ def write_library(folder: str | os.PathLike[str], options: MapOptions, seed: int
         if not path.exists() and not path.is_symlink():
             continue
         if not path.is_file():
-            raise MapError(f"out: {path} exists and is not a file")
+            raise MapError(f"out: {path} exists and is not a file", field="out")
         current = path.read_bytes()
         ours_unchanged = (unedited_index(current) if name == INDEX
                           else ours.get(name) == hashlib.sha256(current).hexdigest())
         if current != data and not ours_unchanged:
             raise MapError(f"out: {path} exists and was not written by `reachavoid maps` (or "
-                           f"was changed since); choose another folder")
+                           f"was changed since); choose another folder", field="out")
     folder.mkdir(parents=True, exist_ok=True)
     written = []
     for name, data in files.items():   # the index last: it vouches only for written maps
@@ -531,7 +533,8 @@ def load_library(source: ScenarioSource) -> tuple[Scenario, ...]:
         first = named.setdefault(scenario.name, (scenario, origin))
         if first[0] != scenario:
             raise ScenarioError(f"scenario: {first[1]} and {origin} are different maps named "
-                                f"{scenario.name!r}; names in a library are unique")
+                                f"{scenario.name!r}; names in a library are unique",
+                                field="scenario")
     return tuple(scenario for scenario, _ in named.values())
 
 
@@ -541,7 +544,7 @@ def _load_library(source: ScenarioSource) -> list[tuple[Scenario, str]]:
         return [(source, f"scenario {source.name!r}")]
     if isinstance(source, (list, tuple)):
         if not source:
-            raise ScenarioError("scenario: an empty list of scenarios")
+            raise ScenarioError("scenario: an empty list of scenarios", field="scenario")
         return [found for item in source for found in _load_library(item)]
     if not isinstance(source, (str, os.PathLike)):
         raise TypeError(f"scenario: expected a built-in name, a TOML file, a library folder "
@@ -552,15 +555,16 @@ def _load_library(source: ScenarioSource) -> list[tuple[Scenario, str]]:
             return _load_library(path / INDEX)
         files = sorted(path.glob("*.toml"))
         if not files:
-            raise ScenarioError(f"scenario: folder {str(path)!r} holds no .toml scenario")
+            raise ScenarioError(f"scenario: folder {str(path)!r} holds no .toml scenario",
+                                field="scenario")
         return [(_load_map(f), str(f)) for f in files]
     if path.name == INDEX and path.is_file():
         try:
             entries = read_index(path)
         except ValueError as err:
-            raise ScenarioError(f"scenario: {err}") from None
+            raise ScenarioError(f"scenario: {err}", field="scenario") from None
         if not entries:
-            raise ScenarioError(f"scenario: {str(path)!r} lists no maps")
+            raise ScenarioError(f"scenario: {str(path)!r} lists no maps", field="scenario")
         files = [path.parent / entry.file for entry in entries]
         return [(_load_map(f), str(f)) for f in files]
     return [(load_scenario(source), str(source))]
@@ -572,4 +576,5 @@ def _load_map(path: Path) -> Scenario:
         return load_scenario(path)
     except ScenarioError as err:
         message = str(err)
-        raise ScenarioError(message if str(path) in message else f"{path}: {message}") from None
+        raise ScenarioError(message if str(path) in message else f"{path}: {message}",
+                            field=err.field) from None

@@ -12,8 +12,11 @@ bottom:
   defender-attacker edges, each kind in its own style (``EDGE_STYLES``); names and text
   carry a white halo so that they stay readable over obstacles; on the last frame of an
   episode, a banner saying how it ended;
-- the legend: every glyph, colour and line style of the map in words, with the counts of
-  attackers in play, captured and arrived.
+- the legend: every glyph, colour and line style of the map in words (the trails and how
+  much time they cover included), with the counts of attackers in play, captured and
+  arrived.
+
+Text is drawn without kerning (``_Font``).
 
 Colours come from ``reachavoid_env.palette``, shared with the tube figures.
 """
@@ -30,6 +33,7 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 import numpy as np  # noqa: E402
 import pygame  # noqa: E402
+import pygame.freetype  # noqa: E402
 
 from reachavoid_env import palette as P  # noqa: E402
 from reachavoid_env.game_state import (  # noqa: E402
@@ -61,6 +65,33 @@ EDGE_STYLES: dict[EdgeKind, EdgeStyle] = {
     EdgeKind.TEAM: EdgeStyle(P.TEAM_EDGE, 3.0, 4.0, "team: 2 defenders on 1 attacker (1 vs 2)"),
     EdgeKind.RACE: EdgeStyle(P.RACE_EDGE, 2.0, 6.0, "racing to intercept (no guarantee)"),
 }
+
+
+class _Font:
+    """pygame's bundled font (FreeSans Bold) drawn by ``pygame.freetype`` without kerning:
+    the font's kerning table opens gaps inside words ("at tackers", "guaran teed"), and
+    ``pygame.font`` (SDL_ttf) applies it with no way to turn it off. The methods used here
+    of ``pygame.font.Font``, at the same sizes."""
+
+    def __init__(self, size: int, bold: bool = False) -> None:
+        pygame.freetype.init()
+        self._face = pygame.freetype.Font(None, max(1, int(size * 0.6875)))  # pygame.font's
+        self._face.origin = True          # scale of its default font; positions: baselines
+        self._face.strong = bold
+        self._ascent = self._face.get_sized_ascender()
+        self._linesize = self._face.get_sized_height() + 1
+
+    def get_linesize(self) -> int:
+        return self._linesize
+
+    def size(self, text: str) -> tuple[int, int]:
+        return (self._face.get_rect(text).right, self._linesize)
+
+    def render(self, text: str, antialias: bool, color: P.Color) -> pygame.Surface:
+        """``text`` on a transparent line ``get_linesize()`` high (``antialias``: always)."""
+        surface = pygame.Surface((max(1, self.size(text)[0]), self._linesize), pygame.SRCALPHA)
+        self._face.render_to(surface, (0, self._ascent), text, color)
+        return surface
 
 
 def _round_up(pixels: float) -> int:
@@ -100,7 +131,6 @@ class Renderer:
             raise ValueError(f"trail_seconds: must be >= 0, got {trail_seconds}")
         if text_lines < 0:
             raise ValueError(f"text_lines: must be >= 0, got {text_lines}")
-        pygame.font.init()
         self.game_map = game_map
         self.capture_radius = float(capture_radius)
         self.trail_seconds = float(trail_seconds)
@@ -108,13 +138,11 @@ class Renderer:
         self.width = _round_up(width)
         unit = self.width / 640  # sizes below are tuned for a 640-pixel frame
         self._unit = unit
-        self._font = pygame.font.Font(None, max(10, round(22 * unit)))
-        self._title_font = pygame.font.Font(None, max(10, round(22 * unit)))
-        self._title_font.bold = True
-        self._banner_font = pygame.font.Font(None, max(10, round(26 * unit)))
-        self._banner_font.bold = True
-        self._label_font = pygame.font.Font(None, max(8, round(19 * unit)))
-        self._legend_font = pygame.font.Font(None, max(8, round(19 * unit)))
+        self._font = _Font(max(10, round(22 * unit)))
+        self._title_font = _Font(max(10, round(22 * unit)), bold=True)
+        self._banner_font = _Font(max(10, round(26 * unit)), bold=True)
+        self._label_font = _Font(max(8, round(19 * unit)))
+        self._legend_font = _Font(max(8, round(19 * unit)))
         self._line_height = self._font.get_linesize()
         self._margin = max(4, round(10 * unit))
         self._halo = max(1, round(2 * unit))
@@ -175,7 +203,7 @@ class Renderer:
 
     # -- text ----------------------------------------------------------------------------
 
-    def _text(self, words: str, color: P.Color, font: pygame.font.Font,
+    def _text(self, words: str, color: P.Color, font: _Font,
               halo: bool = False) -> pygame.Surface:
         """``words`` rendered (remembered), with a white halo of ``self._halo`` pixels
         around every letter when ``halo`` (readable over obstacles, trails and edges)."""
@@ -200,7 +228,7 @@ class Renderer:
             self._texts[key] = surface
         return surface
 
-    def _fit(self, line: str, pixels: int, font: pygame.font.Font | None = None) -> str:
+    def _fit(self, line: str, pixels: int, font: _Font | None = None) -> str:
         """``line``, cut short with "..." if it is wider than ``pixels`` (remembered)."""
         font = font or self._font
         key = f"{id(font)}:{pixels}:{line}"
@@ -287,9 +315,18 @@ class Renderer:
                 self._draw_edge(kind, (x - half, y), (x + half, y))
             return draw
 
+        def trails(x: float, y: float) -> None:   # an attacker's over a defender's, old to new
+            half, steps, apart = self._glyph * 1.6, 12, self._trail_width
+            for color, dy in ((P.ATTACKER, -apart), (P.DEFENDER, apart)):
+                self._draw_trail(deque((self.trail_seconds * k / steps,
+                                        x - half + 2 * half * k / steps, y + dy)
+                                       for k in range(steps + 1)), self.trail_seconds, color)
+
         wide = "88"  # room for two-digit counts
         edges = {kind: _LegendEntry(line(kind), lambda s, words=style.label: words, style.label)
                  for kind, style in EDGE_STYLES.items()}
+        recent = f"trails: the last {self.trail_seconds:g} s"
+        faded = [_LegendEntry(trails, lambda s: recent, recent)] if self.trail_seconds else []
         return [
             [_LegendEntry(swatch(P.TARGET, P.TARGET_EDGE), lambda s: "target", "target"),
              _LegendEntry(swatch(P.OBSTACLE, P.OBSTACLE), lambda s: "obstacle", "obstacle"),
@@ -302,7 +339,7 @@ class Renderer:
              _LegendEntry(self._draw_plus, lambda s: f"captured: {len(s.captured)}",
                           f"captured: {wide}", counts=True),
              _LegendEntry(self._draw_arrival, lambda s: f"reached target: {len(s.arrived)}",
-                          f"reached target: {wide}", counts=True)],
+                          f"reached target: {wide}", counts=True), *faded],
             [edges[EdgeKind.PAIR], edges[EdgeKind.TEAM], edges[EdgeKind.RACE]],
         ]
 

@@ -58,18 +58,21 @@ def substeps_for(max_speed: float, dt: float, player_radius: float) -> int:
 
 def _points_field(value: Any, field_name: str) -> tuple[Point, ...] | int:
     if isinstance(value, bool):
-        raise ScenarioError(f"{field_name}: expected a list of [x, y] or a count, got {value!r}")
+        raise ScenarioError(f"{field_name}: expected a list of [x, y] or a count, got {value!r}",
+                            field=field_name)
     if isinstance(value, int):
         if value < 1:
-            raise ScenarioError(f"{field_name}: the count must be at least 1, got {value}")
+            raise ScenarioError(f"{field_name}: the count must be at least 1, got {value}",
+                                field=field_name)
         return value
     if not isinstance(value, list) or not value:
-        raise ScenarioError(f"{field_name}: expected a non-empty list of [x, y] or a count")
+        raise ScenarioError(f"{field_name}: expected a non-empty list of [x, y] or a count",
+                            field=field_name)
     points = []
     for i, p in enumerate(value):
         if not isinstance(p, list) or len(p) != 2:
             raise ScenarioError(f"{field_name}[{i}]: expected a vector [x, y] of length 2, "
-                                f"got {p!r}")
+                                f"got {p!r}", field=f"{field_name}[{i}]")
         points.append((checks.real(p[0], f"{field_name}[{i}][0]", error=ScenarioError),
                        checks.real(p[1], f"{field_name}[{i}][1]", error=ScenarioError)))
     return tuple(points)
@@ -103,7 +106,8 @@ class Scenario:
     def __post_init__(self) -> None:
         if not self.name or not self.name.isprintable():
             raise ScenarioError(f"name: expected printable text (no control characters such "
-                                f"as NUL or a line break), got {self.name[:60]!r}")
+                                f"as NUL or a line break), got {self.name[:60]!r}",
+                                field="name")
         size = min(self.map.size)
         for name, high in (("attacker_speed", MAX_SPEED), ("defender_speed", MAX_SPEED),
                            ("capture_radius", size), ("dt", MAX_DT),
@@ -120,18 +124,21 @@ class Scenario:
                                 f"{max(self.attacker_speed, self.defender_speed):g} needs "
                                 f"{substeps} physics sub-steps per step with player_radius "
                                 f"{self.player_radius:g} (at most {MAX_SUBSTEPS}); shorten "
-                                f"sim.dt or grow sim.player_radius")
+                                f"sim.dt or grow sim.player_radius", field="sim.dt")
         for method, count in self.paper_captures:
             checks.integer(count, f"paper.captured.{method}", 0, self.num_attackers,
                            error=ScenarioError)
         for role, count in (("attackers", self.num_attackers), ("defenders", self.num_defenders)):
             if count < 1:
-                raise ScenarioError(f"players.{role}: need at least one, got {count}")
+                raise ScenarioError(f"players.{role}: need at least one, got {count}",
+                                    field=f"players.{role}")
             if count > MAX_PLAYERS:
-                raise ScenarioError(f"players.{role}: at most {MAX_PLAYERS}, got {count}")
+                raise ScenarioError(f"players.{role}: at most {MAX_PLAYERS}, got {count}",
+                                    field=f"players.{role}")
             starts = getattr(self, role)
             if starts is not None and len(starts) != count:
-                raise ScenarioError(f"players.{role}: {len(starts)} starts for {count} players")
+                raise ScenarioError(f"players.{role}: {len(starts)} starts for {count} players",
+                                    field=f"players.{role}")
         if self.attackers is not None and self.defenders is not None:
             self.validate_starts(np.asarray(self.attackers), np.asarray(self.defenders))
 
@@ -147,20 +154,24 @@ class Scenario:
         """Raise ``ScenarioError`` naming the player when a start is not valid."""
         for role, points in (("attackers", attackers), ("defenders", defenders)):
             for i, p in enumerate(np.asarray(points, dtype=np.float64)):
-                where = f"players.{role}[{i}]: ({p[0]:g}, {p[1]:g})"
+                name = f"players.{role}[{i}]"
+                where = f"{name}: ({p[0]:g}, {p[1]:g})"
                 xmin, xmax, ymin, ymax = self.map.domain
                 if not (xmin <= p[0] <= xmax and ymin <= p[1] <= ymax):
-                    raise ScenarioError(f"{where} lies outside the domain {self.map.domain}")
+                    raise ScenarioError(f"{where} lies outside the domain {self.map.domain}",
+                                        field=name)
                 for k, obstacle in enumerate(self.map.obstacles):
                     if obstacle.contains(p):
-                        raise ScenarioError(f"{where} lies inside obstacle {k}")
+                        raise ScenarioError(f"{where} lies inside obstacle {k}", field=name)
                     if obstacle.signed_distance(p) < self.player_radius:
                         raise ScenarioError(f"{where} is closer than player_radius "
-                                            f"{self.player_radius:g} to obstacle {k}")
+                                            f"{self.player_radius:g} to obstacle {k}",
+                                            field=name)
         for i, p in enumerate(np.asarray(attackers, dtype=np.float64)):
-            where = f"players.attackers[{i}]: ({p[0]:g}, {p[1]:g})"
+            name = f"players.attackers[{i}]"
+            where = f"{name}: ({p[0]:g}, {p[1]:g})"
             if self.map.in_target(p):
-                raise ScenarioError(f"{where} starts inside the target")
+                raise ScenarioError(f"{where} starts inside the target", field=name)
             caught = rules.within_capture(p[None], np.asarray(defenders, dtype=np.float64),
                                           self.capture_radius)[0]
             if caught.any():
@@ -168,7 +179,7 @@ class Scenario:
                 j = int(np.argmin(gaps))
                 raise ScenarioError(f"{where} starts captured by defenders[{j}] "
                                     f"(distance {gaps[j]:.3g} <= capture_radius "
-                                    f"{self.capture_radius:g})")
+                                    f"{self.capture_radius:g})", field=name)
 
     def starts(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """Start positions ``(attackers (M, 2), defenders (N, 2))``, float64.
@@ -200,7 +211,7 @@ class Scenario:
                 return np.asarray(chosen[:count])
         role = "attackers" if defenders is not None else "defenders"
         raise ScenarioError(f"players.{role}: could not draw {count} valid random starts with "
-                            f"clearance {clearance:g}")
+                            f"clearance {clearance:g}", field=f"players.{role}")
 
     def with_players(self, num_attackers: int, num_defenders: int) -> Scenario:
         """The same map and settings with random starts for the given numbers of players."""
@@ -238,14 +249,14 @@ class Scenario:
             raise ScenarioError(f"unknown top-level tables {sorted(unknown)} "
                                 "(expected map, players, sim, paper)")
         if "map" not in data:
-            raise ScenarioError("map: missing [map] table")
+            raise ScenarioError("map: missing [map] table", field="map")
         game_map = GameMap.from_dict(data["map"])
         players = data.get("players")
         if not isinstance(players, dict):
-            raise ScenarioError("players: missing [players] table")
+            raise ScenarioError("players: missing [players] table", field="players")
         sim = data.get("sim", {})
         if not isinstance(sim, dict):
-            raise ScenarioError("sim: expected a table")
+            raise ScenarioError("sim: expected a table", field="sim")
         allowed_players = {"attacker_speed", "defender_speed", "capture_radius", "attackers",
                            "defenders"}
         allowed_sim = {"dt", "max_steps", "player_radius", "start_clearance"}
@@ -253,10 +264,10 @@ class Scenario:
                                      ("sim", sim, allowed_sim)):
             extra = set(keys) - allowed
             if extra:
-                raise ScenarioError(f"{table}: unknown keys {sorted(extra)}")
+                raise ScenarioError(f"{table}: unknown keys {sorted(extra)}", field=table)
         for role in ("attackers", "defenders"):
             if role not in players:
-                raise ScenarioError(f"players.{role}: missing")
+                raise ScenarioError(f"players.{role}: missing", field=f"players.{role}")
         attackers = _points_field(players["attackers"], "players.attackers")
         defenders = _points_field(players["defenders"], "players.defenders")
         kwargs: dict[str, Any] = {key: players[key] for key in
@@ -266,7 +277,8 @@ class Scenario:
         paper = data.get("paper", {})
         if not isinstance(paper, dict) or set(paper) - {"captured"} \
                 or not isinstance(paper.get("captured", {}), dict):
-            raise ScenarioError("paper: expected a table with captured = {method = count, ...}")
+            raise ScenarioError("paper: expected a table with captured = {method = count, ...}",
+                                field="paper")
         kwargs["paper_captures"] = tuple(paper.get("captured", {}).items())
         return cls(
             map=game_map,
@@ -293,7 +305,7 @@ def builtin_scenario(name: str) -> Scenario:
     """A built-in scenario by name, e.g. ``"paper_6v2"``."""
     if name not in builtin_names():
         raise ScenarioError(f"scenario: unknown built-in {name!r} "
-                            f"(built-ins: {', '.join(builtin_names())})")
+                            f"(built-ins: {', '.join(builtin_names())})", field="scenario")
     data = (resources.files("reachavoid_env") / "scenarios" / f"{name}.toml").read_bytes()
     return _parse(data, name, source=f"built-in {name}")
 
@@ -302,7 +314,7 @@ def builtin_map(name: str = "paper") -> GameMap:
     """The map shared by the built-in scenarios whose names start with ``name``."""
     matches = [n for n in builtin_names() if n.split("_")[0] == name]
     if not matches:
-        raise ScenarioError(f"map: unknown built-in map {name!r}")
+        raise ScenarioError(f"map: unknown built-in map {name!r}", field="map")
     return builtin_scenario(matches[0]).map
 
 
@@ -310,16 +322,22 @@ def read_toml(data: bytes, source: str,
               error: type[ValueError] = ScenarioError) -> dict[str, Any]:
     """The table of the TOML text ``data`` (UTF-8, a byte-order mark allowed): what every
     input file of the project (scenario, suite, library index) is read with; ``error``
-    naming ``source`` when it is not UTF-8, not TOML, or nested too deeply to read."""
+    naming ``source`` (its ``field``, for a ``FieldError``) when it is not UTF-8, not TOML,
+    or nested too deeply to read."""
+
+    def failure(message: str) -> ValueError:
+        if issubclass(error, checks.FieldError):
+            return error(f"{source}: {message}", field=source)
+        return error(f"{source}: {message}")
+
     try:
         return tomllib.loads(data.decode("utf-8-sig"))
     except UnicodeDecodeError as err:
-        raise error(f"{source}: not UTF-8 text (byte {err.start}); TOML files are "
-                    f"UTF-8") from None
+        raise failure(f"not UTF-8 text (byte {err.start}); TOML files are UTF-8") from None
     except tomllib.TOMLDecodeError as err:
-        raise error(f"{source}: malformed TOML: {err}") from None
+        raise failure(f"malformed TOML: {err}") from None
     except RecursionError:
-        raise error(f"{source}: arrays or tables nested too deeply") from None
+        raise failure("arrays or tables nested too deeply") from None
 
 
 def _parse(data: bytes, name: str, source: str) -> Scenario:
@@ -333,7 +351,7 @@ def load_scenario(source: str | os.PathLike[str]) -> Scenario:
         return builtin_scenario(str(source))
     if not path.is_file():
         raise ScenarioError(f"scenario: no such file or built-in {str(source)!r} "
-                            f"(built-ins: {', '.join(builtin_names())})")
+                            f"(built-ins: {', '.join(builtin_names())})", field="scenario")
     return _parse(path.read_bytes(), path.stem, source=str(path))
 
 

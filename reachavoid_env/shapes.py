@@ -28,9 +28,12 @@ from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
+from reachavoid_env.checks import FieldError
 
-class ShapeError(ValueError):
-    """A shape definition is malformed; the message names the field."""
+
+class ShapeError(FieldError):
+    """A shape definition is malformed; ``field`` names the field (``None`` from the shape's
+    own checks, which ``shape_from_dict`` prefixes with the table's field)."""
 
 
 class Shape(Protocol):
@@ -159,7 +162,8 @@ class Circle:
         radius = data["radius"]
         if isinstance(radius, bool) or not isinstance(radius, (int, float)) \
                 or not math.isfinite(radius):
-            raise ShapeError(f"{field}.radius: expected a finite number, got {radius!r}")
+            raise ShapeError(f"{field}.radius: expected a finite number, got {radius!r}",
+                             field=f"{field}.radius")
         return cls(_vector(data["center"], f"{field}.center"), float(radius))
 
     def __post_init__(self) -> None:
@@ -288,14 +292,13 @@ class Polygon:
         _keys(data, field, {"vertices"})
         vertices = data["vertices"]
         if not isinstance(vertices, list):
-            raise ShapeError(f"{field}.vertices: expected a list of [x, y] pairs")
+            raise ShapeError(f"{field}.vertices: expected a list of [x, y] pairs",
+                             field=f"{field}.vertices")
         try:
             return cls(tuple(_vector(v, f"{field}.vertices[{i}]")
                              for i, v in enumerate(vertices)))
         except ShapeError as err:
-            message = str(err)
-            raise ShapeError(message if message.startswith(field)
-                             else f"{field}: {message}") from None
+            raise _named(err, field) from None
 
     def __post_init__(self) -> None:
         v = np.asarray(self.vertices, dtype=np.float64)
@@ -430,13 +433,14 @@ def quadratic_entry_time(offsets: np.ndarray, motions: np.ndarray,
 
 def _vector(value: Any, field: str) -> tuple[float, float]:
     if not isinstance(value, (list, tuple)) or len(value) != 2:
-        raise ShapeError(f"{field}: expected a vector [x, y] of length 2, got {value!r}")
+        raise ShapeError(f"{field}: expected a vector [x, y] of length 2, got {value!r}",
+                         field=field)
     try:
         x, y = (float(c) for c in value)
     except (TypeError, ValueError):
-        raise ShapeError(f"{field}: expected numbers, got {value!r}") from None
+        raise ShapeError(f"{field}: expected numbers, got {value!r}", field=field) from None
     if not (math.isfinite(x) and math.isfinite(y)):
-        raise ShapeError(f"{field}: coordinates must be finite, got {value!r}")
+        raise ShapeError(f"{field}: coordinates must be finite, got {value!r}", field=field)
     return (x, y)
 
 
@@ -445,21 +449,25 @@ def _keys(data: dict[str, Any], field: str, required: set[str]) -> None:
     keys = set(data) - {"type"}
     missing, extra = required - keys, keys - required
     if missing:
-        raise ShapeError(f"{field}: {data['type']} needs {sorted(missing)}")
+        raise ShapeError(f"{field}: {data['type']} needs {sorted(missing)}", field=field)
     if extra:
-        raise ShapeError(f"{field}: unknown keys {sorted(extra)} for a {data['type']}")
+        raise ShapeError(f"{field}: unknown keys {sorted(extra)} for a {data['type']}", field=field)
 
 
 def shape_from_dict(data: Any, field: str) -> Shape:
     """Build a shape from its TOML table (``SHAPES``); errors name ``field`` and the reason."""
     if not isinstance(data, dict):
-        raise ShapeError(f"{field}: expected a table with a 'type', got {data!r}")
+        raise ShapeError(f"{field}: expected a table with a 'type', got {data!r}", field=field)
     kind = data.get("type")
     if kind not in SHAPES:
         raise ShapeError(f"{field}.type: unknown shape type {kind!r} (expected one of "
-                         f"{', '.join(SHAPES)})")
+                         f"{', '.join(SHAPES)})", field=f"{field}.type")
     try:
         return SHAPES[kind].from_dict(data, field)
     except ShapeError as err:
-        message = str(err)
-        raise ShapeError(message if message.startswith(field) else f"{field}: {message}") from None
+        raise _named(err, field) from None
+
+
+def _named(err: ShapeError, field: str) -> ShapeError:
+    """``err`` if it names its field, else the same reason under ``field``."""
+    return err if err.field is not None else ShapeError(f"{field}: {err}", field)

@@ -8,13 +8,14 @@ from pathlib import Path
 
 import pytest
 
+from solvers.hj.cache import cache_dir
+
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 # Tubes that tests solve through the cache go to a throwaway folder, never ~/.cache.
 _CACHE = tempfile.mkdtemp(prefix="reachavoid-test-cache-")
 # The kernels compiled before (by this user) are copied in: numba finds them by file stamp.
-_KERNELS = Path(os.environ.get("REACHAVOID_CACHE_DIR") or Path.home() / ".cache/reachavoid",
-                "kernels")
+_KERNELS = cache_dir() / "kernels"
 if _KERNELS.is_dir() and not _KERNELS.is_symlink() and _KERNELS.stat().st_uid == os.geteuid():
     shutil.copytree(_KERNELS, Path(_CACHE, "kernels"), symlinks=True)
 os.environ["REACHAVOID_CACHE_DIR"] = _CACHE

@@ -156,6 +156,12 @@ def test_bad_reset_options_name_the_player(options, message):
         env.reset(seed=0, options=options)
 
 
+def test_reset_errors_carry_the_players_field():
+    with pytest.raises(ScenarioError) as info:
+        ReachAvoidEnv("paper_2v1").reset(seed=0, options={"attackers": [[-0.5, 0.0], [0.0, -0.5]]})
+    assert info.value.field == "players.attackers[1]"
+
+
 def test_reset_with_another_scenario():
     env = ReachAvoidEnv("paper_2v1")
     other = replace(builtin_scenario("paper_2v1"), capture_radius=0.2)

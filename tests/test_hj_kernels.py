@@ -10,7 +10,7 @@ from solvers.hj import SolverSettings, game_1v1, game_2v1
 from solvers.hj.game import Game, attacker, defender, distance, maximum, minimum, table
 from solvers.hj.grid import Grid
 from solvers.hj.layout import layout_of
-from solvers.hj.reach_avoid import Marcher, Problem, iteration_orders
+from solvers.hj.marcher import Marcher, Problem, iteration_orders
 
 SCHEMES = ("godunov", "lax_friedrichs", "eno2")
 

@@ -11,7 +11,7 @@ from solvers.hj import SolverSettings, game_1v1, solve_1v1, solve_1v2, solve_2v1
 from solvers.hj import start as start_module
 from solvers.hj.grid import Grid
 from solvers.hj.layout import layout_of
-from solvers.hj.reach_avoid import Marcher, map_problem
+from solvers.hj.marcher import Marcher, map_problem
 from solvers.hj.start import StartBound, clip_where, largest_where, node_sets, reachable_nodes
 
 HIGH = SolverSettings.with_accuracy("high")

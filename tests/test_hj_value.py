@@ -9,6 +9,7 @@ import shutil
 import subprocess
 import sys
 import warnings
+from dataclasses import fields
 
 import numpy as np
 import pytest
@@ -26,8 +27,10 @@ from solvers.hj import (
     load_value_function,
     solve_1v1,
 )
-from solvers.hj.cache import cache_dir
+from solvers.hj.cache import cache_dir, cache_key
 from solvers.hj.reach_avoid import check_memory, memory_needed
+from solvers.hj.schemes import SCHEMES, Scheme
+from solvers.hj.solve import _key_parts
 
 LOW = SolverSettings.with_accuracy("low")
 
@@ -123,6 +126,15 @@ def test_cache_reuses_and_recomputes_corrupt_entries(cache_in_tmp):
         solve_1v1(game_map, grid_points=11, settings=LOW, progress=False)
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="XDG is the Linux convention")
+def test_cache_folder_follows_xdg_unless_configured(monkeypatch, tmp_path):
+    monkeypatch.delenv("REACHAVOID_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_dir() == tmp_path / "xdg" / "reachavoid"
+    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path / "mine"))
+    assert cache_dir() == tmp_path / "mine"
+
+
 def test_memory_guard_names_grid_and_need():
     grid = Grid.for_players((-1, 1, -1, 1), 3, 70)
     game = game_2v1((1.0, 1.5), 0.1)
@@ -162,6 +174,34 @@ def test_settings_validate_and_presets():
         SolverSettings(scheme="weno")
     with pytest.raises(ValueError, match="accuracy"):
         SolverSettings.with_accuracy("extreme")  # type: ignore[arg-type]
+
+
+def _other_value(value: object) -> object:
+    """A valid setting value unlike ``value`` (one rule per type: a new field of a new type
+    fails here until it gets one)."""
+    if isinstance(value, bool):
+        return not value
+    if isinstance(value, int):
+        return value + 1
+    if isinstance(value, float):
+        return value / 2
+    if isinstance(value, Scheme):
+        return next(s for s in SCHEMES.values() if s != value)
+    if value in ("red_black", "jacobi"):
+        return "jacobi" if value == "red_black" else "red_black"
+    raise AssertionError(f"no other value for a setting of type {type(value).__name__}")
+
+
+def test_cache_key_covers_every_setting():
+    game, grid = game_1v1((1.0, 1.0), 0.1), Grid((-1.0,) * 4, (1.0,) * 4, (9,) * 4)
+    base = SolverSettings()
+
+    def key(settings):
+        return cache_key(_key_parts(game, MAP, grid, settings, {}))
+
+    for field in fields(SolverSettings):
+        changed = base.replace(**{field.name: _other_value(getattr(base, field.name))})
+        assert key(changed) != key(base), field.name
 
 
 MAP = GameMap((-1.0, 1.0, -1.0, 1.0), (Circle((0.5, 0.5), 0.2),))

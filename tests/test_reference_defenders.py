@@ -68,7 +68,7 @@ def test_worked_example_is_not_certified(coarse_tubes):
     overlay = reference.overlay()
     assert [(e.defender, e.kind) for e in overlay.kinded_edges] == [("defender_0",
                                                                       EdgeKind.RACE)]
-    assert overlay.lines == ("MIP: 0 guaranteed, 2 nominal",)
+    assert overlay.lines == ("guaranteed: 0 of 2, program's count: 2",)
 
 
 def _check_certificate(policy, state, previous: list[Match]) -> int:

@@ -315,6 +315,25 @@ def test_legend_shows_every_kind_and_the_counts(renderer, scenario):
         map_rows].size - 2000  # only the attackers' glyphs differ
 
 
+def test_legend_names_the_trails_when_there_are_any(scenario):
+    words = [entry.widest for group in Renderer(scenario.map, 0.1)._legend for entry in group]
+    assert "trails: the last 1 s" in words
+    still = Renderer(scenario.map, 0.1, trail_seconds=0.0)
+    assert not any(e.widest.startswith("trails") for group in still._legend for e in group)
+
+
+@pytest.mark.parametrize("word", ["attackers", "guaranteed"])
+def test_words_keep_their_letters_together(scenario, word):
+    """The bundled font's kerning opened gaps inside words ("at tackers", "guaran teed"):
+    at a 1280-pixel frame no blank run between two letters is wider than 4 pixels (those
+    were 5 and 6)."""
+    font = Renderer(scenario.map, 0.1, width=1280)._font
+    ink = (pygame.surfarray.array_alpha(font.render(word, True, R.TEXT)) > 60).any(axis=1)
+    columns = np.flatnonzero(ink)
+    runs = np.diff(columns) - 1
+    assert runs.max() <= 4, runs
+
+
 def test_labels_have_a_halo_over_obstacles(renderer):
     inside = np.array([0.0, -0.65])  # in the lower obstacle
     renderer.draw(state_of([inside], [[-0.8, 0.8]]))

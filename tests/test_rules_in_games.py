@@ -17,7 +17,7 @@ from reachavoid_env import builtin_map
 from reachavoid_env.rules import within_capture
 from solvers.hj.games import game_1v1
 from solvers.hj.grid import Grid
-from solvers.hj.reach_avoid import map_problem
+from solvers.hj.marcher import map_problem
 
 RADIUS = 0.1234
 GAME_MAP = builtin_map("paper")

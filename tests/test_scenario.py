@@ -92,6 +92,7 @@ def test_validation_error_names_the_field(tmp_path, old, new, field):
     with pytest.raises(ScenarioError) as info:
         load_text(tmp_path, VALID.replace(old, new, 1))
     assert field in str(info.value)
+    assert str(info.value).startswith(f"{info.value.field}: ")   # the attribute names it too
 
 
 def test_missing_file_and_unknown_builtin_are_errors(tmp_path):

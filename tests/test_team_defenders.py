@@ -89,7 +89,7 @@ def test_a_team_stops_an_attacker_neither_defender_stops_alone(equal_tubes):
     overlay = teams.overlay()
     assert set(overlay.edges) == {("defender_0", "attacker_0"), ("defender_1", "attacker_0")}
     assert overlay.kinds == (EdgeKind.TEAM, EdgeKind.TEAM)  # a 1 vs 2 game
-    assert "guaranteed" in overlay.lines[0] and "1 nominal" in overlay.lines[0]
+    assert overlay.lines == ("guaranteed: 1 of 1, program's count: 1",)
     for attacker in (ShortestPathAttacker(), HJAttacker(vf11)):
         result = run_episode(env, attacker, HJPairsDefenderPolicy(vf11, vf21, vf12,
                                                                   margin_cells=0.0), seed=0)

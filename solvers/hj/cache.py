@@ -1,10 +1,12 @@
-"""On-disk cache of solved games: ``$REACHAVOID_CACHE_DIR`` (default ``~/.cache/reachavoid``).
+"""On-disk cache of solved games: ``$REACHAVOID_CACHE_DIR``, else the platform's user cache
+folder (``platformdirs``: ``$XDG_CACHE_HOME/reachavoid``, by default ``~/.cache/reachavoid``,
+on Linux; ``~/Library/Caches/reachavoid`` on macOS).
 
 An entry is a value-function directory named ``<game>-<grid>-<hash>.vf`` where the hash
-covers everything that decides the values: the game, map, speeds, parameters, grid, the
-value-relevant solver settings, the solver version and any lower game's value used. An
-entry is trusted only after it loads and matches what was asked (every key field, the
-solver version, finite values equal to their checksum); otherwise (whatever is there: an
+covers everything that decides the values: the game, map, speeds, parameters, grid, every
+solver setting (``SolverSettings.to_dict``), the solver version and any lower game's value
+used. An entry is trusted only after it loads and matches what was asked (every key field,
+the solver version, finite values equal to their checksum); otherwise (whatever is there: an
 edited ``meta.json``, a link, a plain file) it is removed, solved again and replaced, with
 one line saying why. A cache that cannot be written is read, and new solves are not kept.
 Storing an entry removes the temporaries (``.NAME.PID.RANDOM.tmp`` / ``.old``) whose
@@ -29,6 +31,8 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+import platformdirs
+
 from reachavoid_env import GameMap
 from reachavoid_env.files import UnsafeFolderError, private_folder
 from solvers.hj.jit_cache import CacheLocationError, check_numba_cache, location_error
@@ -41,9 +45,10 @@ removed: far above any solve."""
 
 
 def cache_dir() -> Path:
-    """The cache directory (not created here)."""
+    """The cache directory (not created here): ``$REACHAVOID_CACHE_DIR``, else the user
+    cache folder (module docstring)."""
     configured = os.environ.get("REACHAVOID_CACHE_DIR")
-    return Path(configured) if configured else Path.home() / ".cache" / "reachavoid"
+    return Path(configured or platformdirs.user_cache_dir("reachavoid", appauthor=False))
 
 
 def check_cache() -> bool:

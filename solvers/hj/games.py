@@ -54,7 +54,8 @@ from collections.abc import Sequence
 from reachavoid_env import GameMap
 from solvers.hj.game import Game, Player, attacker, defender, distance, maximum, minimum, table
 from solvers.hj.grid import Grid
-from solvers.hj.reach_avoid import check_memory, check_target_seen
+from solvers.hj.marcher import check_target_seen
+from solvers.hj.reach_avoid import check_memory
 from solvers.hj.settings import PAPER_GRIDS, SolverSettings
 from solvers.hj.solve import solve_declared
 from solvers.hj.value import ValueFunction

@@ -112,4 +112,6 @@ class SolverSettings:
         return coarse if min(coarse) >= self.warm_from else None
 
     def to_dict(self) -> dict[str, Any]:
+        """Every field by name, in declared order, the scheme by its name (JSON-ready; the
+        cache key of a solve lists these values, so a new field keys its own entries)."""
         return asdict(self) | {"scheme": self.scheme.name}

@@ -17,7 +17,8 @@ from reachavoid_env import GameMap
 from solvers.hj import cache as value_cache
 from solvers.hj.game import Game
 from solvers.hj.grid import Grid
-from solvers.hj.reach_avoid import SolveResult, check_memory, map_problem, solve
+from solvers.hj.marcher import map_problem
+from solvers.hj.reach_avoid import SolveResult, check_memory, solve
 from solvers.hj.settings import SOLVER_VERSION, SolverSettings
 from solvers.hj.value import ValueFunction, checksum
 
@@ -60,10 +61,7 @@ def _key_parts(game: Game, game_map: GameMap, grid: Grid, settings: SolverSettin
         "game": game.describe(),
         "map": game_map.to_dict(),
         "grid": [list(grid.lo), list(grid.hi), list(grid.shape)],
-        "settings": [settings.scheme.name, settings.iteration, settings.cfl,
-                     settings.tolerance, settings.max_iterations, settings.exchange_symmetry,
-                     settings.warm_start, settings.warm_from, settings.warm_margin,
-                     settings.clip_start],
+        "settings": list(settings.to_dict().values()),   # every field, in declared order
         "lower": {name: [list(vf.grid.shape), checksum(vf.values)]
                   for name, vf in sorted(lower.items())},
         "version": SOLVER_VERSION,

@@ -65,7 +65,7 @@ from solvers.hj.schemes import GODUNOV
 
 if TYPE_CHECKING:
     from solvers.hj.layout import Layout
-    from solvers.hj.reach_avoid import Marcher, Problem
+    from solvers.hj.marcher import Marcher, Problem
 
 check_numba_config()   # numba loads pickled code: only from a folder of ours
 

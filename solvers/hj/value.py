@@ -275,7 +275,9 @@ def owned_temporaries(path: Path) -> Iterator[Path]:
     """A fresh name stem ``.NAME.PID.RANDOM`` beside ``path`` for this process's temporaries
     (``STEM.tmp``, ``STEM.old``), guarded by an exclusive ``flock`` on ``STEM.lock`` held
     until they are gone: a lock another process can take marks them abandoned
-    (``abandoned``), whichever machine or PID namespace wrote them."""
+    (``abandoned``), whichever machine or PID namespace wrote them. Plain ``flock``, not
+    ``filelock``: the lock is a fresh name made by ``mkstemp`` (exclusive, mode 0600), and
+    ``abandoned`` must probe a lock without ever creating one, as ``FileLock.acquire`` does."""
     handle, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.{os.getpid()}.",
                                     suffix=".lock")
     lock = Path(name)
