@@ -27,9 +27,6 @@ too; ``defenders`` is what the batching changes. One core:
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import platform
 import time
 from pathlib import Path
 from typing import Any
@@ -40,7 +37,6 @@ import reachavoid_env
 from policies.batch_defenders import BatchGreedyDefenders, BatchHJDefenders
 from policies.defenders import HJDefenderPolicy
 from reachavoid_env import BatchState, PerCopy
-from reachavoid_env.files import atomic_write
 from solvers.hj.settings import TRAINING_GRIDS
 
 CLOCK = time.process_time
@@ -127,14 +123,24 @@ def main(argv: list[str] | None = None) -> None:
     for name, value in ratios.items():
         print(f"{name}: {value:.2f}")
     if args.json:
-        report = {"scenario": args.scenario, "copies": args.copies, "steps": args.steps,
-                  "repeats": args.repeats, "grids": [args.grid1, args.grid2],
-                  "clock": "process_time", "machine": platform.processor() or
-                  platform.machine(), "cpus": sorted(os.sched_getaffinity(0)),
-                  "rows": rows, "ratios": ratios}
-        with atomic_write(args.json) as out:
-            out.write(json.dumps(report, indent=2) + "\n")
+        from result_file import write_result
 
+        figures: dict[str, float] = {}
+        for name, row in rows.items():
+            key = name.replace(" ", "_").replace("-", "_")
+            for field in ("game_steps_per_s", "defender_ms_per_step",
+                          "defender_us_per_copy_step"):
+                figures[f"{field}.{key}"] = row[field]
+        figures.update(ratios)
+        where = f"{args.scenario}, K = {args.copies} copies, tubes {args.grid1}/{args.grid2}"
+        write_result(args.json, "defender_batch", figures, {
+            "game_steps_per_s": f"{where}: game steps per CPU second, best of the repeats",
+            "defender_ms_per_step": f"{where}: the defenders' CPU ms per step of all copies",
+            "defender_us_per_copy_step": f"{where}: the defenders' CPU us per copy and step",
+            "hj_over_greedy": "batched hj's game steps/s over batched greedy's",
+            "batched_over_per_copy_hj": "batched hj's game steps/s over PerCopy(hj)'s",
+            "defender_time_per_copy_over_batched_hj": "PerCopy(hj)'s defender time over "
+                                                      "batched hj's"})
 
 if __name__ == "__main__":
     main()
