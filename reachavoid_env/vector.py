@@ -2,10 +2,10 @@
 
 ``ReachAvoidVectorEnv(scenario, num_envs=K, ...)`` holds ``K`` copies of the game of
 ``ReachAvoidEnv`` and steps them in one call; the rules run in numpy over the copy axis
-(axis 0 of every array), the players of every copy on one map share one pymunk ``World``
-(players touch only the walls, so copies cannot meet). **Copy k is the single env**:
-``reset(seed=s)`` seeds copy ``k`` with ``s + k`` (Gymnasium's convention), and from then on
-copy ``k`` plays exactly what ``ReachAvoidEnv(...)`` reset with seed ``s + k`` plays for the
+(axis 0 of every array), the players of up to ``COPIES_PER_WORLD`` copies on one map
+share one pymunk ``World`` (players touch only the walls, so copies cannot meet).
+**Copy k is the single env**: ``reset(seed=s)`` seeds copy ``k`` with ``s + k``
+(Gymnasium's convention), and from then on copy ``k`` plays exactly what ``ReachAvoidEnv(...)`` reset with seed ``s + k`` plays for the
 same actions, its later episodes included: the same starts, trajectories, rewards,
 observations and outcomes, bit for bit (``tests/test_vector_env.py``).
 
@@ -58,6 +58,9 @@ from reachavoid_env.world import World
 
 _CAPTURED, _ARRIVED = AttackerStatus.CAPTURED.code, AttackerStatus.ARRIVED.code
 MAX_COPIES = 65_536
+COPIES_PER_WORLD = 64
+"""Copies whose players share one pymunk space (per map): a space's broadphase slows past
+a few hundred bodies, so larger batches use several spaces."""
 _SHARED = ("dt", "attacker_speed", "defender_speed", "capture_radius", "player_radius")
 
 
@@ -99,7 +102,7 @@ class ReachAvoidVectorEnv:
                                        np.full(n, base.defender_speed)])[:, None]
         self._fastest = max(base.attacker_speed, base.defender_speed)
         self._longest = rules.longest_move(self._fastest, base.dt)
-        self._worlds: dict[int, World] = {}
+        self._worlds: dict[tuple[int, int], World] = {}
         self._observers: dict[int, Observer] = {}
         self._generators: list[np.random.Generator] = []
 
@@ -146,22 +149,33 @@ class ReachAvoidVectorEnv:
         self._place(copies)
         return self._observations(copies)
 
+    def _chunk(self, chunk: int) -> np.ndarray:
+        """The copies whose bodies share a world (``COPIES_PER_WORLD`` consecutive ones)."""
+        return np.arange(chunk * COPIES_PER_WORLD,
+                         min(self.num_envs, (chunk + 1) * COPIES_PER_WORLD))
+
     def _place(self, copies: np.ndarray) -> None:
-        """Fresh bodies for ``copies`` in their maps' worlds (a map's world and observer
-        are made the first time a copy plays it)."""
+        """Fresh bodies for ``copies`` in the worlds of their maps and chunks (a world and
+        a map's observer are made the first time a copy needs them)."""
         p = self._m + self._n
-        for index in np.unique(self._map_of[copies]).tolist():
-            here = copies[self._map_of[copies] == index]
-            if index not in self._worlds:
+        keys = np.stack([self._map_of[copies], copies // COPIES_PER_WORLD], axis=1)
+        for index, chunk in np.unique(keys, axis=0).tolist():
+            here = copies[(keys[:, 0] == index) & (keys[:, 1] == chunk)]
+            members = self._chunk(chunk)
+            if (index, chunk) not in self._worlds:
                 scenario = self.scenarios[index]
-                # A body per player of every copy; those of copies on other maps stand still.
-                self._worlds[index] = World(scenario.map, scenario.player_radius,
-                                            self._positions.reshape(-1, 2), self._fastest,
-                                            scenario.dt)
-                self._observers[index] = Observer(self.observation, scenario.map, self._m,
-                                                  self._n, self._fastest, self.max_cycles)
-            rows = (here[:, None] * p + np.arange(p)).reshape(-1)
-            self._worlds[index].replace_players(rows, self._positions[here].reshape(-1, 2))
+                # A body per player of every copy of the chunk; those of copies on other
+                # maps stand still.
+                self._worlds[index, chunk] = World(
+                    scenario.map, scenario.player_radius,
+                    self._positions[members].reshape(-1, 2), self._fastest, scenario.dt)
+            if index not in self._observers:
+                self._observers[index] = Observer(self.observation, self.scenarios[index].map,
+                                                  self._m, self._n, self._fastest,
+                                                  self.max_cycles)
+            rows = ((here - members[0])[:, None] * p + np.arange(p)).reshape(-1)
+            self._worlds[index, chunk].replace_players(
+                rows, self._positions[here].reshape(-1, 2))
 
     # ------------------------------------------------------------------- step
     def step(self, actions: Mapping[str, Any]) -> tuple[dict[str, np.ndarray],
@@ -203,13 +217,13 @@ class ReachAvoidVectorEnv:
     def _move(self, velocities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Phase 2: positions before and after every world's step."""
         old, new = self._positions, self._positions.copy()
-        k, p = self._active.shape
-        for index, world in self._worlds.items():
-            here = self._map_of == index
-            if len(self._worlds) > 1:
-                velocities = np.where(here[:, None, None], velocities, 0.0)
-            moved = world.step(velocities.reshape(-1, 2)).reshape(k, p, 2)
-            new[here] = moved[here]
+        p = self._active.shape[1]
+        for (index, chunk), world in self._worlds.items():
+            members = self._chunk(chunk)
+            here = self._map_of[members] == index
+            asked = np.where(here[:, None, None], velocities[members], 0.0)
+            moved = world.step(asked.reshape(-1, 2)).reshape(len(members), p, 2)
+            new[members[here]] = moved[here]
         still = ~(self._active & self._running[:, None])
         new[still] = old[still]
         return old, new
@@ -223,7 +237,7 @@ class ReachAvoidVectorEnv:
         maps = [scenario.map for scenario in self.scenarios]
 
         def replay(copy: int, players: np.ndarray) -> np.ndarray:
-            world = self._worlds[int(self._map_of[copy])]
+            world = self._worlds[int(self._map_of[copy]), copy // COPIES_PER_WORLD]
             return world.replay(old[copy, players], velocities[copy, players])
 
         moves = rules.BatchMoves(velocities, self.base_scenario.dt, replay, self._longest)

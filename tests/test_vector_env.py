@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import reachavoid_env
-from reachavoid_env import builtin_scenario
+from reachavoid_env import Box, Circle, builtin_scenario
 from reachavoid_env.observations import GLOBAL, ObservationConfig
 from reachavoid_env.vector import vector_env
 
@@ -42,7 +42,7 @@ def _play_side_by_side(scenario, copies: int, steps: int, seed: int, **kwargs) -
                 assert rewards[name][k] == rew.get(name, 0.0), (k, name)
                 assert terminations[name][k] == term.get(name, False)
                 assert truncations[name][k] == trunc.get(name, False)
-                if i < scenario.num_attackers and name in info:
+                if i < vec.base_scenario.num_attackers and name in info:
                     assert infos["status"][k, i] == info[name]["status"]
                     assert infos["captured_by"][k, i] == info[name]["captured_by"]
             if live:
@@ -72,6 +72,17 @@ def test_copy_k_is_the_single_env_on_the_paper_map_with_shaping():
     scenario = builtin_scenario("paper_6v2")
     assert _play_side_by_side(scenario, copies=6, steps=400, seed=3, shaping=0.5,
                               max_cycles=120) >= 6
+
+
+def test_copies_on_a_library_of_maps_in_several_worlds(monkeypatch):
+    """Copies draw their maps from a library (each reset draws again) and share worlds a
+    few at a time: still the single env, copy by copy."""
+    monkeypatch.setattr("reachavoid_env.vector.COPIES_PER_WORLD", 3)
+    walls = replace(CROWDED.map, obstacles=(Box((-0.5, -0.5), (-0.2, 0.4)),
+                                            Circle((0.2, -0.5), 0.15)))
+    library = [replace(CROWDED, name="crowded_a"),
+               replace(CROWDED, name="crowded_b", map=walls)]
+    assert _play_side_by_side(library, copies=8, steps=150, seed=2) >= 8
 
 
 def test_spaces_and_shapes():
