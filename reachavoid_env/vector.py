@@ -5,9 +5,10 @@
 (axis 0 of every array), the players of up to ``COPIES_PER_WORLD`` copies on one map
 share one pymunk ``World`` (players touch only the walls, so copies cannot meet).
 **Copy k is the single env**: ``reset(seed=s)`` seeds copy ``k`` with ``s + k``
-(Gymnasium's convention), and from then on copy ``k`` plays exactly what ``ReachAvoidEnv(...)`` reset with seed ``s + k`` plays for the
-same actions, its later episodes included: the same starts, trajectories, rewards,
-observations and outcomes, bit for bit (``tests/test_vector_env.py``).
+(Gymnasium's convention), and from then on copy ``k`` plays exactly what
+``ReachAvoidEnv(...)`` reset with seed ``s + k`` plays for the same actions, its later
+episodes included: the same starts, trajectories, rewards, observations and outcomes, bit
+for bit (``tests/test_vector_env.py``).
 
 **Arrays**: ``step(actions)`` takes ``{agent: (K, 2)}`` (every agent of
 ``possible_agents``; rows of players out of the game are ignored) and returns
