@@ -31,12 +31,12 @@ import os
 import signal
 import stat
 import sys
-import tempfile
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, TypeVar
 
 from tqdm import tqdm
@@ -265,20 +265,24 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
 def _ray_init(ray: Any, **options: Any) -> None:
-    """``ray.init(**options)`` from an empty private folder (Ray adds the driver's working
-    folder to its workers' ``sys.path``), keeping this process's signal handlers (Ray
-    replaces SIGTERM's and SIGHUP's with its own)."""
+    """``ray.init(**options)`` from a private folder of ours that holds no module (Ray adds
+    the driver's working folder to its workers' ``sys.path``, and the workers keep it as
+    their working folder, so it must outlive the call: ``ray-workdir`` in the cache
+    folder), keeping this process's signal handlers (Ray replaces SIGTERM's and SIGHUP's
+    with its own)."""
+    from reachavoid_env.files import private_folder
+    from solvers.hj.cache import cache_dir
+
     handlers = {signum: signal.getsignal(signum) for signum in STOP_SIGNALS}
     here = os.getcwd()
-    with tempfile.TemporaryDirectory(prefix="reachavoid-ray-") as empty:
-        os.chdir(empty)
-        try:
-            ray.init(**options)
-        finally:
-            os.chdir(here)
-            for signum, handler in handlers.items():
-                if handler is not None:
-                    signal.signal(signum, handler)
+    os.chdir(private_folder(Path(cache_dir(), "ray-workdir")))
+    try:
+        ray.init(**options)
+    finally:
+        os.chdir(here)
+        for signum, handler in handlers.items():
+            if handler is not None:
+                signal.signal(signum, handler)
 
 
 def _ray(task: Callable[[Item], Result], items: Sequence[Item], workers: int | None,

@@ -21,7 +21,7 @@ def test_task_makes_the_game_with_role_groups_and_state():
                                    "defender": ["defender_0"]}
     assert task.max_steps(env) == 50
     assert task.state_spec(env)["state"].shape == (9,)
-    assert task.observation_spec(env)["attacker", "observation"].shape == (2, 11)
+    assert task.observation_spec(env)["attacker", "observation"].shape == (2, 34)
     rollout = env.rollout(60, break_when_any_done=False)
     assert rollout["next", "done"].squeeze(-1).nonzero().flatten().tolist() == [49]
 
