@@ -44,6 +44,7 @@ if TYPE_CHECKING:
         save_scenario,
     )
     from reachavoid_env.shapes import Box, Circle, Polygon, ShapeError
+    from reachavoid_env.vector import ReachAvoidVectorEnv, vector_env
 
 __all__ = [
     "AttackerStatus",
@@ -60,6 +61,7 @@ __all__ = [
     "PolicyMismatch",
     "Polygon",
     "ReachAvoidEnv",
+    "ReachAvoidVectorEnv",
     "Scenario",
     "ScenarioError",
     "ShapeError",
@@ -72,6 +74,7 @@ __all__ = [
     "parallel_env",
     "raw_env",
     "save_scenario",
+    "vector_env",
 ]
 
 ENV_IDS = {"reachavoid/ReachAvoid-v0": "reachavoid_env.reach_avoid_v0",
@@ -89,6 +92,7 @@ __getattr__, __dir__ = lazy.attributes(__name__, {
                     "reachavoid_env.scenario"),
     **dict.fromkeys(["Box", "Circle", "Polygon", "ShapeError"], "reachavoid_env.shapes"),
     "ReachAvoidEnv": "reachavoid_env.environment",
+    **dict.fromkeys(["ReachAvoidVectorEnv", "vector_env"], "reachavoid_env.vector"),
     "ObservationConfig": "reachavoid_env.observations",
     **dict.fromkeys(["env", "parallel_env", "raw_env"], "reachavoid_env.reach_avoid_v1"),
 })
