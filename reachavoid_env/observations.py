@@ -109,29 +109,29 @@ class Normaliser(NamedTuple):
 
 def player_table(positions: np.ndarray, active: np.ndarray,
                  normaliser: Normaliser) -> np.ndarray:
-    """``(P, 3)`` float32: every player's normalised x, y (clipped to ``[-1, 1]``) and
+    """``(..., P, 3)`` float32: every player's normalised x, y (clipped to ``[-1, 1]``) and
     active flag.
 
     Args:
-        positions: ``(P, 2)`` map units, attackers then defenders.
-        active: ``(P,)`` bool.
+        positions: ``(..., P, 2)`` map units, attackers then defenders (``...``: copies).
+        active: ``(..., P)`` bool.
         normaliser: the domain's ``Normaliser``.
     """
-    table = np.empty((len(positions), 3), dtype=np.float32)
+    table = np.empty((*active.shape, 3), dtype=np.float32)
     normalised = (positions - normaliser.centre) / normaliser.half
-    table[:, :2] = np.minimum(np.maximum(normalised, -1.0, out=normalised), 1.0,
-                              out=normalised)
-    table[:, 2] = active
+    table[..., :2] = np.minimum(np.maximum(normalised, -1.0, out=normalised), 1.0,
+                                out=normalised)
+    table[..., 2] = active
     return table
 
 
 def agent_rows(table: np.ndarray, rows: slice | list[int]) -> np.ndarray:
-    """``(L, 2 + table.size)`` float32: the observations of the players ``rows`` of
-    ``table`` (``player_table``), one fresh array."""
-    own = table[rows, :2]
-    observations = np.empty((len(own), 2 + table.size), dtype=np.float32)
-    observations[:, :2] = own
-    observations[:, 2:] = table.reshape(-1)
+    """``(..., L, 2 + 3 P)`` float32: the global observations of the players ``rows`` of
+    ``table`` (``player_table``, ``(..., P, 3)``), one fresh array."""
+    own = table[..., rows, :2]
+    observations = np.empty((*own.shape[:-1], 2 + 3 * table.shape[-2]), dtype=np.float32)
+    observations[..., :2] = own
+    observations[..., 2:] = table.reshape(*table.shape[:-2], 1, -1)
     return observations
 
 
@@ -175,16 +175,8 @@ class Observer:
             active: ``(K, P)`` bool.
             steps: ``(K,)`` steps played in each copy.
         """
-        k, p = active.shape
         if not self.config.egocentric:
-            table = np.empty((k, p, 3), dtype=np.float32)
-            normalised = (positions - self.normaliser.centre) / self.normaliser.half
-            table[..., :2] = np.minimum(np.maximum(normalised, -1.0), 1.0)
-            table[..., 2] = active
-            observations = np.empty((k, p, self.size), dtype=np.float32)
-            observations[..., :2] = table[..., :2]
-            observations[..., 2:] = table.reshape(k, 1, 3 * p)
-            return observations
+            return agent_rows(player_table(positions, active, self.normaliser), slice(None))
         return self._egocentric(positions, velocities, active, steps)
 
     def _egocentric(self, positions: np.ndarray, velocities: np.ndarray, active: np.ndarray,
