@@ -7,8 +7,10 @@ Each recipe's own ``train`` (``examples/train_attacker_sb3.py``: one attacker, `
 included, with its defaults (``hj`` defenders on the coarse 31^4 / 15^6 tubes, action
 repeat 10), once on the vector env (today's default) and once on the recipe's old path
 (``--single-envs``: one Gymnasium env per copy; ``--supersuit``: SuperSuit's chain over the
-attacker-only env); the two alternate for ``--repeats`` rounds (vector, old, vector,
-old, ...) so that the machine's drift hits both. Before the timed runs, each path's envs
+attacker-only env); ``--team-copies N`` adds the team recipe on the vector env with
+``--copies N`` (its default 2 copies leave the vector env little to batch). The paths
+alternate for ``--repeats`` rounds (vector, old, vector, old, ...) so that the machine's
+drift hits them alike. Before the timed runs, each path's envs
 are built and stepped a little (tubes mapped in, kernels loaded). Figures, medians of the
 rounds: agent steps per wall second and per CPU second of the process, and the wall time
 of the loop. Pin it to one core (torch is set to one thread, as the recipes do):
@@ -105,7 +107,7 @@ def timed_train(name: str, module: ModuleType, args: argparse.Namespace) -> Run:
 
 
 def measure(recipes: list[str], repeats: int, timesteps: dict[str, int],
-            out: Path) -> dict[str, float]:
+            team_copies: int | None, out: Path) -> dict[str, float]:
     figures: dict[str, float] = {}
     for name in recipes:
         recipe = RECIPES[name]
@@ -115,6 +117,9 @@ def measure(recipes: list[str], repeats: int, timesteps: dict[str, int],
             common += ["--print-seconds", "1e9"]
         paths = {"vector": module.parse_args(common),
                  "old": module.parse_args([*common, recipe.old_flag])}
+        if name == "team" and team_copies is not None:
+            paths[f"vector_copies{team_copies}"] = module.parse_args(
+                [*common, "--copies", str(team_copies)])
         for args in paths.values():
             warm_up(name, module, args)
         runs: dict[str, list[Run]] = {path: [] for path in paths}
@@ -122,7 +127,7 @@ def measure(recipes: list[str], repeats: int, timesteps: dict[str, int],
             for path, args in paths.items():
                 run = timed_train(name, module, args)
                 runs[path].append(run)
-                print(f"{name} {path:<6} {run.agent_steps:>7,} agent steps  {run.wall_s:6.1f} s "
+                print(f"{name} {path:<15} {run.agent_steps:>7,} agent steps  {run.wall_s:6.1f} s "
                       f"wall  {run.agent_steps / run.wall_s:7.0f}/s  "
                       f"{run.agent_steps / run.cpu_s:7.0f}/CPU s", flush=True)
         for path, done in runs.items():
@@ -144,10 +149,15 @@ def main() -> None:
     for name, recipe in RECIPES.items():
         parser.add_argument(f"--{name}-timesteps", type=int, default=recipe.timesteps,
                             help=f"agent steps per run of {recipe.example}.py")
+    parser.add_argument("--team-copies", type=int, default=None,
+                        help="also time the team recipe on the vector env with this many "
+                             "copies")
     parser.add_argument("--json", type=Path, help="write the figures here")
     args = parser.parse_args()
-    if args.repeats < 1:
-        parser.error(f"--repeats: expected at least 1, got {args.repeats}")
+    for field in ("repeats", "team_copies"):
+        value = getattr(args, field)
+        if value is not None and value < 1:
+            parser.error(f"--{field.replace('_', '-')}: expected at least 1, got {value}")
     torch.set_num_threads(1)
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     load_start = os.getloadavg()[0]
@@ -155,7 +165,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="recipe-throughput-") as out:
         figures = measure(args.recipes, args.repeats,
                           {name: getattr(args, f"{name}_timesteps") for name in RECIPES},
-                          Path(out))
+                          args.team_copies, Path(out))
     figures |= {"cores": cores, "load_average.start": load_start,
                 "load_average.end": os.getloadavg()[0]}
     for key, value in figures.items():
@@ -173,7 +183,8 @@ def main() -> None:
                       "included, median of the rounds",
             "agent_steps_per_s": "agent steps per wall second of train(), median of the "
                                  "rounds; vector: the vector env, old: --single-envs (sb3) "
-                                 "or --supersuit (team)",
+                                 "or --supersuit (team), vector_copiesN: the team recipe "
+                                 "on the vector env with --copies N",
             "agent_steps_per_cpu_s": "agent steps per CPU second of the process, median",
             "vector_over_old": "the vector path's agent steps per wall second over the old "
                                "path's",
