@@ -1,10 +1,16 @@
-"""MAPPO on the game with BenchMARL: attackers and defenders each learn a shared policy.
+"""MAPPO on the game with BenchMARL: attackers and defenders each learn a shared policy, or
+the attackers alone learn against scripted defenders.
 
 Needs the ``benchmarl`` extra in a virtual environment of its own (BenchMARL pins
-torchrl < 0.12): ``pip install -e '.[benchmarl]'``. The task is
-``reachavoid_env.integrations.benchmarl.ReachAvoidTask``:
+torchrl < 0.12): ``pip install -e '.[benchmarl]'``. ``--task game`` (the default) is
+``reachavoid_env.integrations.benchmarl.ReachAvoidTask.REACH_AVOID``, both teams learning;
+``--task attackers`` is ``policies.benchmarl_task.ScriptedDefendersTask.ATTACKERS``, the
+attackers of ``--envs`` copies stepped together learning against ``--defenders`` (``hj`` on
+``--grid1`` / ``--grid2`` tubes by default):
 
     python examples/benchmarl_mappo.py --scenario paper_2v1 --frames 60000 --out runs/benchmarl
+    python examples/benchmarl_mappo.py --task attackers --scenario paper_6v2 --envs 16 \
+        --frames 200000 --out runs/benchmarl_attackers
 
 BenchMARL writes its logs (CSV) and JSON results under ``--out``.
 """
@@ -18,10 +24,13 @@ from typing import Any
 
 import torch
 from benchmarl.algorithms import MappoConfig
+from benchmarl.environments.common import TaskClass
 from benchmarl.experiment import Callback, Experiment, ExperimentConfig
 from benchmarl.models import MlpConfig
 from tensordict import TensorDictBase
 
+from policies.benchmarl_task import ScriptedDefendersTask
+from policies.training import add_defender_arguments, defender_options
 from reachavoid_env.integrations.benchmarl import ReachAvoidTask
 
 
@@ -41,23 +50,43 @@ class Losses(Callback):
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--scenario", default="paper_2v1")
+    parser.add_argument("--task", choices=("game", "attackers"), default="game",
+                        help="game: both teams learn; attackers: the attackers learn against "
+                             "scripted --defenders")
+    add_defender_arguments(parser, scenario="paper_2v1")
+    parser.add_argument("--envs", type=int, default=16,
+                        help="copies stepped together (--task attackers)")
     parser.add_argument("--max-cycles", type=int, default=300, help="steps per episode")
-    parser.add_argument("--frames", type=int, default=60_000, help="total env steps")
+    parser.add_argument("--frames", type=int, default=60_000,
+                        help="total env steps (a batched step counts one per copy)")
     parser.add_argument("--batch", type=int, default=1000, help="env steps per iteration")
     parser.add_argument("--shaping", type=float, default=1.0)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=Path("runs/benchmarl"))
-    return parser.parse_args(argv)
+    args = parser.parse_args(argv)
+    if args.envs < 1:
+        parser.error(f"--envs: expected at least 1, got {args.envs}")
+    if args.task == "attackers" and args.batch % args.envs:
+        parser.error(f"--batch: a batched step is --envs ({args.envs}) env steps, so "
+                     f"--batch must be a multiple of it, got {args.batch}")
+    return args
+
+
+def build_task(args: argparse.Namespace) -> TaskClass:
+    """The BenchMARL task of ``--task``."""
+    game = {"scenario": args.scenario, "max_cycles": args.max_cycles, "shaping": args.shaping}
+    if args.task == "game":
+        return ReachAvoidTask.REACH_AVOID.get_task(game)
+    return ScriptedDefendersTask.ATTACKERS.get_task(
+        game | {"defenders": args.defenders, "defender_options": defender_options(args)})
 
 
 def build_experiment(args: argparse.Namespace, callbacks: list[Callback]) -> Experiment:
-    task = ReachAvoidTask.REACH_AVOID.get_task(
-        {"scenario": args.scenario, "max_cycles": args.max_cycles, "shaping": args.shaping})
+    task = build_task(args)
     config = ExperimentConfig.get_from_yaml()
     config.max_n_frames = args.frames
     config.on_policy_collected_frames_per_batch = args.batch
-    config.on_policy_n_envs_per_worker = 1
+    config.on_policy_n_envs_per_worker = args.envs if args.task == "attackers" else 1
     config.on_policy_minibatch_size = min(400, args.batch)
     config.on_policy_n_minibatch_iters = 4
     config.evaluation = False

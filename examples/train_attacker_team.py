@@ -14,13 +14,16 @@ The game is ``--scenario`` (default ``paper_6v2``) with random starts every epis
 library (a folder of ``reachavoid maps``, its ``index.toml``) draws one of its maps per
 episode, and ``--evaluate-on LIBRARY`` evaluates on other maps (held-out ones) than those
 trained on. The observations carry the players only (``reachavoid_env.observations``), not
-the map: across maps the learner sees neither the target nor the obstacles. The attacker-only env
-(``policies.training.make_attackers_parallel_env``) goes through SuperSuit's chain
-(``reachavoid_env.integrations.supersuit.sb3_vec_env``): one vector slot per attacker and
-game copy, all slots one policy. As in ``train_attacker_sb3.py`` (the one-attacker
-recipe), one agent step holds the action for ``--action-repeat 10`` game steps (0.05 s),
-the reward has the potential-based progress term (``--shaping 1``) and still being in
-play at the time limit scores ``--timeout-reward -1`` like a capture. The defenders'
+the map: across maps the learner sees neither the target nor the obstacles. Training runs
+on the vector env (``policies.training.make_attackers_vector_env``, ``--copies`` games
+stepped together, the defenders acting on every copy in one call; ``--supersuit``: the
+attacker-only env through SuperSuit's chain, ``reachavoid_env.integrations.supersuit``):
+one vector slot per attacker and game copy, all slots one policy. The default 2 copies
+leave the vector env little to batch; more copies train faster (``BENCHMARKS.md``).
+As in ``train_attacker_sb3.py`` (the one-attacker recipe), one agent step holds the
+action for ``--action-repeat 10`` game steps (0.05 s), the reward has the potential-based
+progress term (``--shaping 1``) and still being in play at the time limit scores
+``--timeout-reward -1`` like a capture. The defenders'
 HJ tubes are solved once at ``--grid1``/``--grid2`` nodes per axis (coarse by default:
 31/15) and cached on disk.
 

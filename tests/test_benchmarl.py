@@ -37,3 +37,60 @@ def test_mappo_experiment_runs_a_few_thousand_frames(tmp_path):
         for key in ("loss_objective", "loss_critic"):
             assert math.isfinite(row[key])
     assert any(tmp_path.iterdir())        # BenchMARL's logs
+
+
+def test_attackers_task_is_the_batched_attacker_view_against_scripted_defenders():
+    from torchrl.envs.utils import check_env_specs
+
+    from policies.benchmarl_task import ScriptedDefendersTask
+
+    task = ScriptedDefendersTask.ATTACKERS.get_task(
+        {"scenario": "paper_6v2", "defenders": "greedy", "max_cycles": 50, "action_repeat": 2})
+    env = task.get_env_fun(num_envs=3, continuous_actions=True, seed=0, device="cpu")()
+    check_env_specs(env)
+    assert env.batch_size == (3,)                       # num_envs: the vector env's copies
+    assert task.group_map(env) == {"attacker": [f"attacker_{i}" for i in range(6)]}
+    assert task.max_steps(env) == 25
+    observed = task.observation_spec(env)["attacker"]
+    assert list(observed.keys()) == ["observation"] and observed["observation"].shape == (6, 59)
+    assert task.state_spec(env) is None and task.action_mask_spec(env) is None
+    assert env.view.vec.num_envs == 3 and env.view.learners == task.group_map(env)["attacker"]
+
+
+def test_attackers_task_refuses_an_unknown_key_when_made():
+    from policies.benchmarl_task import ScriptedDefendersTask
+
+    with pytest.raises(ValueError, match=r"^config\.defender: not a key of the ATTACKERS "
+                                         r"task \(keys: scenario, defenders, "):
+        ScriptedDefendersTask.ATTACKERS.get_task({"scenario": "paper_6v2", "defender": "hj"})
+
+
+def attackers_run(tmp_path, defenders: str, *grids: str):
+    mappo = example("benchmarl_mappo")
+    return mappo.main(["--task", "attackers", "--scenario", "paper_6v2", "--defenders",
+                       defenders, *grids, "--envs", "8", "--max-cycles", "100", "--frames",
+                       "320", "--batch", "160", "--out", str(tmp_path)])
+
+
+@pytest.mark.parametrize("defenders, grids", [("greedy", []),
+                                               ("hj", ["--grid1", "11", "--grid2", "8"])])
+def test_mappo_trains_the_attackers_against_scripted_defenders(tmp_path, defenders, grids):
+    experiment, rows = attackers_run(tmp_path, defenders, *grids)
+    assert experiment.total_frames == 320 and experiment.n_iters_performed == 2
+    assert list(experiment.group_map) == ["attacker"]          # the defenders do not learn
+    assert list(experiment.losses) == ["attacker"]
+    assert [row["group"] for row in rows] == ["attacker", "attacker"]
+    for row in rows:
+        for key in ("loss_objective", "loss_critic"):
+            assert math.isfinite(row[key])
+    scripted = experiment.test_env.view._scripted[0][0]
+    assert type(scripted).__name__ == {"greedy": "BatchGreedyDefenders",
+                                       "hj": "BatchHJDefenders"}[defenders]
+
+
+def test_the_example_refuses_a_batch_that_is_not_whole_copies(capsys):
+    mappo = example("benchmarl_mappo")
+    with pytest.raises(SystemExit) as ended:
+        mappo.parse_args(["--task", "attackers", "--envs", "16", "--batch", "1000"])
+    assert ended.value.code == 2
+    assert "--batch: a batched step is --envs (16) env steps" in capsys.readouterr().err
