@@ -22,8 +22,8 @@ the defenders never err); in 2 vs 1 one attacker per start the pair wins where t
 script's pair brought in none, and the second attacker of each start where both win
 alone and only one came in (the count a defender that captures whom it can leaves)::
 
-    cd benchmarks && python attacker_ceiling.py --episodes 200 \\
-        --json results/attacker_ceiling.json
+    python benchmarks/attacker_ceiling.py --episodes 200 \\
+        --json benchmarks/results/attacker_ceiling.json
 """
 
 from __future__ import annotations
