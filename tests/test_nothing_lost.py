@@ -525,7 +525,7 @@ def test_a_numba_config_file_cannot_point_the_cache_elsewhere(tmp_path):
 @pytest.mark.parametrize("flag", ["--csv", "--json", "--plot"])
 def test_a_bench_output_that_appears_while_running_is_kept(tmp_path, monkeypatch, capsys,
                                                            flag):
-    import reachavoid.cli as cli
+    import reachavoid.commands as commands
 
     path = tmp_path / ("out.png" if flag == "--plot" else "out.txt")
 
@@ -533,8 +533,8 @@ def test_a_bench_output_that_appears_while_running_is_kept(tmp_path, monkeypatch
         path.write_text("written by hand meanwhile")
         return run_suite(*args, **kwargs)
 
-    run_suite = cli.run_suite
-    monkeypatch.setattr(cli, "run_suite", meanwhile)
+    run_suite = commands.run_suite
+    monkeypatch.setattr(commands, "run_suite", meanwhile)
     err = fails_cleanly(capsys, [*BENCH, flag, str(path)], "appeared", status=1)
     assert str(path) in err and path.read_text() == "written by hand meanwhile"
     assert [p.name for p in tmp_path.iterdir()] == [path.name]
@@ -542,17 +542,17 @@ def test_a_bench_output_that_appears_while_running_is_kept(tmp_path, monkeypatch
 
 @pytest.mark.parametrize("flag", ["--video", "--preview"])
 def test_a_play_output_that_appears_while_running_is_kept(tmp_path, monkeypatch, capsys, flag):
-    import reachavoid.cli as cli
+    import reachavoid.play as play
 
     path = tmp_path / ("out.png" if flag == "--preview" else "out.gif")
     name = "first_frame" if flag == "--preview" else "run_episode"
-    original = getattr(cli, name)
+    original = getattr(play, name)
 
     def meanwhile(*args, **kwargs):
         path.write_text("written by hand meanwhile")
         return original(*args, **kwargs)
 
-    monkeypatch.setattr(cli, name, meanwhile)
+    monkeypatch.setattr(play, name, meanwhile)
     fails_cleanly(capsys, ["play", *SIMPLE, flag, str(path)], "appeared", status=1)
     assert path.read_text() == "written by hand meanwhile"
     assert [p.name for p in tmp_path.iterdir()] == [path.name]
