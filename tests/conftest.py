@@ -22,6 +22,14 @@ os.environ["REACHAVOID_CACHE_DIR"] = _CACHE
 atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
 
 
+@pytest.fixture
+def cache_in_tmp(tmp_path, monkeypatch):
+    """A cache of this test's own (``$REACHAVOID_CACHE_DIR`` at ``tmp_path / "cache"``, not
+    yet made)."""
+    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
 @pytest.fixture(scope="session")
 def coarse_tubes():
     """The paper map's 1 vs 1 (25^4) and 2 vs 1 (13^6) tubes, solved once per test session
@@ -34,3 +42,4 @@ def coarse_tubes():
                      scenario.capture_radius, 25, cache=False, progress=False)
     vf21 = solve_2v1(scenario.map, vf11, 13, cache=False, progress=False)
     return vf11, vf21
+
