@@ -43,3 +43,16 @@ def coarse_tubes():
     vf21 = solve_2v1(scenario.map, vf11, 13, cache=False, progress=False)
     return vf11, vf21
 
+
+@pytest.fixture(scope="session")
+def paper_map():
+    """The paper's built-in map."""
+    import reachavoid_env
+
+    return reachavoid_env.builtin_map("paper")
+
+
+@pytest.fixture(scope="session")
+def vf11(coarse_tubes):
+    """The paper map's 1 vs 1 tube at 25^4 (paper speeds and radius), the session's."""
+    return coarse_tubes[0]
