@@ -296,7 +296,7 @@ def test_realtime_video_lasts_the_game_time(tmp_path, capsys):
 
 
 @pytest.mark.parametrize(("signum", "status", "word"), [
-    (signal.SIGTERM, 143, "terminated"), (signal.SIGHUP, 129, "hung up")])   # issue 21 #14
+    (signal.SIGTERM, 143, "terminated"), (signal.SIGHUP, 129, "hung up")])
 def test_sigterm_leaves_no_partial_video(tmp_path, signum, status, word):
     env = dict(os.environ, SDL_VIDEODRIVER="dummy")
     process = subprocess.Popen([sys.executable, "-m", "reachavoid.cli", "play", "--scenario",
