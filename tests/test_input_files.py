@@ -24,19 +24,24 @@ def library(tmp_path) -> Path:
     return tmp_path / "lib"
 
 
+def refused_as_nested_too_deeply(capsys, path: Path, load, error: type, args: list[str]):
+    """With TOML nested 5,000 deep in ``path``, ``load()`` raises ``error`` and the command
+    ``args`` says so in one line."""
+    path.write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
+    with pytest.raises(error, match="nested too deeply"):
+        load()
+    fails_cleanly(capsys, args, "nested too deeply")
+
+
 def test_a_deeply_nested_suite_is_one_line(tmp_path, capsys):
     path = tmp_path / "deep.toml"
-    path.write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
-    with pytest.raises(SuiteError, match="nested too deeply"):
-        load_suite(path)
-    fails_cleanly(capsys, ["bench", "--suite", str(path)], "nested too deeply")
+    refused_as_nested_too_deeply(capsys, path, lambda: load_suite(path), SuiteError,
+                                 ["bench", "--suite", str(path)])
 
 
 def test_a_deeply_nested_index_is_one_line(library, capsys):
-    (library / INDEX).write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
-    with pytest.raises(ScenarioError, match="nested too deeply"):
-        load_library(library)
-    fails_cleanly(capsys, ["play", "--scenario", str(library)], "nested too deeply")
+    refused_as_nested_too_deeply(capsys, library / INDEX, lambda: load_library(library),
+                                 ScenarioError, ["play", "--scenario", str(library)])
 
 
 @pytest.mark.parametrize("value", ["5", "[]", '""'])
@@ -112,10 +117,8 @@ def test_non_utf8_scenario(capsys, tmp_path):
 
 def test_deeply_nested_toml_is_one_line(tmp_path, capsys):
     path = tmp_path / "deep.toml"
-    path.write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
-    with pytest.raises(ScenarioError, match="nested too deeply"):
-        load_scenario(path)
-    fails_cleanly(capsys, ["play", "--scenario", str(path)], "nested too deeply")
+    refused_as_nested_too_deeply(capsys, path, lambda: load_scenario(path), ScenarioError,
+                                 ["play", "--scenario", str(path)])
 
 
 def test_a_byte_order_mark_is_accepted(tmp_path):
