@@ -3,12 +3,55 @@
 from __future__ import annotations
 
 import importlib.util
+import os
+import subprocess
 import sys
 import warnings
 from pathlib import Path
 from types import ModuleType
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
+ENV = dict(os.environ, SDL_VIDEODRIVER="dummy", SDL_AUDIODRIVER="dummy")
+"""The environment of the command's subprocesses: pygame draws offscreen."""
+SIMPLE = ("--attackers", "straight", "--defenders", "greedy")
+"""Policies that play without tubes: a quick ``play`` or ``bench``."""
+SIMPLE_2V1 = ("--scenario", "paper_2v1", *SIMPLE)
+BENCH = ("bench", "--scenario", "paper_2v1", "--config", "2v1", "--episodes", "2",
+         "--defenders", "greedy", "--attackers", "straight")
+"""A ``bench`` of two quick episodes."""
+
+
+def fails_cleanly(capsys, args: list[str], message: str, status: int = 2) -> str:
+    """``reachavoid ARGS`` ends with ``status``, nothing on standard output and one line on
+    standard error that holds ``message``; returns that line."""
+    from reachavoid.cli import main
+
+    assert main(args) == status
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and message in err, err
+    return err
+
+
+def command(*args: str, **popen) -> subprocess.Popen:
+    """``python -m reachavoid ARGS`` started (standard error piped, as text)."""
+    return subprocess.Popen([sys.executable, "-m", "reachavoid", *args], env=ENV,
+                            stderr=subprocess.PIPE, text=True, **popen)
+
+
+def needs_root() -> None:
+    if os.geteuid() != 0:
+        pytest.skip("needs root")
+
+
+def in_namespace(script: str, tmp_path: Path) -> subprocess.CompletedProcess:
+    """Run ``script`` (bash) as root in a private mount namespace, or skip."""
+    needs_root()
+    if subprocess.run(["unshare", "-m", "true"], capture_output=True).returncode != 0:
+        pytest.skip("no private mount namespace here")
+    return subprocess.run(["unshare", "-m", "bash", "-ec", script], capture_output=True,
+                          text=True, env=ENV, cwd=tmp_path, timeout=300)
 
 
 def checked(check, *args, **kwargs) -> None:

@@ -22,15 +22,40 @@ os.environ["REACHAVOID_CACHE_DIR"] = _CACHE
 atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
 
 
+@pytest.fixture
+def cache_in_tmp(tmp_path, monkeypatch):
+    """A cache of this test's own (``$REACHAVOID_CACHE_DIR`` at ``tmp_path / "cache"``, not
+    yet made)."""
+    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
 @pytest.fixture(scope="session")
-def coarse_tubes():
-    """The paper map's 1 vs 1 (25^4) and 2 vs 1 (13^6) tubes, solved once per test session
-    without touching the on-disk cache (about 10 s on 2 cores)."""
+def paper_map():
+    """The paper's built-in map."""
     import reachavoid_env
-    from solvers.hj import solve_1v1, solve_2v1
+
+    return reachavoid_env.builtin_map("paper")
+
+
+@pytest.fixture(scope="session")
+def vf11():
+    """The paper map's 1 vs 1 tube at 25^4 (paper speeds and radius), solved once per test
+    session without touching the on-disk cache."""
+    import reachavoid_env
+    from solvers.hj import solve_1v1
 
     scenario = reachavoid_env.builtin_scenario("paper_2v1")
-    vf11 = solve_1v1(scenario.map, (scenario.attacker_speed, scenario.defender_speed),
+    return solve_1v1(scenario.map, (scenario.attacker_speed, scenario.defender_speed),
                      scenario.capture_radius, 25, cache=False, progress=False)
-    vf21 = solve_2v1(scenario.map, vf11, 13, cache=False, progress=False)
-    return vf11, vf21
+
+
+@pytest.fixture(scope="session")
+def coarse_tubes(vf11):
+    """The paper map's 1 vs 1 (25^4, ``vf11``) and 2 vs 1 (13^6) tubes, solved once per test
+    session without touching the on-disk cache (about 10 s on 2 cores)."""
+    import reachavoid_env
+    from solvers.hj import solve_2v1
+
+    game_map = reachavoid_env.builtin_scenario("paper_2v1").map
+    return vf11, solve_2v1(game_map, vf11, 13, cache=False, progress=False)

@@ -1,15 +1,20 @@
-"""The reachavoid command: play with --json, summaries, videos, one-line errors."""
+"""The reachavoid command: play with --json, summaries, videos, one-line errors, number
+ranges, signals (Ctrl-C, SIGTERM, SIGHUP) and a closed pipe."""
 
 from __future__ import annotations
 
 import json
+import os
+import signal
 import subprocess
 import sys
+import time
 
 import imageio.v3 as iio
 import imageio_ffmpeg
 import numpy as np
 import pytest
+from checks import BENCH, ENV, SIMPLE, SIMPLE_2V1, command, fails_cleanly
 
 from policies.registry import ATTACKERS, DEFENDERS, PolicySpec
 from reachavoid.cli import main
@@ -17,7 +22,6 @@ from reachavoid_env import builtin_scenario, save_scenario
 
 JSON_KEYS = ["scenario", "defenders", "attackers", "seed", "steps", "captured", "arrived",
              "captured_count", "arrived_count", "seconds", "game_time", "video"]
-SIMPLE = ("--attackers", "straight", "--defenders", "greedy")
 COARSE = ("--grid1", "21", "--grid2", "11")
 
 
@@ -131,9 +135,7 @@ defenders = [[0.5, 0.5]]
 """, "players.attackers[0]: (0, -0.5) lies inside obstacle 0"),
 ])
 def test_bad_scenario_files(capsys, tmp_path, text, message):
-    assert main(["play", "--scenario", write(tmp_path, text)]) == 2
-    out, err = capsys.readouterr()
-    assert out == "" and err.count("\n") == 1 and message in err
+    fails_cleanly(capsys, ["play", "--scenario", write(tmp_path, text)], message)
 
 
 @pytest.mark.parametrize("command", ["play", "solve"])
@@ -226,9 +228,7 @@ def test_bench_compares_methods_on_the_same_starts(tmp_path, capsys):
     (["play", "--grid2", "2"], "--grid2: must be an integer in [5, 101]"),
 ])
 def test_bench_and_grid_errors(capsys, args, message):
-    assert main(args) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and message in err
+    fails_cleanly(capsys, args, message)
 
 
 def test_paper_command_writes_table_and_figure(tmp_path, capsys):
@@ -293,3 +293,74 @@ def test_realtime_video_lasts_the_game_time(tmp_path, capsys):
     assert main(["play", "--scenario", "paper_2v1", *SIMPLE, "--video", str(path),
                  "--realtime", "--force"]) == 0
     assert "at 50 fps, real time)" in capsys.readouterr()[0]
+
+
+@pytest.mark.parametrize(("signum", "status", "word"), [
+    (signal.SIGTERM, 143, "terminated"), (signal.SIGHUP, 129, "hung up")])
+def test_sigterm_leaves_no_partial_video(tmp_path, signum, status, word):
+    env = dict(os.environ, SDL_VIDEODRIVER="dummy")
+    process = subprocess.Popen([sys.executable, "-m", "reachavoid.cli", "play", "--scenario",
+                                "paper_6v2", "--attackers", "random", "--defenders", "idle",
+                                "--video", str(tmp_path / "long.mp4")], env=env,
+                               stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not any(tmp_path.glob(".long.*")) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    process.send_signal(signum)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == status and word in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["play", "--seed", "-1"], "--seed: must be an integer in [0,"),
+    (["bench", "--seed", "-1"], "--seed: must be an integer in [0,"),
+    (["play", "--video", "a.mp4", "--fps", "inf"], "--fps: must be in [0.1, 240]"),
+    (["play", "--video", "a.mp4", "--fps", "1e-300"], "--fps: must be in [0.1, 240]"),
+    (["play", "--video", "a.mp4", "--width", "100000000"], "--width: must be an integer in"),
+    (["play", "--grid1", "100000"], "--grid1: must be an integer in [5, 201]"),
+    (["solve", "--game", "2v1", "--grid", "1000"], "--grid: must be an integer in [5, 101]"),
+])
+def test_numbers_out_of_range(capsys, tmp_path, monkeypatch, args, message):
+    monkeypatch.chdir(tmp_path)
+    fails_cleanly(capsys, args, message)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_play_checks_every_tube_before_solving(cache_in_tmp, capsys):
+    fails_cleanly(capsys, ["play", "--scenario", "paper_2v1", "--grid1", "15", "--grid2",
+                           "101"], "2v1 HJ solve on a 101x101x101x101x101x101 grid")
+    assert list(cache_in_tmp.glob("*.vf")) == []
+
+
+def test_ctrl_c_while_importing_is_one_line():
+    # "started" once the command's own import begins (inside main), seconds before it ends
+    code = ("import sys; from reachavoid.__main__ import main\n"
+            "def hook(event, args):\n"
+            "    if event == 'import' and args[0] == 'reachavoid.cli':\n"
+            "        print('started', flush=True)\n"
+            "sys.addaudithook(hook)\n"
+            f"sys.exit(main({['play', *SIMPLE_2V1]!r}))")
+    process = subprocess.Popen([sys.executable, "-c", code], env=ENV, text=True,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert process.stdout.readline() == "started\n"
+    process.send_signal(signal.SIGINT)   # the command's libraries take seconds to load
+    out, err = process.communicate(timeout=60)
+    assert process.returncode == 130 and err == "reachavoid: interrupted\n", err
+
+
+def test_a_closed_pipe_ends_quietly():
+    process = command("play", *SIMPLE_2V1, stdout=subprocess.PIPE)
+    process.stdout.close()
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 141 and err == "", err
+
+
+def test_ctrl_c_to_a_process_pool_leaves_no_warnings():
+    process = command(*BENCH[:-6], "--episodes", "20000", "--defenders", "greedy",
+                       "--attackers", "straight", "--backend", "process", "--workers", "2",
+                       start_new_session=True, stdout=subprocess.DEVNULL)
+    time.sleep(12)
+    os.killpg(process.pid, signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130 and err == "reachavoid bench: interrupted\n", err

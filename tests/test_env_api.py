@@ -289,3 +289,65 @@ def test_core_packages_import_no_rl_library():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, timeout=120)
     assert out.stdout.strip() == "[]"
+
+
+def test_step_before_reset_is_an_error():
+    env = reachavoid_env.parallel_env(scenario="paper_2v1")
+    with pytest.raises(RuntimeError, match="call reset"):
+        env.step({})
+
+
+def test_unpickled_env_must_be_reset():
+    env = reachavoid_env.parallel_env(scenario="paper_2v1")
+    env.reset(seed=0)
+    env.step({agent: np.zeros(2, np.float32) for agent in env.agents})
+    copy = pickle.loads(pickle.dumps(env))
+    with pytest.raises(RuntimeError, match="unpickled env is not reset"):
+        copy.step({agent: np.zeros(2, np.float32) for agent in env.agents})
+
+
+def test_reset_options_are_checked():
+    env = reachavoid_env.parallel_env(scenario="paper_2v1")
+    with pytest.raises(ValueError, match=r"options\['starts'\] is not an option"):
+        env.reset(options={"starts": [[0.0, 0.0]]})
+    with pytest.raises(TypeError, match="options must be a dict"):
+        env.reset(options=[1])
+    env.reset(options={"options": 1})
+
+
+def test_huge_actions_are_scaled_not_lost():
+    scenario = builtin_scenario("paper_1v1")
+    env = reachavoid_env.parallel_env(scenario=scenario)
+    env.reset(seed=0)
+    before = env.unwrapped.game_state().attacker_positions[0].copy()
+    env.step({"attacker_0": np.array([1e200, 1e200]), "defender_0": np.zeros(2)})
+    moved = env.unwrapped.game_state().attacker_positions[0] - before
+    expected = scenario.attacker_speed * scenario.dt
+    assert np.linalg.norm(moved) == pytest.approx(expected, rel=1e-6)
+    assert moved[0] == pytest.approx(moved[1])
+
+
+def test_actions_are_refused_clearly():
+    env = reachavoid_env.parallel_env(scenario="paper_2v1", render_mode="rgb_array")
+    with pytest.raises(RuntimeError, match="render: call reset"):
+        env.render()
+    env.reset(seed=0)
+    for actions in (None, [np.zeros(2)] * 3):
+        with pytest.raises(TypeError, match="actions must be a dict"):
+            env.step(actions)
+    with pytest.raises(ValueError, match="complex"):
+        env.step({agent: np.array([1 + 1j, 0.0]) for agent in env.agents})
+
+
+@pytest.mark.parametrize("action", [["0.5", "0"], [True, False], np.array([True, False]),
+                                    np.array(["0.5", "0"]), "05", [1, "0"]])
+def test_actions_are_real_two_vectors_only(action):
+    env = reachavoid_env.parallel_env(scenario="paper_2v1")
+    env.reset(seed=0)
+    actions = {agent: np.zeros(2) for agent in env.agents}
+    actions["attacker_0"] = action
+    with pytest.raises(ValueError, match="action for attacker_0: expected a 2-vector of real"):
+        env.step(actions)
+    for fine in ([0.5, 0], (1, 0.0), np.array([0.5, 0], dtype=np.float32), [np.float32(1), 0]):
+        actions["attacker_0"] = fine
+        env.step(actions)

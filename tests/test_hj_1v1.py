@@ -47,11 +47,11 @@ def test_open_map_agrees_with_straight_line_and_apollonius_bounds(open_map_solve
 
 
 @pytest.fixture(scope="module")
-def paper_solves():
+def paper_solves(vf11):
     game_map = builtin_map("paper")
     solve = dict(grid_points=25, cache=False, progress=False)
     return {
-        "base": solve_1v1(game_map, (VA, VD), R, **solve),
+        "base": vf11,   # the session's 25^4 tube: the paper's speeds and radius, (VA, VD), R
         "bigger_radius": solve_1v1(game_map, (VA, VD), 0.15, **solve),
         "faster_defender": solve_1v1(game_map, (VA, 1.7), R, **solve),
     }
@@ -94,9 +94,9 @@ def test_stronger_defender_never_grows_attacker_winning_set(paper_solves, strong
     assert not np.any((other <= 0) & (base > 0))
 
 
-def test_finer_grid_agrees_with_coarser_away_from_boundary():
+def test_finer_grid_agrees_with_coarser_away_from_boundary(vf11):
     game_map = builtin_map("paper")
-    coarse = solve_1v1(game_map, grid_points=25, cache=False, progress=False)
+    coarse = vf11
     fine = solve_1v1(game_map, grid_points=37, cache=False, progress=False)
     rng = np.random.default_rng(1)
     points = rng.uniform(-1, 1, (40000, 2))

@@ -5,24 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from reachavoid_env import builtin_map
 from solvers.hj import SolverSettings, load_value_function, solve_1v2
 from solvers.hj.geometry import free_distance
 from solvers.hj.plot import scenario_panels, tube_figure
 
 BAND = 0.02
 """Values within this of zero count as the boundary band (the tubes' numerical error)."""
-
-
-@pytest.fixture(scope="module")
-def paper_map():
-    return builtin_map("paper")
-
-
-@pytest.fixture(scope="module")
-def vf11(coarse_tubes):
-    """The paper map's 1 vs 1 value at 25^4 (paper speeds and radius, ``conftest``)."""
-    return coarse_tubes[0]
 
 
 @pytest.fixture(scope="module")

@@ -23,16 +23,6 @@ PAPER_ATTACKERS = ((-0.5, 0.0), (0.0, 0.8))
 
 
 @pytest.fixture(scope="module")
-def paper_map():
-    return builtin_map("paper")
-
-
-@pytest.fixture(scope="module")
-def vf11(paper_map):
-    return solve_1v1(paper_map, grid_points=25, cache=False, progress=False)
-
-
-@pytest.fixture(scope="module")
 def vf21(paper_map, vf11):
     return solve_2v1(paper_map, vf11, grid_points=15, cache=False, progress=False)
 

@@ -1,21 +1,17 @@
-"""Value-function files, the on-disk cache and the memory guard; files and the cache
-against a careful but hostile user (issue 9, items 1, 4, 5, 9)."""
+"""Value-function files (saved, loaded, checked against their meta.json), the solve
+driver's ``--out`` and the memory guard (the on-disk cache: ``test_hj_cache.py``)."""
 
 from __future__ import annotations
 
 import json
 import os
 import shutil
-import subprocess
-import sys
-import warnings
-from dataclasses import fields
 
 import numpy as np
 import pytest
 
 from reachavoid.solve import solve_scenario
-from reachavoid_env import Box, Circle, GameMap, builtin_map
+from reachavoid_env import Box, GameMap, builtin_map
 from solvers.hj import (
     Grid,
     InsufficientMemoryError,
@@ -27,18 +23,9 @@ from solvers.hj import (
     load_value_function,
     solve_1v1,
 )
-from solvers.hj.cache import cache_dir, cache_key
 from solvers.hj.reach_avoid import check_memory, memory_needed
-from solvers.hj.schemes import SCHEMES, Scheme
-from solvers.hj.solve import _key_parts
 
 LOW = SolverSettings.with_accuracy("low")
-
-
-@pytest.fixture()
-def cache_in_tmp(tmp_path, monkeypatch):
-    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path / "cache"))
-    return tmp_path / "cache"
 
 
 @pytest.fixture(scope="module")
@@ -104,37 +91,6 @@ def test_meta_for_another_map_is_rejected(small_vf, tmp_path):
         load_value_function(tmp_path / "nothing.vf")
 
 
-def test_cache_reuses_and_recomputes_corrupt_entries(cache_in_tmp):
-    game_map = GameMap((-1.0, 1.0, -1.0, 1.0), (Circle((0.5, 0.5), 0.2),))
-    first = solve_1v1(game_map, grid_points=11, settings=LOW, progress=False)
-    entries = list(cache_dir().glob("1v1-11-*.vf"))
-    assert len(entries) == 1 and cache_dir() == cache_in_tmp
-    assert isinstance(first.values, np.memmap)
-    again = solve_1v1(game_map, grid_points=11, settings=LOW, progress=False)
-    assert again.values.filename == first.values.filename
-    other_radius = solve_1v1(game_map, capture_radius=0.2, grid_points=11, settings=LOW,
-                             progress=False)
-    assert other_radius.values.filename != first.values.filename
-    expected = np.array(first.values)
-    value_file = entries[0] / "value.npy"
-    value_file.write_bytes(value_file.read_bytes()[:200])
-    with pytest.warns(RuntimeWarning, match="solving again"):
-        repaired = solve_1v1(game_map, grid_points=11, settings=LOW, progress=False)
-    np.testing.assert_array_equal(repaired.values, expected)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        solve_1v1(game_map, grid_points=11, settings=LOW, progress=False)
-
-
-@pytest.mark.skipif(sys.platform != "linux", reason="XDG is the Linux convention")
-def test_cache_folder_follows_xdg_unless_configured(monkeypatch, tmp_path):
-    monkeypatch.delenv("REACHAVOID_CACHE_DIR")
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
-    assert cache_dir() == tmp_path / "xdg" / "reachavoid"
-    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path / "mine"))
-    assert cache_dir() == tmp_path / "mine"
-
-
 def test_memory_guard_names_grid_and_need():
     grid = Grid.for_players((-1, 1, -1, 1), 3, 70)
     game = game_2v1((1.0, 1.5), 0.1)
@@ -176,37 +132,6 @@ def test_settings_validate_and_presets():
         SolverSettings.with_accuracy("extreme")  # type: ignore[arg-type]
 
 
-def _other_value(value: object) -> object:
-    """A valid setting value unlike ``value`` (one rule per type: a new field of a new type
-    fails here until it gets one)."""
-    if isinstance(value, bool):
-        return not value
-    if isinstance(value, int):
-        return value + 1
-    if isinstance(value, float):
-        return value / 2
-    if isinstance(value, Scheme):
-        return next(s for s in SCHEMES.values() if s != value)
-    if value in ("red_black", "jacobi"):
-        return "jacobi" if value == "red_black" else "red_black"
-    raise AssertionError(f"no other value for a setting of type {type(value).__name__}")
-
-
-def test_cache_key_covers_every_setting():
-    game, grid = game_1v1((1.0, 1.0), 0.1), Grid((-1.0,) * 4, (1.0,) * 4, (9,) * 4)
-    base = SolverSettings()
-
-    def key(settings):
-        return cache_key(_key_parts(game, MAP, grid, settings, {}))
-
-    for field in fields(SolverSettings):
-        changed = base.replace(**{field.name: _other_value(getattr(base, field.name))})
-        assert key(changed) != key(base), field.name
-
-
-MAP = GameMap((-1.0, 1.0, -1.0, 1.0), (Circle((0.5, 0.5), 0.2),))
-
-
 def test_out_refuses_a_folder_that_is_not_a_value_directory(cache_in_tmp, tmp_path):
     mine = tmp_path / "mine"
     mine.mkdir()
@@ -230,58 +155,6 @@ def test_out_refuses_a_folder_that_is_not_a_value_directory(cache_in_tmp, tmp_pa
     assert sorted(os.listdir(tmp_path)) == ["cache", "empty", "mine", "out.vf"]
 
 
-def _entry(cache):
-    (entry,) = cache.glob("1v1-9-*.vf")
-    return entry
-
-
-def _edit_meta(entry, **changes):
-    meta = json.loads((entry / "meta.json").read_text())
-    meta.update(changes)
-    (entry / "meta.json").write_text(json.dumps(meta))
-
-
-@pytest.mark.parametrize("damage", ["grid_max", "nan", "capture_radius", "flipped", "version"])
-def test_cache_checks_what_it_reads_and_solves_again(cache_in_tmp, damage):
-    first = solve_1v1(MAP, grid_points=9, settings=LOW, progress=False)
-    expected = np.array(first.values)
-    entry = _entry(cache_in_tmp)
-    if damage == "grid_max":
-        _edit_meta(entry, grid_max=[0.9, 0.9, 0.9, 0.9])
-    elif damage == "capture_radius":
-        _edit_meta(entry, parameters={"capture_radius": 0.2}, capture_radius=0.2)
-    elif damage == "version":
-        meta = json.loads((entry / "meta.json").read_text())
-        _edit_meta(entry, solver=meta["solver"] | {"version": "1"})
-    else:
-        values = np.load(entry / "value.npy", mmap_mode="r+")
-        if damage == "nan":
-            values[...] = np.nan
-        else:
-            values.reshape(-1)[1000] = -values.reshape(-1)[1000] - 1.0
-        values.flush()
-        del values
-    with pytest.warns(RuntimeWarning, match="solving again") as record:
-        again = solve_1v1(MAP, grid_points=9, settings=LOW, progress=False)
-    assert len(record) == 1
-    np.testing.assert_array_equal(again.values, expected)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        solve_1v1(MAP, grid_points=9, settings=LOW, progress=False)
-
-
-def test_corruption_warning_is_one_line_without_source(cache_in_tmp):
-    solve_1v1(MAP, grid_points=9, settings=LOW, progress=False)
-    value_file = _entry(cache_in_tmp) / "value.npy"
-    value_file.write_bytes(value_file.read_bytes()[:200])
-    with pytest.warns(RuntimeWarning) as record:
-        solve_1v1(MAP, grid_points=9, settings=LOW, progress=False)
-    (warning,) = record
-    text = warnings.formatwarning(warning.message, warning.category, warning.filename,
-                                  warning.lineno)
-    assert text.count("\n") == 1 and "solving again" in text
-
-
 def test_old_solver_version_is_never_read(small_vf, tmp_path):
     path = small_vf.save(tmp_path / "old.vf")
     meta = json.loads((path / "meta.json").read_text())
@@ -289,39 +162,6 @@ def test_old_solver_version_is_never_read(small_vf, tmp_path):
     (path / "meta.json").write_text(json.dumps(meta))
     with pytest.raises(ValueFunctionError, match="solver version 1"):
         load_value_function(path)
-
-
-def test_stale_temporaries_are_swept_by_their_lock_not_their_pid(cache_in_tmp):
-    """Temporaries go when their owner's flock can be taken, whatever their PID says (a
-    live owner in another PID namespace or on another node may carry any PID)."""
-    cache_in_tmp.mkdir()
-    owner = subprocess.Popen(
-        [sys.executable, "-c", "import fcntl, sys, time; f = open(sys.argv[1], 'w'); "
-         "fcntl.flock(f, fcntl.LOCK_EX); print(flush=True); time.sleep(60)",
-         str(cache_in_tmp / f".1v1-9-abc.vf.{os.getpid() + 1}.held.lock")],
-        stdout=subprocess.PIPE, text=True)
-    try:
-        owner.stdout.readline()
-        live = cache_in_tmp / f".1v1-9-abc.vf.{os.getpid() + 1}.held.tmp"
-        live.mkdir()
-        stale = cache_in_tmp / f".1v1-9-abc.vf.{owner.pid}.gone.tmp"   # a live PID, no lock
-        stale.mkdir()
-        (stale / "value.npy").write_bytes(b"0" * 1000)
-        (cache_in_tmp / f".1v1-9-abc.vf.{owner.pid}.gone.lock").touch()
-        legacy = cache_in_tmp / ".1v1-9-abc.vf.1.old.tmp"   # no lock file: by age
-        legacy.mkdir()
-        os.utime(legacy, (0, 0))
-        recent = cache_in_tmp / ".1v1-9-abc.vf.1.new.tmp"
-        recent.mkdir()
-        foreign = cache_in_tmp / "notes.tmp"
-        foreign.write_text("not ours")
-        solve_1v1(MAP, grid_points=9, settings=LOW, progress=False)
-        left = sorted(p.name for p in cache_in_tmp.iterdir() if p.name.startswith("."))
-        assert left == sorted([live.name, live.with_suffix(".lock").name, recent.name])
-        assert foreign.exists()
-    finally:
-        owner.kill()
-        owner.wait()
 
 
 def test_value_directories_get_the_umask_mode(small_vf, tmp_path):
@@ -354,3 +194,14 @@ def test_save_keeps_an_identical_entry_renamed_into_place_by_another_process(
     assert (target / "meta.json").read_text() == (theirs / "meta.json").read_text()
     assert sorted(os.listdir(tmp_path)) == ["entry.vf", "theirs.vf"]
     np.testing.assert_array_equal(load_value_function(target).values, small_vf.values)
+
+
+def test_meta_shape_is_checked_against_the_file_before_use(tmp_path):
+    vf = solve_1v1(builtin_map("paper"), grid_points=9, settings=LOW, cache=False,
+                   progress=False)
+    path = vf.save(tmp_path / "one.vf")
+    meta = json.loads((path / "meta.json").read_text())
+    meta["shape"] = [2000, 2000, 2000, 2000, 3, 3]
+    (path / "meta.json").write_text(json.dumps(meta))
+    with pytest.raises(ValueFunctionError, match="shape"):
+        load_value_function(path)

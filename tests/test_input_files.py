@@ -7,22 +7,15 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from checks import SIMPLE, fails_cleanly
 
-from reachavoid.cli import main
 from reachavoid.suite import SuiteError, load_suite
-from reachavoid_env import ScenarioError
+from reachavoid_env import ScenarioError, load_scenario
 from reachavoid_env.maps import INDEX, MapOptions, load_library, map_file, write_library
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = (ROOT / "reachavoid_env" / "scenarios" / "paper_2v1.toml").read_text()
 OPTIONS = MapOptions(obstacles=(1, 2), shapes=("box",), density=(0.0, 0.3))
-
-
-def _one_line(capsys, args: list[str], message: str) -> str:
-    assert main(args) == 2
-    out, err = capsys.readouterr()
-    assert out == "" and err.count("\n") == 1 and message in err, err
-    return err
 
 
 @pytest.fixture
@@ -31,26 +24,31 @@ def library(tmp_path) -> Path:
     return tmp_path / "lib"
 
 
+def refused_as_nested_too_deeply(capsys, path: Path, load, error: type, args: list[str]):
+    """With TOML nested 5,000 deep in ``path``, ``load()`` raises ``error`` and the command
+    ``args`` says so in one line."""
+    path.write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
+    with pytest.raises(error, match="nested too deeply"):
+        load()
+    fails_cleanly(capsys, args, "nested too deeply")
+
+
 def test_a_deeply_nested_suite_is_one_line(tmp_path, capsys):
     path = tmp_path / "deep.toml"
-    path.write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
-    with pytest.raises(SuiteError, match="nested too deeply"):
-        load_suite(path)
-    _one_line(capsys, ["bench", "--suite", str(path)], "nested too deeply")
+    refused_as_nested_too_deeply(capsys, path, lambda: load_suite(path), SuiteError,
+                                 ["bench", "--suite", str(path)])
 
 
 def test_a_deeply_nested_index_is_one_line(library, capsys):
-    (library / INDEX).write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
-    with pytest.raises(ScenarioError, match="nested too deeply"):
-        load_library(library)
-    _one_line(capsys, ["play", "--scenario", str(library)], "nested too deeply")
+    refused_as_nested_too_deeply(capsys, library / INDEX, lambda: load_library(library),
+                                 ScenarioError, ["play", "--scenario", str(library)])
 
 
 @pytest.mark.parametrize("value", ["5", "[]", '""'])
 def test_an_index_entry_of_the_wrong_type_is_one_line(library, capsys, value):
     index = library / INDEX
     index.write_text(index.read_text().replace(f'file = "{map_file(0)}"', f"file = {value}"))
-    _one_line(capsys, ["play", "--scenario", str(index)], "maps[0].file")
+    fails_cleanly(capsys, ["play", "--scenario", str(index)], "maps[0].file")
 
 
 def test_suites_accept_a_byte_order_mark(tmp_path):
@@ -63,11 +61,11 @@ def test_suites_accept_a_byte_order_mark(tmp_path):
 def test_an_error_in_one_map_names_its_file(library, capsys):
     broken = library / map_file(1)
     broken.write_text(broken.read_text().replace("capture_radius = ", "capture_radius = -"))
-    err = _one_line(capsys, ["play", "--scenario", str(library)], "capture_radius")
+    err = fails_cleanly(capsys, ["play", "--scenario", str(library)], "capture_radius")
     assert str(broken) in err
     index = library / INDEX
     index.unlink()   # a folder without an index: every *.toml
-    err = _one_line(capsys, ["play", "--scenario", str(library)], "capture_radius")
+    err = fails_cleanly(capsys, ["play", "--scenario", str(library)], "capture_radius")
     assert str(broken) in err
 
 
@@ -77,7 +75,7 @@ def test_maps_that_share_a_name_are_refused(tmp_path, capsys):
             PAPER.replace("attacker_speed = 1.0", f"attacker_speed = {speed}"))
     with pytest.raises(ScenarioError, match="names in a library are unique"):
         load_library(tmp_path)
-    _one_line(capsys, ["solve", "--scenario", str(tmp_path), "--defenders", "hj"],
+    fails_cleanly(capsys, ["solve", "--scenario", str(tmp_path), "--defenders", "hj"],
               "names in a library are unique")
     same = load_library([tmp_path / "m0.toml", tmp_path / "m0.toml"])
     assert len(same) == 1
@@ -88,6 +86,43 @@ def test_validate_finds_what_play_would(tmp_path, capsys):
     path.write_text('name = "small"\n[map]\ndomain = [-10.0, 10.0, -10.0, 10.0]\n'
                     'target = { type = "box", min = [3.01, 3.01], max = [3.03, 3.03] }\n'
                     '[players]\nattackers = [[-5.0, 0.0]]\ndefenders = [[3.0, -3.0]]\n')
-    _one_line(capsys, ["validate", str(path)], "no free grid node lies in the target")
-    _one_line(capsys, ["play", "--scenario", str(path), "--defenders", "greedy"],
+    fails_cleanly(capsys, ["validate", str(path)], "no free grid node lies in the target")
+    fails_cleanly(capsys, ["play", "--scenario", str(path), "--defenders", "greedy"],
               "no free grid node lies in the target")
+
+
+def scenario_text(old: str = "", new: str = "") -> str:
+    """The built-in paper_2v1 file with ``old`` replaced by ``new``."""
+    return PAPER.replace(old, new) if old else PAPER
+
+
+@pytest.mark.parametrize(("old", "new", "message"), [
+    ("dt = 0.005", "dt = 1e7", "sim.dt: must be in (0, 1]"),
+    ("dt = 0.005", "dt = 0.005\nplayer_radius = 1e-10", "sim.dt: 0.005 s at speed 1.5 needs"),
+    ("domain = [-1.0, 1.0, -1.0, 1.0]", "domain = [-1e6, 1e6, -1.0, 1.0]",
+     "map.domain[0]: must be in [-10000, 10000]"),
+    ("max_steps = 1000", "max_steps = 1e9", "sim.max_steps: expected an integer"),
+])
+def test_scenario_numbers_out_of_range(capsys, tmp_path, old, new, message):
+    path = tmp_path / "s.toml"
+    path.write_text(scenario_text(old, new))
+    fails_cleanly(capsys, ["play", "--scenario", str(path), *SIMPLE], message)
+
+
+def test_non_utf8_scenario(capsys, tmp_path):
+    path = tmp_path / "latin.toml"
+    path.write_bytes(scenario_text().encode() + "# caf\xe9\n".encode("latin-1"))
+    fails_cleanly(capsys, ["play", "--scenario", str(path), *SIMPLE], "not UTF-8 text")
+
+
+def test_deeply_nested_toml_is_one_line(tmp_path, capsys):
+    path = tmp_path / "deep.toml"
+    refused_as_nested_too_deeply(capsys, path, lambda: load_scenario(path), ScenarioError,
+                                 ["play", "--scenario", str(path)])
+
+
+def test_a_byte_order_mark_is_accepted(tmp_path):
+    text = (ROOT / "reachavoid_env" / "scenarios" / "paper_2v1.toml").read_bytes()
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + text)
+    assert load_scenario(path).num_attackers == 2

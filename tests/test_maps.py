@@ -197,14 +197,14 @@ def test_an_env_over_a_library_draws_a_map_per_reset_from_the_seed(tmp_path):
 
 def test_play_names_the_map_the_env_draws_without_building_one(tmp_path):
     import reachavoid_env
-    from reachavoid.cli import _drawn_map
+    from reachavoid.play import drawn_map
 
     write_library(tmp_path, SMALL, 0, 4)
     scenarios = load_library(tmp_path)
     env = reachavoid_env.parallel_env(scenario=scenarios)
     for seed in range(16):
         env.reset(seed=seed)
-        assert _drawn_map(scenarios, seed).name == env.scenario.name
+        assert drawn_map(scenarios, seed).name == env.scenario.name
 
 
 def test_attacker_envs_over_a_library_build_defenders_per_map_once(tmp_path):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import sys
 
 import pytest
+from checks import fails_cleanly
 
 from reachavoid.cli import main
 
@@ -32,22 +33,16 @@ class Fails:
 '''
 
 
-def _one_line(capsys, args: list[str], message: str) -> None:
-    assert main(args) == 2
-    out, err = capsys.readouterr()
-    assert out == "" and err.count("\n") == 1 and message in err, err
-
-
 @pytest.mark.parametrize("spec", ["..:x", ".:x", "no_such_module_here:x"])
 def test_a_module_that_cannot_be_imported_is_one_line(capsys, spec):
-    _one_line(capsys, ["play", *QUICK, "--defenders", spec], "--defenders: cannot import")
+    fails_cleanly(capsys, ["play", *QUICK, "--defenders", spec], "--defenders: cannot import")
 
 
 def test_sb3_without_stable_baselines3_is_one_line(tmp_path, monkeypatch, capsys):
     model = tmp_path / "model.zip"
     model.write_bytes(b"PK")
     monkeypatch.setitem(sys.modules, "stable_baselines3", None)
-    _one_line(capsys, ["play", "--scenario", "paper_2v1", "--defenders", "greedy",
+    fails_cleanly(capsys, ["play", "--scenario", "paper_2v1", "--defenders", "greedy",
                        "--attackers", f"sb3:{model}"], "needs Stable-Baselines3")
 
 

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+import reachavoid_env
 from reachavoid_env import (
     Box,
     ScenarioError,
@@ -139,3 +142,20 @@ def test_random_starts_are_valid_and_seeded():
     scenario.validate_starts(a1, d1)
     assert np.all(scenario.map.obstacle_signed_distance(np.concatenate([a1, d1]))
                   >= scenario.start_clearance)
+
+
+def test_attacker_inside_a_closed_ring_polygon_is_refused(tmp_path):
+    text = (Path(reachavoid_env.__file__).parent / "scenarios" / "paper_2v1.toml").read_text()
+    text = text.replace('  { type = "box", min = [-0.1, 0.3], max = [0.1, 0.6] },',
+                        '  { type = "polygon", vertices = [[-0.6, -0.1], [-0.4, -0.1], '
+                        '[-0.4, 0.1], [-0.6, 0.1], [-0.6, -0.1]] },')
+    path = tmp_path / "ring.toml"
+    path.write_text(text)
+    with pytest.raises(ScenarioError, match=r"players.attackers\[0\].*inside obstacle 1"):
+        load_scenario(path)
+
+
+def test_saved_scenario_round_trips_paper_table(tmp_path):
+    path = tmp_path / "p.toml"
+    save_scenario(builtin_scenario("paper_6v2"), path)
+    assert dict(load_scenario(path).paper_captures) == {"paper": 6, "matching": 4}

@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 import pytest
+from checks import fails_cleanly
 
 from reachavoid.cli import main
 from reachavoid_env import ScenarioError, load_scenario
@@ -24,17 +25,11 @@ def _named(tmp_path: Path, name: str) -> Path:
     return path
 
 
-def _one_line(capsys, args: list[str], message: str) -> None:
-    assert main(args) == 2
-    out, err = capsys.readouterr()
-    assert out == "" and err.count("\n") == 1 and message in err, err
-
-
 def test_a_name_with_a_control_character_is_refused(tmp_path, capsys):
     path = _named(tmp_path, "bad\\u0000name")
     with pytest.raises(ScenarioError, match="^name: expected printable text"):
         load_scenario(path)
-    _one_line(capsys, ["play", "--scenario", str(path), *QUICK, "--preview",
+    fails_cleanly(capsys, ["play", "--scenario", str(path), *QUICK, "--preview",
                        str(tmp_path / "p.png")], "name: expected printable text")
 
 
@@ -53,4 +48,4 @@ def test_player_counts_have_an_upper_bound(tmp_path, capsys, role):
     path.write_text(text)
     with pytest.raises(ScenarioError, match=f"players.{role}: at most {MAX_PLAYERS}"):
         load_scenario(path)
-    _one_line(capsys, ["play", "--scenario", str(path), *QUICK], f"at most {MAX_PLAYERS}")
+    fails_cleanly(capsys, ["play", "--scenario", str(path), *QUICK], f"at most {MAX_PLAYERS}")

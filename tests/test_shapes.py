@@ -6,8 +6,15 @@ import numpy as np
 import pytest
 from matplotlib.path import Path
 
+import reachavoid_env
 from reachavoid_env import Box, Circle, Polygon, ShapeError
-from reachavoid_env.shapes import quadratic_entry_time, shape_from_dict
+from reachavoid_env.shapes import (
+    MAX_POLYGON_VERTICES,
+    _edges_meet,
+    _first_crossing,
+    quadratic_entry_time,
+    shape_from_dict,
+)
 
 CONCAVE = Polygon(((-0.6, -0.5), (0.6, -0.5), (0.6, 0.5), (0.2, 0.5), (0.0, -0.1),
                    (-0.2, 0.5), (-0.6, 0.5)))           # a "U"-like notch from the top
@@ -166,3 +173,48 @@ def test_shape_errors_name_the_field(table, message):
 def test_to_dict_round_trips(name):
     shape = SHAPES[name]
     assert shape_from_dict(shape.to_dict(), "target") == shape
+
+
+def test_polygon_repeated_vertices_are_dropped():
+    ring = reachavoid_env.Polygon(((0.0, 0.0), (1.0, 0.0), (1.0, 0.0), (0.0, 1.0), (0.0, 0.0)))
+    assert ring.vertices == ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0))
+    inside = np.array([0.2, 0.2])
+    assert ring.contains(inside) and np.isfinite(ring.signed_distance(inside))
+
+
+@pytest.mark.parametrize(("vertices", "message"), [
+    ([[0, 0], [1, 0], [2, 0]], "zero area"),
+    ([[0, 0], [1, 0], [1, 1], [0, 1], [1, 0.5], [0.5, 0]], "self-intersecting"),
+    ([[0, 0], [2, 0], [1, 0], [1, 1]], "self-intersecting"),
+])
+def test_degenerate_polygons_are_refused_by_name(vertices, message):
+    with pytest.raises(reachavoid_env.ShapeError, match=rf"obstacles\[2\]: .*{message}"):
+        reachavoid_env.scenario.shape_from_dict({"type": "polygon", "vertices": vertices},
+                                                "obstacles[2]")
+
+
+def test_polygon_vertex_cap():
+    angles = np.linspace(0.0, 2.0 * np.pi, MAX_POLYGON_VERTICES, endpoint=False)
+    ring = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    assert len(Polygon(tuple(map(tuple, ring))).vertices) == MAX_POLYGON_VERTICES
+    more = np.vstack([ring, [[0.5, 0.0]]])
+    with pytest.raises(ShapeError, match=f"at most {MAX_POLYGON_VERTICES}"):
+        Polygon(tuple(map(tuple, more)))
+
+
+def test_vectorised_crossing_check_matches_the_pairwise_one():
+    def pairwise(v):
+        n = len(v)
+        return next(((i, j) for i in range(n) for j in range(i + 1, n)
+                     if _edges_meet(v[i], v[(i + 1) % n], v[j], v[(j + 1) % n],
+                                    j == i + 1 or (i == 0 and j == n - 1))), None)
+
+    rng = np.random.default_rng(0)
+    checked = 0
+    for _ in range(2000):
+        v = rng.integers(0, 4, size=(rng.integers(3, 9), 2)).astype(float)
+        if np.any(np.all(v == np.roll(v, -1, axis=0), axis=1)):
+            continue
+        assert (pairwise(v) is None) == (_first_crossing(v) is None), v.tolist()
+        checked += 1
+    assert checked > 1000

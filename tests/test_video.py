@@ -166,3 +166,11 @@ def test_realtime_rate():
     assert realtime_fps(0.005, every=4) == pytest.approx(50.0)
     assert realtime_every(0.005, 50.0) == 4 and realtime_every(0.005, 40.0) == 5
     assert realtime_every(0.1, 50.0) == 1
+
+
+def test_per_episode_videos_are_opt_in(tmp_path):
+    env = reachavoid_env.parallel_env(scenario="paper_2v1", render_mode="rgb_array")
+    with pytest.raises(ValueError, match="episode"):
+        RecordEpisode(env, tmp_path / "run.gif", per_episode=True)
+    assert RecordEpisode(env, tmp_path / "r{episode}.gif").episode_path(3) == str(
+        tmp_path / "r{episode}.gif")

@@ -11,9 +11,9 @@ import types
 from pathlib import Path
 
 import pytest
+from checks import fails_cleanly
 
 from reachavoid import sweep
-from reachavoid.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 DIES = '''
@@ -143,8 +143,15 @@ def test_ray_missing_is_one_line_before_any_work(tmp_path, monkeypatch, capsys):
     else:
         pytest.skip("Ray is installed")
     monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path / "cache"))
-    assert main(["bench", "--scenario", "paper_2v1", "--config", "2v1", "--episodes", "2",
-                 "--backend", "ray"]) == 2
-    out, err = capsys.readouterr()
-    assert out == "" and err.count("\n") == 1 and "needs Ray" in err, err
+    fails_cleanly(capsys, ["bench", "--scenario", "paper_2v1", "--config", "2v1", "--episodes",
+                           "2", "--backend", "ray"], "needs Ray")
     assert not list((tmp_path / "cache").glob("*.vf"))
+
+
+def test_pool_size_is_capped_by_episodes_and_memory(monkeypatch):
+    from reachavoid import sweep
+
+    assert sweep.pool_size(4096, 1) == 1
+    monkeypatch.setattr(sweep, "available_memory", lambda: 5 * sweep.WORKER_BYTES + 1)
+    assert sweep.pool_size(4096, 100) == 5
+    assert sweep.pool_size(None, 100) <= 5
