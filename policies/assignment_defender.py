@@ -22,17 +22,16 @@ from policies.certificate import (
     joined_once,
     kept_games,
     match_arrays,
-    no_team_values,
     open_games,
     roles_of,
 )
 from policies.geodesic import DistanceField, distance_field
 from policies.intercept import Plan, plan_intercepts, race_all
 from policies.intercept import headings as intercept_headings
-from policies.lookups import DecisionTables, Matches, TubeArrays, decision_controls, decision_tables
+from policies.lookups import DecisionTables, TubeArrays, decision_controls, decision_tables
 from policies.steering import steer
 from policies.strategy import Program, Strategy
-from policies.tube_states import control_headings, pair_states, team_states
+from policies.tube_states import control_headings, pair_states, team_states, team_values
 from policies.tubes import check_tube
 from reachavoid_env import GameState, Overlay, Scenario
 from solvers.assignment import Assignment
@@ -93,6 +92,8 @@ class AssignmentDefender:
         self.vf12 = vf12
         self.strategy = strategy
         self.tubes = Tubes.of(vf11, vf21, vf12, strategy.margin_cells)
+        self._margins = np.array(self.tubes.margins, dtype=np.float64)
+        self._tube_arrays = (TubeArrays.of(vf11), None if vf21 is None else TubeArrays.of(vf21))
         self.solver = strategy.program.solver()
         self._nominal_solver = strategy.program.solver()
         self._decision: Decision | None = None
@@ -176,7 +177,7 @@ class AssignmentDefender:
 
     def overlay(self) -> Overlay:
         """The games played (the certified ones with the intercept plan, else the
-        assignment's) and the races (``policies.drawing``)."""
+        assignment's) and the races along their ways (``policies.drawing``)."""
         decision = self._decision
         if decision is None:
             return Overlay()
@@ -184,7 +185,10 @@ class AssignmentDefender:
         line = (f"guaranteed: {self.guaranteed_captures} of "
                 f"{int(decision.state.active_attackers.sum())}, "
                 f"program's count: {self.nominal_captures}")
-        return drawing.overlay(games, self._races(), line)
+        races = self._races()
+        ways = (functools.partial(drawing.race_routes, self._field, decision.state, self._plan,
+                                  races) if races else None)
+        return drawing.overlay(games, races, line, ways)
 
     def _races(self) -> tuple[tuple[int, int], ...]:
         """``(attacker, defender)``: the plan's race of every defender outside the
@@ -278,7 +282,7 @@ class AssignmentDefender:
         certifies = self.strategy.certifies
         games = match_arrays(tuple(fresh) if certifies else ())
         slack = decision_controls(state.attacker_positions, state.defender_positions, singles,
-                                  roles.doubles, games, self._team_values(state, games),
+                                  roles.doubles, games, team_values(self.vf12, state, games),
                                   self._margins, tables.values11, tables.values21,
                                   *self._tube_arrays, actions)
         if not certifies:
@@ -335,16 +339,6 @@ class AssignmentDefender:
                                  (state.attacker_speed, state.defender_speed), self._dt)
         actions[j[steered]] = heading[steered]
 
-    @functools.cached_property
-    def _margins(self) -> np.ndarray:
-        """The tubes' certificate margins as ``decision_controls`` takes them."""
-        return np.array(self.tubes.margins, dtype=np.float64)
-
-    @functools.cached_property
-    def _tube_arrays(self) -> tuple[TubeArrays, TubeArrays | None]:
-        """The 1 vs 1 and 2 vs 1 tubes as the batched lookups take them."""
-        return TubeArrays.of(self.vf11), None if self.vf21 is None else TubeArrays.of(self.vf21)
-
     def _tables(self, state: GameState, active: np.ndarray, certified: list[Match],
                 wins: np.ndarray, held: np.ndarray | None = None) -> DecisionTables:
         """``decision_tables`` of ``state`` with the ``certified`` games of the last
@@ -354,20 +348,5 @@ class AssignmentDefender:
         if held is None:
             held = np.zeros(len(certified), dtype=bool)
         return decision_tables(state.attacker_positions, state.defender_positions, active,
-                               games, self._team_values(state, games), held, wins,
+                               games, team_values(self.vf12, state, games), held, wins,
                                *self._tube_arrays)
-
-    def _team_values(self, state: GameState, games: Matches) -> np.ndarray:
-        """``(G,)``: the 1 vs 2 value of every team of ``games`` (two defenders), NaN for
-        the other games (read-only where there is no team; a policy without a 1 vs 2 tube
-        plays none)."""
-        if self.vf12 is None:
-            return no_team_values(len(games.defenders))
-        teams = np.flatnonzero(games.defenders[:, 0] != games.defenders[:, 1])
-        if not len(teams):
-            return no_team_values(len(games.defenders))
-        values = np.full(len(games.defenders), np.nan)
-        values[teams] = self.vf12.value(team_states(
-            state.attacker_positions, state.defender_positions,
-            np.column_stack([games.attackers[teams, 0], games.defenders[teams]])))
-        return values

@@ -9,7 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from policies.certificate import no_team_values
+from policies.lookups import Matches
+from reachavoid_env import GameState
 from reachavoid_env.rules import unit_vectors
+from solvers.hj import ValueFunction
 
 
 def pair_states(attackers: np.ndarray, defenders: np.ndarray) -> np.ndarray:
@@ -44,3 +48,18 @@ def control_headings(controls: np.ndarray, fallbacks: np.ndarray) -> np.ndarray:
     if still.any():
         controls[still] = unit_vectors(fallbacks[still])
     return controls
+
+
+def team_values(vf12: ValueFunction | None, state: GameState, games: Matches) -> np.ndarray:
+    """``(G,)``: the 1 vs 2 value of every team of ``games`` (two defenders), NaN for the
+    other games (read-only where there is no team; without a 1 vs 2 tube, none is)."""
+    if vf12 is None:
+        return no_team_values(len(games.defenders))
+    teams = np.flatnonzero(games.defenders[:, 0] != games.defenders[:, 1])
+    if not len(teams):
+        return no_team_values(len(games.defenders))
+    values = np.full(len(games.defenders), np.nan)
+    values[teams] = vf12.value(team_states(
+        state.attacker_positions, state.defender_positions,
+        np.column_stack([games.attackers[teams, 0], games.defenders[teams]])))
+    return values

@@ -20,6 +20,7 @@ from policies import (
 )
 from policies.certificate import Basis, Match, games_of
 from policies.steering import ATTACKER_MOVES, held_one_step, steer
+from policies.strategy import Program, Spare, Strategy
 from policies.tube_states import pair_states
 from reachavoid.rollout import run_episode
 from reachavoid_env.game_state import EdgeKind
@@ -196,6 +197,17 @@ def test_tubes_for_another_game_are_refused(coarse_tubes):
         HJDefenderPolicy(vf21, vf11)
     with pytest.raises(ValueError, match="idle"):
         HJDefenderPolicy(vf11, vf21, idle="wander")
+
+
+def test_strategy_takes_its_enums_or_their_names(coarse_tubes):
+    vf11, vf21 = coarse_tubes
+    assert Strategy("matching", 0.5, "pursue") == Strategy(Program.MATCHING, 0.5, Spare.PURSUE)
+    assert HJDefenderPolicy(vf11, vf21, idle="stand").idle is Spare.STAND == "stand"
+    assert MatchingDefenderPolicy(vf11, unmatched=Spare.PURSUE).strategy.spare is Spare.PURSUE
+    with pytest.raises(ValueError, match="strategy.spare"):
+        Strategy(spare="wander")
+    with pytest.raises(ValueError, match="unmatched"):   # a spare the matching does not play
+        MatchingDefenderPolicy(vf11, unmatched="intercept")
 
 
 def test_hj_attacker_heads_away_from_its_defender(coarse_tubes):
