@@ -44,7 +44,7 @@ from policies.certificate import (
     roles_of,
 )
 from policies.geodesic import DistanceField, distance_field
-from policies.intercept import PATH_STEP, race_points, traced_points
+from policies.intercept import PATH_STEP, Plan, headings, race_points, traced_points
 from policies.lookups import (
     Ragged,
     TubeArrays,
@@ -55,7 +55,6 @@ from policies.steering import steer
 from policies.strategy import CERTIFICATE_CELLS, check_margin_cells
 from policies.tubes import check_tube, tube_1v1, tube_2v1
 from reachavoid_env import BatchState, Scenario
-from reachavoid_env.rules import unit_vectors
 from solvers import open_space
 from solvers.assignment import AssignmentSolver
 from solvers.hj import PAPER_GRIDS, ValueFunction
@@ -311,7 +310,7 @@ class BatchHJDefenders:
         """``AssignmentDefender._play_plan`` of every live copy: the races and the
         intercept plan of all copies at once, then the certified defenders' steering."""
         aims, targets = _plan(*_races(self._field, game), game.active)
-        desired = _headings(targets, aims, game.defenders, game.attackers)
+        desired = headings(Plan(targets, aims), game.defenders, game.attackers)
         free = np.ones(actions.shape[:2], dtype=bool)
         for c, copy in enumerate(game.copies):
             free[c, [j for match in copy.certified for j in match.defenders]] = False
@@ -450,15 +449,3 @@ def _plan(wins, aims, times, threat, active):
             targets[c, j] = best
             planned[c, j] = aims[c, best, j]
     return planned, targets
-
-
-def _headings(targets: np.ndarray, aims: np.ndarray, defenders: np.ndarray,
-              attackers: np.ndarray) -> np.ndarray:
-    """``policies.intercept.headings`` of every copy's plan: ``(L, N, 2)``."""
-    planned = targets >= 0
-    gaps = aims - defenders
-    at_aim = np.hypot(gaps[..., 0], gaps[..., 1]) < 1e-9
-    c, j = np.nonzero(at_aim)
-    gaps[c, j] = attackers[c, targets[c, j]] - defenders[c, j]
-    gaps[~planned] = 0.0
-    return unit_vectors(gaps) * planned[..., None]
