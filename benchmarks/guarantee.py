@@ -25,7 +25,7 @@ import time
 from result_file import write_result
 
 import reachavoid_env
-from policies.defenders import CERTIFICATE_CELLS
+from policies.strategy import CERTIFICATE_CELLS
 from reachavoid import compare_defenders
 from reachavoid.sweep import BACKENDS
 

@@ -55,7 +55,7 @@ from tqdm import tqdm
 
 import reachavoid_env
 from policies import HJAttacker, HJDefenderPolicy, RandomAttacker, ShortestPathAttacker
-from policies.defenders import pair_states, triple_states
+from policies.tube_states import pair_states, triple_states
 from policies.tubes import tube_1v1
 from reachavoid.rollout import CertifiesCaptures, run_episode
 from reachavoid_env import AttackerStatus, GameState, Overlay, Scenario, merged_overlay

@@ -32,29 +32,29 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from policies.certificate import Basis, Match, OpenSpace, kept_games, match_arrays
-from policies.defenders import (
-    ATTACKER_MOVES,
-    CERTIFICATE_CELLS,
-    CONE_SLACK,
-    check_margin_cells,
-    check_tube,
+from policies.certificate import (
+    Basis,
+    Match,
+    OpenSpace,
+    Tubes,
     joined_once,
+    kept_games,
+    match_arrays,
     open_games,
     roles_of,
 )
 from policies.geodesic import DistanceField, distance_field
-from policies.intercept import PATH_STEP, race_points, traced_points
+from policies.intercept import PATH_STEP, Plan, headings, race_points, traced_points
 from policies.lookups import (
-    HEADING_FLOOR,
     Ragged,
     TubeArrays,
     batch_decision_controls,
     batch_decision_tables,
 )
-from policies.tubes import tube_1v1, tube_2v1
+from policies.steering import steer
+from policies.strategy import CERTIFICATE_CELLS, check_margin_cells
+from policies.tubes import check_tube, tube_1v1, tube_2v1
 from reachavoid_env import BatchState, Scenario
-from reachavoid_env.rules import unit_vectors
 from solvers import open_space
 from solvers.assignment import AssignmentSolver
 from solvers.hj import PAPER_GRIDS, ValueFunction
@@ -109,12 +109,9 @@ class BatchHJDefenders:
         self.vf11 = vf11
         self.vf21 = vf21
         self.margin_cells = check_margin_cells(margin_cells)
-        self.margins = np.array([self.margin_cells * float(max(vf.grid.spacing))
-                                 if vf is not None else 0.0 for vf in (vf11, vf21, None)])
+        self.margins = np.array(Tubes.of(vf11, vf21, None, self.margin_cells).margins,
+                                dtype=np.float64)
         self._tubes = (TubeArrays.of(vf11), None if vf21 is None else TubeArrays.of(vf21))
-        k = vf11.players.index(vf11.attackers[0])
-        q = vf11.players.index(vf11.defenders[0])
-        self._axes = (np.array([2 * k, 2 * k + 1]), np.array([2 * q, 2 * q + 1]))
         self._copies: list[_Copy | None] = []
         self._game: tuple | None = None
         self._open: OpenSpace | None = None
@@ -258,7 +255,7 @@ class BatchHJDefenders:
 
     def _decide_and_play(self, game: _Batch, wins: _OpenWins, held: list[np.ndarray],
                          actions: np.ndarray) -> None:
-        """As ``_AssignmentDefender._decide`` and ``_play_games`` in every copy: the
+        """As ``AssignmentDefender._decide`` and ``_play_games`` in every copy: the
         tables of all copies in one call, then per copy the kept games and the program
         (its solver's cache first), then every copy's optimal controls into ``actions``
         (``(L, N, 2)``) and new games' slacks in one call, and each copy's new certified
@@ -310,10 +307,10 @@ class BatchHJDefenders:
             copy.certified = copy.certified + games
 
     def _play_plan(self, game: _Batch, actions: np.ndarray) -> None:
-        """``_AssignmentDefender._play_plan`` of every live copy: the races and the
+        """``AssignmentDefender._play_plan`` of every live copy: the races and the
         intercept plan of all copies at once, then the certified defenders' steering."""
         aims, targets = _plan(*_races(self._field, game), game.active)
-        desired = _headings(targets, aims, game.defenders, game.attackers)
+        desired = headings(Plan(targets, aims), game.defenders, game.attackers)
         free = np.ones(actions.shape[:2], dtype=bool)
         for c, copy in enumerate(game.copies):
             free[c, [j for match in copy.certified for j in match.defenders]] = False
@@ -321,8 +318,8 @@ class BatchHJDefenders:
         self._steer_certified(game, desired, actions)
 
     def _steer_certified(self, game: _Batch, desired: np.ndarray, actions: np.ndarray) -> None:
-        """``_AssignmentDefender._steer_certified`` over every copy's certified 1 vs 1
-        tube games at once (its docstring says what it does)."""
+        """``policies.steering.steer`` over every copy's certified 1 vs 1 tube games at
+        once."""
         rows = [(c, match.attackers[0], match.defenders[0])
                 for c, copy in enumerate(game.copies) for match in copy.certified
                 if match.basis is Basis.TUBE and len(match.defenders) == 1
@@ -330,47 +327,13 @@ class BatchHJDefenders:
         if not rows:
             return
         c, i, j = (np.array(column) for column in zip(*rows, strict=True))
-        attackers, defenders = game.attackers[c, i], game.defenders[c, j]
-        states = np.concatenate([attackers, defenders], axis=1)
-        value, gradient = self.vf11.value_and_gradient(states)
-        grad_a, grad_d = gradient[:, self._axes[0]], gradient[:, self._axes[1]]
-        size_d = np.hypot(grad_d[:, 0], grad_d[:, 1])
-        floor = size_d > HEADING_FLOOR
-        cone = np.where(floor, game.attacker_speed * np.hypot(grad_a[:, 0], grad_a[:, 1])
-                        / (game.defender_speed * np.maximum(size_d, HEADING_FLOOR)), np.inf)
-        cone = cone + CONE_SLACK
-        best = grad_d / np.maximum(size_d, HEADING_FLOOR)[:, None]
-        wanted = desired[c, j]
-        aim = np.where(wanted.any(axis=1)[:, None], wanted, unit_vectors(attackers - defenders))
-        along = np.einsum("kd,kd->k", aim, best)
-        across = aim - along[:, None] * best
-        width = np.hypot(across[:, 0], across[:, 1])
-        across = across / np.maximum(width, 1e-12)[:, None]
-        rim = np.minimum(cone, 1.0)
-        edge = rim[:, None] * best + np.sqrt(1.0 - rim**2)[:, None] * across
-        step = (game.attacker_speed + game.defender_speed) * self._dt
-        clear = value - self.margins[0] > step
-        close = ~clear
-        if close.any():
-            clear[close] = self._held_one_step(game, attackers[close], defenders[close],
-                                               aim[close])
-        heading = np.where((clear | (along >= cone))[:, None], aim, edge)
-        steer = clear | (cone < 1.0) & (width > 1e-9) | (along >= cone)
-        actions[c[steer], j[steer]] = heading[steer]
-
-    def _held_one_step(self, game: _Batch, attackers: np.ndarray, defenders: np.ndarray,
-                       headings: np.ndarray) -> np.ndarray:
-        """``_AssignmentDefender._held_one_step`` of games at ``attackers``, ``defenders``
-        (``(G, 2)``)."""
-        moves = ATTACKER_MOVES * (game.attacker_speed * self._dt)
-        a = attackers[:, None, :] + moves[None]
-        d = defenders + headings * (game.defender_speed * self._dt)
-        states = np.concatenate([a, np.broadcast_to(d[:, None, :], a.shape)], axis=-1)
-        after = self.vf11.value(states.reshape(-1, 4)).reshape(len(attackers), -1)
-        return after.min(axis=1) > self.margins[0]
+        steered, heading = steer(self.vf11, game.attackers[c, i], game.defenders[c, j],
+                                 desired[c, j], self.margins[0],
+                                 (game.attacker_speed, game.defender_speed), self._dt)
+        actions[c[steered], j[steered]] = heading[steered]
 
     def _play_open(self, game: _Batch, actions: np.ndarray) -> None:
-        """``_AssignmentDefender._play_open`` of every copy's open-space games at once."""
+        """``AssignmentDefender._play_open`` of every copy's open-space games at once."""
         rows = [(c, match.attackers[0], match.defenders[0])
                 for c, copy in enumerate(game.copies) for match in copy.certified
                 if match.basis is Basis.OPEN]
@@ -486,15 +449,3 @@ def _plan(wins, aims, times, threat, active):
             targets[c, j] = best
             planned[c, j] = aims[c, best, j]
     return planned, targets
-
-
-def _headings(targets: np.ndarray, aims: np.ndarray, defenders: np.ndarray,
-              attackers: np.ndarray) -> np.ndarray:
-    """``policies.intercept.headings`` of every copy's plan: ``(L, N, 2)``."""
-    planned = targets >= 0
-    gaps = aims - defenders
-    at_aim = np.hypot(gaps[..., 0], gaps[..., 1]) < 1e-9
-    c, j = np.nonzero(at_aim)
-    gaps[c, j] = attackers[c, targets[c, j]] - defenders[c, j]
-    gaps[~planned] = 0.0
-    return unit_vectors(gaps) * planned[..., None]

@@ -94,6 +94,47 @@ class Tubes:
     vf12: ValueFunction | None
     margins: Margins
 
+    @classmethod
+    def of(cls, vf11: ValueFunction, vf21: ValueFunction | None, vf12: ValueFunction | None,
+           margin_cells: float) -> Tubes:
+        """The tubes with their margins: ``margin_cells`` of each tube's largest grid
+        spacing (0 for a missing tube)."""
+        return cls(vf11, vf21, vf12, Margins(*(
+            0.0 if vf is None else margin_cells * float(max(vf.grid.spacing))
+            for vf in (vf11, vf21, vf12))))
+
+
+class Roles(NamedTuple):
+    """What each defender of an assignment plays: int64 rows ``singles (S, 2)``
+    ``(attacker, defender)`` alone against one, ``doubles (D, 3)`` ``(first, second,
+    defender)`` against two; the ``idle`` defenders (in no game); and its ``games``
+    (``games_of``)."""
+
+    singles: np.ndarray
+    doubles: np.ndarray
+    idle: tuple[int, ...]
+    games: tuple[Match, ...]
+
+
+@functools.lru_cache(maxsize=1024)
+def roles_of(assignment: Assignment) -> Roles:
+    """``Roles`` of ``assignment``, made once per distinct assignment: answers recur step
+    after step."""
+    in_team = {d for _, j, k in assignment.shared for d in (j, k)}
+    singles, doubles, idle = [], [], []
+    for j, mine in enumerate(assignment.by_defender):
+        if j in in_team:
+            continue
+        if len(mine) == 2:
+            doubles.append((*mine, j))
+        elif len(mine) == 1:
+            singles.append((mine[0], j))
+        else:
+            idle.append(j)
+    return Roles(np.array(singles, dtype=np.int64).reshape(-1, 2),
+                 np.array(doubles, dtype=np.int64).reshape(-1, 3), tuple(idle),
+                 tuple(games_of(assignment)))
+
 
 @functools.cache
 def no_team_values(games: int) -> np.ndarray:
@@ -247,3 +288,16 @@ def joined(rest: Assignment, fixed: list[Match], num_defenders: int) -> Assignme
     teams = list(rest.shared) + [(game.attackers[0], *game.defenders) for game in fixed
                                  if len(game.defenders) == 2]
     return Assignment.from_pairs(pairs, num_defenders, teams)
+
+
+@functools.lru_cache(maxsize=1024)
+def joined_once(rest: Assignment, kept: tuple[Match, ...], num_defenders: int) -> Assignment:
+    """``joined``, made once per distinct answer and kept games."""
+    return joined(rest, list(kept), num_defenders)
+
+
+def open_games(games: list[Match], wins: np.ndarray) -> list[bool]:
+    """Whether each of ``games`` is one defender against one attacker that ``wins``
+    ``(M, N)`` (``OpenSpace.wins``) says the defender wins."""
+    return [len(game.defenders) == len(game.attackers) == 1
+            and bool(wins[game.attackers[0], game.defenders[0]]) for game in games]

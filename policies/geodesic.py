@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import skfmm
@@ -158,6 +159,43 @@ def distance_field(game_map: GameMap, clearance: float = 0.0,
     ``clearance``: how far (map units) paths keep from obstacles and the domain's walls,
     normally the player radius. ``cells``: grid cells along the longer side of the domain.
     """
+    grid = _grid(game_map, clearance, cells)
+    phi = game_map.target_signed_distance(grid.nodes)
+    if not np.any(grid.free & (phi <= 0)):
+        raise ScenarioError(f"map.target: no free grid node lies in the target (clearance "
+                         f"{clearance:g}, spacing {grid.size:.3g}); use more cells")
+    if np.all(phi[grid.free] <= 0):
+        raise ValueError("map: the free space lies inside the target; nothing to reach")
+    return _solved(game_map, clearance, grid, phi)
+
+
+def distance_to(game_map: GameMap, clearance: float, goal: np.ndarray,
+                cells: int = DEFAULT_CELLS // 2) -> DistanceField | None:
+    """The geodesic distance field to the point ``goal`` ``(2,)`` (a disc of one and a half
+    cells around it) instead of the target, as ``distance_field`` makes it; ``None``
+    where no free grid node lies in that disc (a goal in a grown obstacle)."""
+    grid = _grid(game_map, clearance, cells)
+    phi = np.hypot(grid.nodes[..., 0] - goal[0], grid.nodes[..., 1] - goal[1]) - 1.5 * grid.size
+    if not np.any(grid.free & (phi <= 0)) or np.all(phi[grid.free] <= 0):
+        return None
+    return _solved(game_map, clearance, grid, phi)
+
+
+class _Grid(NamedTuple):
+    """A field's nodes ``xs``, ``ys``, ``nodes (nx, ny, 2)``, the ``free`` ones and the
+    cell ``size`` asked for (map units)."""
+
+    xs: np.ndarray
+    ys: np.ndarray
+    nodes: np.ndarray
+    free: np.ndarray
+    size: float
+
+
+@functools.lru_cache(maxsize=8)
+def _grid(game_map: GameMap, clearance: float, cells: int) -> _Grid:
+    """The nodes of a field with ``cells`` cells along the longer side of the domain, free
+    ``clearance`` from obstacles and walls (cached: ``distance_to`` asks again and again)."""
     if clearance < 0:
         raise ValueError(f"clearance: must be >= 0 map units, got {clearance}")
     if cells < 8:
@@ -168,16 +206,19 @@ def distance_field(game_map: GameMap, clearance: float = 0.0,
     ys = np.linspace(ymin, ymax, int(np.ceil((ymax - ymin) / size - 1e-9)) + 1)
     nodes = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1)
     free = game_map.obstacle_signed_distance(nodes) > clearance
-    phi = game_map.target_signed_distance(nodes)
-    if not np.any(free & (phi <= 0)):
-        raise ScenarioError(f"map.target: no free grid node lies in the target (clearance "
-                         f"{clearance:g}, spacing {size:.3g}); use more cells")
-    if np.all(phi[free] <= 0):
-        raise ValueError("map: the free space lies inside the target; nothing to reach")
+    for array in (xs, ys, nodes, free):
+        array.setflags(write=False)
+    return _Grid(xs, ys, nodes, free, size)
+
+
+def _solved(game_map: GameMap, clearance: float, grid: _Grid, phi: np.ndarray) -> DistanceField:
+    """The field of zero level set ``phi`` over the grid's free nodes, by fast marching,
+    filled in elsewhere (``_fill_unknown``)."""
+    xs, ys, free = grid.xs, grid.ys, grid.free
     solved = skfmm.distance(np.ma.MaskedArray(phi, mask=~free),
                             dx=[float(xs[1] - xs[0]), float(ys[1] - ys[0])], order=2)
     reachable = ~np.ma.getmaskarray(solved)
     values = _fill_unknown(np.ma.getdata(solved).astype(np.float64), reachable)
-    for array in (xs, ys, values, reachable):
+    for array in (values, reachable):
         array.setflags(write=False)
     return DistanceField(game_map, float(clearance), xs, ys, values, reachable)

@@ -211,14 +211,17 @@ def plan_intercepts(race: Races, free: np.ndarray, open_: np.ndarray) -> Plan:
 
 
 def headings(plan: Plan, defenders: np.ndarray, attackers: np.ndarray) -> np.ndarray:
-    """Unit headings ``(N, 2)`` towards each planned aim (straight at the attacker where
-    the aim is the defender's own position); zero for defenders without a target."""
+    """Unit headings ``(..., N, 2)`` towards each planned aim (straight at the attacker
+    where the aim is the defender's own position); zero for defenders without a target.
+    Any leading axes (copies of a game) are shared by ``plan``'s arrays, ``defenders``
+    and ``attackers`` (``(..., M, 2)``)."""
     planned = plan.targets >= 0
     gaps = plan.aims - defenders
-    at_aim = np.hypot(gaps[:, 0], gaps[:, 1]) < 1e-9
-    gaps[at_aim] = attackers[plan.targets[at_aim]] - defenders[at_aim]
+    at_aim = np.hypot(gaps[..., 0], gaps[..., 1]) < 1e-9
+    chased = np.take_along_axis(attackers, np.maximum(plan.targets, 0)[..., None], axis=-2)
+    gaps[at_aim] = chased[at_aim] - defenders[at_aim]
     gaps[~planned] = 0.0
-    return unit_vectors(gaps) * planned[:, None]
+    return unit_vectors(gaps) * planned[..., None]
 
 
 class InterceptDefender:

@@ -273,7 +273,7 @@ def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, a
     sc = _scratch(tube11)
     lower, weights, point = sc.lower, sc.weights, sc.point
     for s in range(singles.shape[0]):
-        j, i = singles[s, 0], singles[s, 1]
+        i, j = singles[s, 0], singles[s, 1]
         point[0], point[1] = attackers[i, 0], attackers[i, 1]
         point[2], point[3] = defenders[j, 0], defenders[j, 1]
         gradient_point(sc.rows, sc.stored_of, sc.shape, sc.lo, sc.spacing, sc.strides,
@@ -283,7 +283,7 @@ def _defender_headings(attackers, defenders, singles, doubles, tube11, tube21, a
     sc = _scratch(tube21)
     lower, weights, point = sc.lower, sc.weights, sc.point
     for d in range(doubles.shape[0]):
-        j, first, second = doubles[d, 0], doubles[d, 1], doubles[d, 2]
+        first, second, j = doubles[d, 0], doubles[d, 1], doubles[d, 2]
         point[0], point[1] = attackers[first, 0], attackers[first, 1]
         point[2], point[3] = attackers[second, 0], attackers[second, 1]
         point[4], point[5] = defenders[j, 0], defenders[j, 1]
@@ -324,8 +324,8 @@ def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.
     """Everything one decision reads of the tubes after its program, in one call.
 
     Writes into ``actions (N, 2)`` (float32) the optimal heading of every defender of
-    ``singles`` (int64 rows ``(defender, attacker)``: its 1 vs 1 control) and ``doubles``
-    (rows ``(defender, first, second)``: its 2 vs 1 control); where the control vanishes,
+    ``singles`` (int64 rows ``(attacker, defender)``: its 1 vs 1 control) and ``doubles``
+    (rows ``(first, second, defender)``: its 2 vs 1 control); where the control vanishes,
     the heading straight at its attacker (the nearer of the two, the first on a tie).
     Returns the certificate slack (``match_value``) of each of ``games`` with their
     ``team_values``, ``margins`` ``(3,)`` and the step's tables ``values11``, ``values21``

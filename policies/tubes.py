@@ -10,6 +10,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import NamedTuple
 
+import numpy as np
+
 from reachavoid_env import GameMap, Scenario
 from solvers.hj import (
     PAPER_GRIDS,
@@ -91,3 +93,19 @@ def tube_1v2(scenario: Scenario, grid1: int = PAPER_GRIDS.grid1, grid2: int = PA
     vf11 = tube_1v1(scenario, grid1, progress)
     return _once(scenario, "1v2", grid1, grid2, lambda: solve_1v2(
         scenario.map, vf11, grid_points=grid2, progress=progress))
+
+
+def check_tube(vf: ValueFunction, scenario: Scenario, name: str) -> None:
+    """Refuse a tube solved for another map, other speeds or another capture radius."""
+    mismatches = [
+        field for field, ours, theirs in (
+            ("attacker_speed", scenario.attacker_speed, vf.attacker_speed),
+            ("defender_speed", scenario.defender_speed, vf.defender_speed),
+            ("capture_radius", scenario.capture_radius, vf.capture_radius),
+        ) if not np.isclose(ours, theirs)
+    ]
+    if vf.game_map.to_dict() != scenario.map.to_dict():
+        mismatches.append("map")
+    if mismatches:
+        raise ValueError(f"{name}: the value function was solved for another game "
+                         f"(differs in {', '.join(mismatches)}) than scenario {scenario.name!r}")

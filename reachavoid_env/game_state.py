@@ -5,6 +5,7 @@ them, and ``PerCopy``, the batched policy made of one ``Policy`` per copy."""
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
@@ -113,6 +114,17 @@ class Edge(NamedTuple):
     kind: EdgeKind
 
 
+class Route(NamedTuple):
+    """The way an overlay edge runs, where it is no straight line: ``points`` (map units,
+    at least two) from the ``defender``'s position to the ``attacker``'s, around the
+    obstacles (a racing defender's way to its race point, then the attacker's path back
+    from there)."""
+
+    defender: str
+    attacker: str
+    points: tuple[tuple[float, float], ...]
+
+
 @dataclass(frozen=True)
 class Overlay:
     """What a policy asks the renderer to draw on top of the game.
@@ -120,11 +132,18 @@ class Overlay:
     ``edges`` are ``(defender name, attacker name)`` pairs (the paper's assignment edges);
     ``kinds`` optionally gives each edge's ``EdgeKind``, in the same order (empty: every
     edge is a 1 vs 1 assignment). ``lines`` are extra text lines shown under the clock.
+    ``routes`` give the way of some edges (``Route``): the renderer draws such an edge
+    along its route (its ends at the players' current positions), any other straight.
+    They are made by ``ways`` when first read: a route may cost a geodesic solve, and
+    only a frame reads them (``reachavoid.rollout`` reads every step's overlay for its
+    text).
     """
 
     edges: tuple[tuple[str, str], ...] = ()
     lines: tuple[str, ...] = ()
     kinds: tuple[EdgeKind, ...] = ()
+    ways: Callable[[], tuple[Route, ...]] | None = dataclasses.field(
+        default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.kinds and len(self.kinds) != len(self.edges):
@@ -133,6 +152,18 @@ class Overlay:
         kinds = tuple(EdgeKind(k) for k in self.kinds)
         # one form per meaning: all-ASSIGN kinds are stored as ()
         object.__setattr__(self, "kinds", () if set(kinds) <= {EdgeKind.ASSIGN} else kinds)
+
+    @functools.cached_property
+    def routes(self) -> tuple[Route, ...]:
+        """The ``Route`` of each edge that has one (made by ``ways`` on first read); a route
+        of no edge, or of fewer than two points, is a ``ValueError``."""
+        routes = () if self.ways is None else tuple(self.ways())
+        edges = set(self.edges)
+        for route in routes:
+            if (route.defender, route.attacker) not in edges or len(route.points) < 2:
+                raise ValueError(f"routes: ({route.defender!r}, {route.attacker!r}) is no "
+                                 f"edge of the overlay or has fewer than 2 points")
+        return routes
 
     @property
     def kinded_edges(self) -> tuple[Edge, ...]:
@@ -177,8 +208,8 @@ class Policy(Protocol):
 
 
 def merged_overlay(*policies: Policy) -> Overlay | None:
-    """The union of the policies' overlays (edges with their kinds, text lines); ``None`` if
-    none draws."""
+    """The union of the policies' overlays (edges with their kinds and routes, text lines);
+    ``None`` if none draws."""
     overlays = []
     for policy in policies:
         overlay = getattr(policy, "overlay", None)
@@ -186,9 +217,11 @@ def merged_overlay(*policies: Policy) -> Overlay | None:
             overlays.append(drawn)
     if not overlays:
         return None
+    routed = [o for o in overlays if o.ways is not None]
     return Overlay(edges=tuple(e for o in overlays for e in o.edges),
                    lines=tuple(line for o in overlays for line in o.lines),
-                   kinds=tuple(e.kind for o in overlays for e in o.kinded_edges))
+                   kinds=tuple(e.kind for o in overlays for e in o.kinded_edges),
+                   ways=(lambda: tuple(r for o in routed for r in o.routes)) if routed else None)
 
 
 _STATUSES = tuple(AttackerStatus)

@@ -312,7 +312,7 @@ class Renderer:
         def line(kind: EdgeKind) -> Callable[[float, float], None]:
             def draw(x: float, y: float) -> None:
                 half = self._glyph * 1.6
-                self._draw_edge(kind, (x - half, y), (x + half, y))
+                self._draw_edge(kind, np.array([(x - half, y), (x + half, y)]))
             return draw
 
         def trails(x: float, y: float) -> None:   # an attacker's over a defender's, old to new
@@ -508,31 +508,43 @@ class Renderer:
         offset = self._glyph * 1.1
         self._surface.blit(label, (round(x + offset), round(y - offset - label.get_height() / 2)))
 
-    def _draw_edge(self, kind: EdgeKind, start: tuple[float, float],
-                   end: tuple[float, float]) -> None:
-        """A line from ``start`` to ``end`` (pixels) in ``kind``'s style, on a white halo
-        (readable over obstacles and trails)."""
+    def _draw_edge(self, kind: EdgeKind, pixels: np.ndarray) -> None:
+        """A line through ``pixels`` ``(K, 2)`` (K >= 2) in ``kind``'s style, its dashes
+        running on from segment to segment, on a white halo (readable over obstacles and
+        trails)."""
         style = EDGE_STYLES[kind]
-        (x0, y0), (x1, y1) = start, end
-        length = math.hypot(x1 - x0, y1 - y0)
+        steps = np.diff(pixels, axis=0)
+        lengths = np.hypot(steps[:, 0], steps[:, 1])
+        starts = np.concatenate([[0.0], np.cumsum(lengths)])
+        length = float(starts[-1])
         if length == 0:
             return
-        ux, uy = (x1 - x0) / length, (y1 - y0) / length
+        units = steps / np.maximum(lengths, 1e-300)[:, None]
+
+        def at(a: float) -> tuple[float, float]:
+            k = min(int(np.searchsorted(starts, a, side="right")) - 1, len(lengths) - 1)
+            (x, y), (ux, uy) = pixels[k].tolist(), units[k].tolist()
+            return x + ux * (a - float(starts[k])), y + uy * (a - float(starts[k]))
+
         if style.gap == 0:
             pieces = [(0.0, length)]
         else:
             dash, period = style.dash * self._unit, (style.dash + style.gap) * self._unit
             pieces = [(a, min(a + dash, length)) for a in np.arange(0.0, length, period).tolist()]
+        runs = [[at(a)] + [tuple(p) for p in pixels[1:-1][(starts[1:-1] > a)
+                                                        & (starts[1:-1] < b)].tolist()]
+                + [at(b)] for a, b in pieces]
         for color, width in ((P.HALO, self._edge_width + 2 * max(1, round(self._unit))),
                              (style.color, self._edge_width)):
-            for a, b in pieces:
-                pygame.draw.line(self._surface, color, (x0 + ux * a, y0 + uy * a),
-                                 (x0 + ux * b, y0 + uy * b), width)
+            for run in runs:
+                for start, end in zip(run, run[1:], strict=False):
+                    pygame.draw.line(self._surface, color, start, end, width)
 
     def _draw_edges(self, overlay: Overlay, state: GameState, attackers: np.ndarray,
                     defenders: np.ndarray) -> None:
         attacker_index = {n: i for i, n in enumerate(state.attacker_names)}
         defender_index = {n: j for j, n in enumerate(state.defender_names)}
+        routes = {(r.defender, r.attacker): r.points for r in overlay.routes}
         for defender, attacker, kind in overlay.kinded_edges:
             if defender not in defender_index:
                 raise ValueError(f"overlay edge ({defender!r}, {attacker!r}): unknown defender "
@@ -543,8 +555,10 @@ class Renderer:
             i = attacker_index[attacker]
             if state.attacker_status[i] is not AttackerStatus.ACTIVE:
                 continue  # the attacker has left the game: nothing to assign
-            self._draw_edge(kind, tuple(defenders[defender_index[defender]].tolist()),
-                            tuple(attackers[i].tolist()))
+            route = routes.get((defender, attacker), ())
+            between = self.to_pixels(np.array(route[1:-1], dtype=np.float64).reshape(-1, 2))
+            self._draw_edge(kind, np.concatenate([defenders[defender_index[defender]][None],
+                                                  between, attackers[i][None]]))
 
     def _draw_header(self, state: GameState, overlay: Overlay | None, title: str) -> None:
         """The title, the clock, then the overlay's text lines."""

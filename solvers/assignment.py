@@ -3,7 +3,13 @@ pairs, and the matching baseline.
 
 All work on plain boolean tables built from the solved HJ games (section III-C/D of the
 paper); indices are attacker ``i`` in ``0..M-1`` and defenders ``j``, ``k`` in
-``0..N-1``. Every table says where the *attacker side* wins (value <= 0), as the tubes do:
+``0..N-1``.
+
+**One index order, project-wide**: attackers first. An index pair is ``(attacker,
+defender)``, as the tables' axes ``(M, N)`` are; a team is ``(attacker, j, k)`` and one
+defender's pair of attackers ``(first, second, defender)`` (``policies.certificate.Roles``).
+Player *names* keep the env's form: an overlay edge is ``(defender name, attacker
+name)``. Every table says where the *attacker side* wins (value <= 0), as the tubes do:
 
 - ``beats_1v1[i, j]``: attacker ``i`` beats defender ``j`` in the 1 vs 1 game, i.e.
   ``i`` is in the paper's set ``I_j``;

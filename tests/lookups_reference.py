@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 from policies.certificate import Margins, Match, Tubes
-from policies.defenders import control_headings
 from policies.lookups import DecisionTables, Matches
+from policies.tube_states import control_headings
 from reachavoid_env import GameState
 from solvers.hj import ValueFunction
 
@@ -164,11 +164,11 @@ def _defendercontrol_headings(attackers: np.ndarray, defenders: np.ndarray, sing
                        doubles: np.ndarray, vf11: ValueFunction, vf21: ValueFunction | None,
                        actions: np.ndarray) -> None:
     if len(singles):
-        j, i = singles.T
+        i, j = singles.T
         controls = vf11.defender_control(np.concatenate([attackers[i], defenders[j]], axis=1))
         actions[j] = control_headings(controls, attackers[i] - defenders[j])
     if len(doubles):
-        j, first, second = doubles.T
+        first, second, j = doubles.T
         states = np.concatenate([attackers[first], attackers[second], defenders[j]], axis=1)
         controls = vf21.defender_control(states)
         gaps = np.stack([attackers[first] - defenders[j], attackers[second] - defenders[j]])

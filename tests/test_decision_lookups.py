@@ -10,7 +10,7 @@ import pytest
 
 import reachavoid_env
 from policies import HJDefenderPolicy, RandomAttacker, ShortestPathAttacker, lookups
-from policies import defenders as defenders_module
+from policies import assignment_defender as defenders_module
 
 
 class StepByStepDefender(HJDefenderPolicy):
@@ -85,11 +85,11 @@ def test_tables_and_headings_match_step_by_step(coarse_tubes, seed, attackers, m
         m, n = len(state.attacker_positions), len(state.defender_positions)
         every = np.arange(n)
         none1, none2 = np.empty((0, 2), np.int64), np.empty((0, 3), np.int64)
-        groups = [(np.stack([every, np.full(n, i)], axis=1), none2) for i in range(m)] + [
-            (none1, np.stack([every, np.full(n, i), np.full(n, k)], axis=1))
+        groups = [(np.stack([np.full(n, i), every], axis=1), none2) for i in range(m)] + [
+            (none1, np.stack([np.full(n, i), np.full(n, k), every], axis=1))
             for i in range(m) for k in range(i + 1, m)]
-        one_each = [(j, j, i, i) for singles, _ in groups[:m] for j, i in singles]
-        two_each = [(j, j, i, k) for _, doubles in groups[m:] for j, i, k in doubles]
+        one_each = [(j, j, i, i) for singles, _ in groups[:m] for i, j in singles]
+        two_each = [(j, j, i, k) for _, doubles in groups[m:] for i, k, j in doubles]
         rows = np.array(one_each + two_each + [(0, 1, 0, 0)])     # and a team
         games = lookups.Matches(rows[:, :2], rows[:, 2:])
         team_values = np.where(rows[:, 0] != rows[:, 1], 0.25, np.nan)

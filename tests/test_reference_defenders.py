@@ -19,7 +19,9 @@ from policies import (
     ShortestPathAttacker,
 )
 from policies.certificate import Basis, Match, games_of
-from policies.defenders import pair_states
+from policies.steering import ATTACKER_MOVES, held_one_step, steer
+from policies.strategy import Program, Spare, Strategy
+from policies.tube_states import pair_states
 from reachavoid.rollout import run_episode
 from reachavoid_env.game_state import EdgeKind
 from solvers import open_space
@@ -197,6 +199,17 @@ def test_tubes_for_another_game_are_refused(coarse_tubes):
         HJDefenderPolicy(vf11, vf21, idle="wander")
 
 
+def test_strategy_takes_its_enums_or_their_names(coarse_tubes):
+    vf11, vf21 = coarse_tubes
+    assert Strategy("matching", 0.5, "pursue") == Strategy(Program.MATCHING, 0.5, Spare.PURSUE)
+    assert HJDefenderPolicy(vf11, vf21, idle="stand").idle is Spare.STAND == "stand"
+    assert MatchingDefenderPolicy(vf11, unmatched=Spare.PURSUE).strategy.spare is Spare.PURSUE
+    with pytest.raises(ValueError, match="strategy.spare"):
+        Strategy(spare="wander")
+    with pytest.raises(ValueError, match="unmatched"):   # a spare the matching does not play
+        MatchingDefenderPolicy(vf11, unmatched="intercept")
+
+
 def test_hj_attacker_heads_away_from_its_defender(coarse_tubes):
     vf11, _ = coarse_tubes
     attacker = HJAttacker(vf11)
@@ -264,14 +277,20 @@ def test_certified_game_takes_the_plan_only_as_far_as_its_value_allows(coarse_tu
         optimal = actions.copy()
         policy._play_games(policy._decision, optimal)             # the games' optimal controls
         steered = optimal.copy()
-        policy._steer_certified(state, away, steered)
+        margin = policy.tubes.margins.m11
+        speeds = (state.attacker_speed, state.defender_speed)
+        attackers, defenders = state.attacker_positions[i], state.defender_positions[j]
+        turned, heading = steer(vf11, attackers, defenders, away[j], margin, speeds,
+                                scenario.dt)
+        steered[j[turned]] = heading[turned]
         value, gradient = vf11.value_and_gradient(
             pair_states(state.attacker_positions, state.defender_positions)[i, j])
         step = (state.attacker_speed + state.defender_speed) * scenario.dt
         for k in range(len(games)):
             u = steered[j[k]]
-            held = policy._held_one_step(state, i[k:k + 1], j[k:k + 1], away[j[k]][None])[0]
-            if value[k] - policy.tubes.margins.m11 > step or held:
+            held = held_one_step(vf11, attackers[k:k + 1], defenders[k:k + 1],
+                                 away[j[k]][None], margin, speeds, scenario.dt)[0]
+            if value[k] - margin > step or held:
                 branches.add("clear")
                 np.testing.assert_allclose(u, away[j[k]], atol=1e-6)
             else:
@@ -284,9 +303,8 @@ def test_certified_game_takes_the_plan_only_as_far_as_its_value_allows(coarse_tu
 
 
 def test_one_step_check_takes_the_worst_attacker_move(coarse_tubes):
-    """``_held_one_step`` is the smallest value over the attacker's sampled moves, one
+    """``held_one_step`` is the smallest value over the attacker's sampled moves, one
     step on, against the game's margin."""
-    from policies.defenders import ATTACKER_MOVES
 
     vf11, vf21 = coarse_tubes
     scenario = reachavoid_env.builtin_scenario("paper_2v1").with_players(3, 2)
@@ -297,7 +315,9 @@ def test_one_step_check_takes_the_worst_attacker_move(coarse_tubes):
     state = env.unwrapped.game_state()
     i, j = np.array([0, 1, 2, 0]), np.array([0, 0, 1, 1])
     headings = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.6, 0.8]])
-    held = policy._held_one_step(state, i, j, headings)
+    held = held_one_step(vf11, state.attacker_positions[i], state.defender_positions[j],
+                         headings, policy.tubes.margins.m11,
+                         (state.attacker_speed, state.defender_speed), scenario.dt)
     for k in range(len(i)):
         attackers = state.attacker_positions[i[k]] + ATTACKER_MOVES * (
             state.attacker_speed * scenario.dt)

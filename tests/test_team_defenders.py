@@ -18,6 +18,7 @@ from policies import (
 )
 from policies.certificate import match_arrays
 from policies.registry import make_policy, resolve
+from policies.tube_states import team_values
 from reachavoid.cli import main
 from reachavoid.rollout import run_episode
 from reachavoid_env.game_state import EdgeKind
@@ -170,7 +171,7 @@ def test_certified_teams_match_the_step_by_step_tables(equal_tubes, attackers):
             games = match_arrays(tuple(teams))
             slack = lookups.decision_controls(
                 state.attacker_positions, state.defender_positions, np.empty((0, 2), np.int64),
-                np.empty((0, 3), np.int64), games, policy._team_values(state, games),
+                np.empty((0, 3), np.int64), games, team_values(policy.vf12, state, games),
                 policy._margins, ours.values11, ours.values21.copy(),
                 *policy._tube_arrays, np.zeros((len(state.defender_positions), 2), np.float32))
             assert np.array_equal(slack, reference.slack(policy.tubes, teams, state,

@@ -1,0 +1,102 @@
+"""Steering within a certificate: how far a certified 1 vs 1 game's defender may take the
+heading the intercept plan proposes (the certificate filters, the plan proposes).
+
+``steer`` is the one rule, used by ``policies.assignment_defender`` for one game and by
+``policies.batch_defenders`` for the certified games of K copies at once (same arrays
+row by row, so both give the same bits).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from policies.lookups import HEADING_FLOOR
+from reachavoid_env.rules import unit_vectors
+from solvers.hj import ValueFunction
+
+CONE_SLACK = 0.05
+"""Added to the cosine a certified defender's heading keeps with its optimal control
+(``steer``), beyond what holds the value to first order."""
+
+_ANGLES = np.linspace(0.0, 2.0 * np.pi, 32, endpoint=False)
+ATTACKER_MOVES = np.concatenate([np.stack([np.cos(_ANGLES), np.sin(_ANGLES)], axis=1),
+                                 np.zeros((1, 2))])
+"""The attacker's moves the one-step check of a certified game tries (``held_one_step``):
+32 headings at full speed, and standing still."""
+
+
+def steer(vf11: ValueFunction, attackers: np.ndarray, defenders: np.ndarray,
+          wanted: np.ndarray, margin: float, speeds: tuple[float, float],
+          dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Within each certified 1 vs 1 tube game, the heading ``wanted`` as far as the value
+    allows.
+
+    Where the value clears the game's margin by more than one step of both players can
+    change it (``(v_A + v_D) dt`` map units, taking the value 1-Lipschitz in each
+    position), or where the tube's value one step on stays above the margin whatever the
+    attacker does (``held_one_step``: 32 headings and standing still; every other move
+    lies within ``v_A dt / 2`` of a sampled one, and the game stays certified down to a
+    value of 0, a whole margin below), the wanted heading. Where the value sits in a thin
+    band above the margin (coarse tubes: a cell is nearly the capture radius) its
+    gradient is small and noisy and the cone below flips from step to step, so certified
+    games stalled there; the one-step check closes them. Else, among the headings ``u``
+    that keep the value from falling whatever the attacker does to first order,
+    ``v_D grad_D V . u >= v_A |grad_A V|`` (a cone around the optimal control, narrowed by
+    ``CONE_SLACK``), the one nearest the wanted heading; the optimal control (left as it
+    is) where the cone is empty.
+
+    Args:
+        vf11: the 1 vs 1 tube.
+        attackers: ``(G, 2)`` each game's attacker (map units).
+        defenders: ``(G, 2)`` each game's defender.
+        wanted: ``(G, 2)`` unit headings the plan proposes; a zero row: straight at the
+            attacker.
+        margin: the 1 vs 1 certificate margin (map units).
+        speeds: ``(v_A, v_D)``, map units per second.
+        dt: the step (seconds).
+
+    Returns:
+        ``(steered, headings)``: which games take a new heading ``(G,)`` and the headings
+        ``(G, 2)`` (read where ``steered``).
+    """
+    attacker_speed, defender_speed = speeds
+    value, gradient = vf11.value_and_gradient(np.concatenate([attackers, defenders], axis=1))
+    axes = [2 * vf11.players.index(p) + np.arange(2)
+            for p in (vf11.attackers[0], vf11.defenders[0])]
+    grad_a, grad_d = gradient[:, axes[0]], gradient[:, axes[1]]
+    size_d = np.hypot(grad_d[:, 0], grad_d[:, 1])
+    floor = size_d > HEADING_FLOOR
+    cone = np.where(floor, attacker_speed * np.hypot(grad_a[:, 0], grad_a[:, 1])
+                    / (defender_speed * np.maximum(size_d, HEADING_FLOOR)), np.inf)
+    cone = cone + CONE_SLACK
+    best = grad_d / np.maximum(size_d, HEADING_FLOOR)[:, None]
+    aim = np.where(wanted.any(axis=1)[:, None], wanted, unit_vectors(attackers - defenders))
+    along = np.einsum("kd,kd->k", aim, best)
+    across = aim - along[:, None] * best
+    width = np.hypot(across[:, 0], across[:, 1])
+    across = across / np.maximum(width, 1e-12)[:, None]
+    rim = np.minimum(cone, 1.0)  # the cone's edge; used only where cone < 1
+    edge = rim[:, None] * best + np.sqrt(1.0 - rim**2)[:, None] * across
+    step = (attacker_speed + defender_speed) * dt
+    clear = value - margin > step
+    close = ~clear
+    if close.any():
+        clear[close] = held_one_step(vf11, attackers[close], defenders[close], aim[close],
+                                     margin, speeds, dt)
+    heading = np.where((clear | (along >= cone))[:, None], aim, edge)
+    return clear | (cone < 1.0) & (width > 1e-9) | (along >= cone), heading
+
+
+def held_one_step(vf11: ValueFunction, attackers: np.ndarray, defenders: np.ndarray,
+                  headings: np.ndarray, margin: float, speeds: tuple[float, float],
+                  dt: float) -> np.ndarray:
+    """Whether the 1 vs 1 value of each game (``attackers``, ``defenders`` ``(G, 2)``)
+    stays above ``margin`` one step on, with the defender on ``headings`` (unit vectors
+    ``(G, 2)``) and the attacker on each of ``ATTACKER_MOVES`` (the worst counts)."""
+    attacker_speed, defender_speed = speeds
+    moves = ATTACKER_MOVES * (attacker_speed * dt)
+    a = attackers[:, None, :] + moves[None]
+    d = defenders + headings * (defender_speed * dt)
+    states = np.concatenate([a, np.broadcast_to(d[:, None, :], a.shape)], axis=-1)
+    after = vf11.value(states.reshape(-1, 4)).reshape(len(attackers), -1)
+    return after.min(axis=1) > margin
