@@ -134,7 +134,8 @@ class PooledCritic(nn.Module):
 
 def seeded(attackers: str, seed: int) -> dict[str, int]:
     """``{"seed": seed}`` for attackers that draw random numbers (``random``), else ``{}``:
-    without it they would draw from fresh entropy and no run would repeat."""
+    without it they would draw from fresh entropy and no run would repeat. Every copy's
+    attackers get the same seed (their starts differ)."""
     return {"seed": seed} if PolicySpec("attackers", attackers).seeded else {}
 
 
