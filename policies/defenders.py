@@ -2,9 +2,8 @@
 
 Each follows ``reachavoid_env.Policy``: ``reset(scenario)`` then ``act(state)``, which
 returns a float32 ``(2,)`` action in ``[-1, 1]`` (a velocity as a fraction of the
-defender's speed) for every defender. The certificate margin's default and rule
-(``policies.strategy``) are part of this face: the command line checks
-``--margin-cells`` with ``check_margin_cells``.
+defender's speed) for every defender. The certificate margin's default and rule live in
+``policies.strategy``.
 """
 
 from __future__ import annotations
@@ -12,13 +11,13 @@ from __future__ import annotations
 import numpy as np
 
 from policies.assignment_defender import AssignmentDefender
-from policies.strategy import CERTIFICATE_CELLS, Program, Spare, Strategy, check_margin_cells
+from policies.strategy import CERTIFICATE_CELLS, Program, Spare, Strategy
 from policies.tubes import tube_1v1, tube_1v2, tube_2v1
 from reachavoid_env import GameState, Overlay, Scenario
 from solvers.hj import PAPER_GRIDS, ValueFunction
 
-__all__ = ["CERTIFICATE_CELLS", "GreedyDefender", "HJDefenderPolicy", "HJPairsDefenderPolicy",
-           "IdleDefender", "MatchingDefenderPolicy", "check_margin_cells"]
+__all__ = ["GreedyDefender", "HJDefenderPolicy", "HJPairsDefenderPolicy", "IdleDefender",
+           "MatchingDefenderPolicy"]
 
 
 class IdleDefender:

@@ -143,6 +143,10 @@ DEFENDERS: dict[str, NamedPolicy] = {
                              "threatening attacker it can cut off to a point of its shortest "
                              "path, spare defenders back up",
                              "policies.intercept:InterceptDefender", scenario=False),
+    "learned-mappo": NamedPolicy("a MAPPO actor shared by the defenders (trained on the "
+                                 "default suite's random starts, up to 8 attackers and 4 "
+                                 "defenders), played with numpy from shipped weights",
+                                 "policies.mappo:learned_mappo"),
     "greedy": NamedPolicy("chase the nearest active attacker",
                           "policies.defenders:GreedyDefender", scenario=False),
     "idle": NamedPolicy("stand still", "policies.defenders:IdleDefender", scenario=False),

@@ -45,7 +45,7 @@ def check_common(args: argparse.Namespace) -> None:
     if getattr(args, "seed", None) is not None:
         checked(checks.integer, args.seed, "--seed", 0, MAX_SEED)
     if getattr(args, "margin_cells", None) is not None:
-        from policies.defenders import check_margin_cells
+        from policies.strategy import check_margin_cells
 
         checked(check_margin_cells, args.margin_cells, "--margin-cells")
     if not check_cache():
