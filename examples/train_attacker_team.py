@@ -13,8 +13,9 @@ Needs the ``rl`` extra (torch, stable-baselines3, supersuit).
 The game is ``--scenario`` (default ``paper_6v2``) with random starts every episode; a map
 library (a folder of ``reachavoid maps``, its ``index.toml``) draws one of its maps per
 episode, and ``--evaluate-on LIBRARY`` evaluates on other maps (held-out ones) than those
-trained on. The observations carry the players only (``reachavoid_env.observations``), not
-the map: across maps the learner sees neither the target nor the obstacles. Training runs
+trained on. Each attacker sees the env's default observation (``reachavoid_env.observations``,
+v1: egocentric, with the target, lidar rays to the walls and the other players relative
+to it), so a policy can carry over to maps it was not trained on. Training runs
 on the vector env (``policies.training.make_attackers_vector_env``, ``--copies`` games
 stepped together, the defenders acting on every copy in one call; ``--supersuit``: the
 attacker-only env through SuperSuit's chain, ``reachavoid_env.integrations.supersuit``):
