@@ -9,7 +9,8 @@ attacker is):
     python examples/torchrl_mappo.py --scenario paper_2v1 --defenders hj --iterations 20
 
 A captured or arrived attacker stays in the group with ``mask`` False, zero observation
-and reward, and ``done`` True; its steps are left out of the loss (``masked_mean``).
+and reward, and ``done`` True; its steps are left out of the loss
+(``policies.mappo_training.ppo_epochs``).
 """
 
 from __future__ import annotations
@@ -28,12 +29,12 @@ from torchrl.envs import EnvBase
 from torchrl.modules import MultiAgentMLP, ProbabilisticActor, TanhNormal
 from torchrl.objectives import ClipPPOLoss, ValueEstimators
 
+from policies.mappo_training import LOSSES, ppo_epochs
 from policies.training import add_defender_arguments, add_reward_arguments, attackers_from_args
 from reachavoid_env import AttackerStatus
 from reachavoid_env.integrations.torchrl import torchrl_env
 
 GROUP = "attacker"
-LOSSES = ("loss_objective", "loss_critic", "loss_entropy")
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
@@ -78,13 +79,6 @@ def build_modules(env: EnvBase) -> tuple[ProbabilisticActor, TensorDictModule]:
     return actor, critic
 
 
-def masked_mean(values: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-    """Mean of the per-agent ``values`` (``(B, agents)``, maybe a trailing 1) over the
-    entries where ``mask`` (``(B, agents)``) is True."""
-    values = values.reshape(mask.shape)
-    return (values * mask).sum() / mask.sum().clamp(min=1)
-
-
 def outcomes(batch: TensorDictBase) -> dict[str, int]:
     """Attackers that arrived or were captured during ``batch`` (from the numeric infos)."""
     left = batch[GROUP, "mask"] & batch["next", GROUP, "done"].squeeze(-1)
@@ -113,30 +107,12 @@ def train(args: argparse.Namespace) -> list[dict[str, Any]]:
     history = []
     try:
         for iteration, batch in enumerate(collector):
-            with torch.no_grad():
-                loss_module.value_estimator(batch, params=loss_module.critic_network_params,
-                                            target_params=loss_module.target_critic_network_params)
-            flat = batch.reshape(-1)
-            sums = dict.fromkeys(LOSSES, 0.0)
-            updates = 0
-            for _ in range(args.epochs):
-                for rows in torch.randperm(flat.shape[0]).split(args.minibatch):
-                    sample = flat[rows]
-                    live = sample[GROUP, "mask"]
-                    terms = {key: masked_mean(value, live)
-                             for key, value in loss_module(sample).items() if key in LOSSES}
-                    loss = sum(terms.values())
-                    optimiser.zero_grad()
-                    loss.backward()
-                    nn.utils.clip_grad_norm_(loss_module.parameters(), 1.0)
-                    optimiser.step()
-                    for key, value in terms.items():
-                        sums[key] += value.item()
-                    updates += 1
+            losses = ppo_epochs(loss_module, optimiser, batch, GROUP, args.epochs,
+                                args.minibatch)
             live_reward = batch["next", GROUP, "reward"][batch[GROUP, "mask"]]
             record = {"iteration": iteration, "frames": batch.numel(),
                       "reward_sum": float(live_reward.sum())}
-            record |= {key: value / updates for key, value in sums.items()} | outcomes(batch)
+            record |= losses | outcomes(batch)
             history.append(record)
             print(", ".join(f"{key} {value:.4g}" if isinstance(value, float)
                             else f"{key} {value}" for key, value in record.items()), flush=True)

@@ -186,7 +186,8 @@ def export(net: nn.Sequential, config: TrainConfig) -> ActorWeights:
 
 
 def masked_mean(values: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-    """Mean of per-defender ``values`` over the entries where ``mask`` is True."""
+    """Mean of the per-agent ``values`` (``(B, agents)``, maybe a trailing 1) over the
+    entries where ``mask`` (``(B, agents)``) is True."""
     values = values.reshape(mask.shape)
     return (values * mask).sum() / mask.sum().clamp(min=1)
 
@@ -305,15 +306,29 @@ def _update(loss_module: ClipPPOLoss, optimiser: torch.optim.Optimizer,
             batch: TensorDictBase, config: TrainConfig) -> dict[str, float]:
     """PPO epochs on one batch ``(copies, steps)``; the batch's mean reward per live
     defender-step and the mean losses."""
+    losses = ppo_epochs(loss_module, optimiser, batch, GROUP, config.epochs, config.minibatch)
+    live = batch[GROUP, "mask"]
+    reward = batch["next", GROUP, "reward"].squeeze(-1)
+    return {"reward": float(masked_mean(reward, live)),
+            "episodes": int(batch["next", "done"].sum()), **losses}
+
+
+def ppo_epochs(loss_module: ClipPPOLoss, optimiser: torch.optim.Optimizer,
+               batch: TensorDictBase, group: str, epochs: int,
+               minibatch: int) -> dict[str, float]:
+    """The GAE targets of ``batch``, then ``epochs`` passes of clipped PPO over it in
+    shuffled minibatches of ``minibatch`` rows, each loss term averaged over the live
+    agents of ``group`` (its ``mask``: agents that left are out of the loss). Returns the
+    mean of each loss term (``LOSSES``) over the updates."""
     with torch.no_grad():
         loss_module.value_estimator(batch, params=loss_module.critic_network_params,
                                     target_params=loss_module.target_critic_network_params)
     flat = batch.reshape(-1)
     sums, updates = dict.fromkeys(LOSSES, 0.0), 0
-    for _ in range(config.epochs):
-        for rows in torch.randperm(flat.shape[0]).split(config.minibatch):
+    for _ in range(epochs):
+        for rows in torch.randperm(flat.shape[0]).split(minibatch):
             sample = flat[rows]
-            live = sample[GROUP, "mask"]
+            live = sample[group, "mask"]
             terms = {key: masked_mean(value, live)
                      for key, value in loss_module(sample).items() if key in LOSSES}
             loss = sum(terms.values())
@@ -324,11 +339,7 @@ def _update(loss_module: ClipPPOLoss, optimiser: torch.optim.Optimizer,
             for key, value in terms.items():
                 sums[key] += value.item()
             updates += 1
-    live = batch[GROUP, "mask"]
-    reward = batch["next", GROUP, "reward"].squeeze(-1)
-    return {"reward": float(masked_mean(reward, live)),
-            "episodes": int(batch["next", "done"].sum()),
-            **{key: value / updates for key, value in sums.items()}}
+    return {key: value / updates for key, value in sums.items()}
 
 
 def games_of(names: Sequence[str]) -> tuple[Game, ...]:
