@@ -151,11 +151,10 @@ def test_unreadable_scenario_file_is_status_2(capsys, tmp_path, monkeypatch, com
     assert err.count("\n") == 1 and f"scenario: cannot read {path!r}: Permission denied" in err
 
 
-def test_solve_2v1_fills_the_cache_of_its_grid1(tmp_path, monkeypatch, capsys):
+def test_solve_2v1_fills_the_cache_of_its_grid1(cache_in_tmp, capsys):
     """``solve --grid1`` sets the 1 vs 1 tube under a 2 vs 1 game, as ``play --grid1``."""
-    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path))
     assert main(["solve", "--game", "2v1", "--grid", "8", "--grid1", "8"]) == 0
-    solved = {tuple(path.name.split("-")[:2]) for path in tmp_path.iterdir()}
+    solved = {tuple(path.name.split("-")[:2]) for path in cache_in_tmp.glob("*.vf")}
     assert solved == {("1v1", "8"), ("2v1", "8")}
     assert main(["solve", "--game", "1v1", "--grid1", "8"]) == 0
     assert "1v1 value 8x8x8x8" in capsys.readouterr().out

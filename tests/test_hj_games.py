@@ -92,14 +92,13 @@ def test_warm_start_agrees_with_cold(game):
     assert np.abs(cold_values - warm_values).max() < 2e-3
 
 
-def test_a_grid_that_misses_the_target_is_refused(tmp_path, monkeypatch, capsys):
+def test_a_grid_that_misses_the_target_is_refused(tmp_path, cache_in_tmp, capsys):
     """A 0.2-wide target on a +-100 map falls between the nodes of a 15-node grid: the tube
     would say the defender wins everywhere (nobody can arrive), so no tube is solved."""
     from reachavoid.cli import main
     from reachavoid_env import Box, GameMap
     from solvers.hj import check_tubes_memory, solve_1v1
 
-    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path / "cache"))
     wide = GameMap((-100.0, 100.0, -100.0, 100.0), (Box((30.1, 30.1), (30.3, 30.3)),))
     with pytest.raises(ValueError, match="no free grid node lies in the target"):
         solve_1v1(wide, grid_points=15, progress=False)
