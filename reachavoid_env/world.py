@@ -70,6 +70,7 @@ class World:
         self.space = _walled_space(game_map, player_radius)
         self._replay_space: pymunk.Space | None = None
         self.bodies = [_player(self.space, x, y, player_radius) for x, y in positions]
+        self._ids = np.array([body.id for body in self.bodies], dtype=np.uintp)
         self._index_bodies()
         self._get_buffer = pymunk.batch.Buffer()
 
@@ -91,17 +92,19 @@ class World:
             old = self.bodies[row]
             self.space.remove(old, *old.shapes)
             self.bodies[row] = _player(self.space, x, y, self._radius)
+            self._ids[row] = self.bodies[row].id
         self._index_bodies()
 
     def _body_rows(self) -> tuple[slice | np.ndarray, int]:
         """Rows of the players' bodies in pymunk's batch order (a slice where they are
         consecutive, as they are when added in order: cheaper to index), and the number of
-        rows."""
+        rows. The players' body ids are kept (``_ids``): reading ``Body.id`` costs a
+        foreign call per body, and a vector env re-reads the order at every reset."""
         buffer = pymunk.batch.Buffer()
         pymunk.batch.get_space_bodies(self.space, pymunk.batch.BodyFields.BODY_ID, buffer)
-        ids = list(memoryview(buffer.int_buf()).cast("P"))
-        index = {body_id: row for row, body_id in enumerate(ids)}
-        rows = np.array([index[b.id] for b in self.bodies], dtype=np.intp)
+        ids = np.frombuffer(buffer.int_buf(), dtype=np.uintp)
+        order = np.argsort(ids, kind="stable")
+        rows = order[np.searchsorted(ids, self._ids, sorter=order)].astype(np.intp)
         first = int(rows[0]) if len(rows) else 0
         if np.array_equal(rows, np.arange(first, first + len(rows))):
             return slice(first, first + len(rows)), len(ids)

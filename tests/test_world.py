@@ -122,6 +122,7 @@ def test_bodies_out_of_batch_order_are_found_by_their_rows():
     world, swapped = world_of(FUZZ_MAP, starts), world_of(FUZZ_MAP, starts)
     assert isinstance(world._rows, slice)
     swapped.bodies[0], swapped.bodies[1] = swapped.bodies[1], swapped.bodies[0]
+    swapped._ids[[0, 1]] = swapped._ids[[1, 0]]
     swapped._rows, _ = swapped._body_rows()
     order = [1, 0, 2]
     assert swapped._rows.tolist() == order
