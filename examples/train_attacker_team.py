@@ -71,7 +71,9 @@ teacher - shortest-path. ``--teams shortest-path,random`` without
 Writes into ``--out``: ``model.zip``, ``cloned.zip`` (the policy after the cloning and the DAgger
 rounds, before PPO; with ``--imitate-steps``), ``curve.csv`` (one row per PPO rollout: agent
 steps, wall seconds, attacker episodes ended, their arrival/capture/time-out rates and
-mean return), ``report.json`` (settings, throughput, evaluation); ``--plot`` (default
+mean return), ``report.json`` (settings, throughput, evaluation, and the wall and CPU
+seconds (this process's, ``time.process_time``) of the cloning, PPO, the evaluation and
+the whole run); ``--plot`` (default
 ``OUT/curve.png``) and ``--video`` (default ``OUT/learned.mp4``, the learned team on the
 first evaluation start). Ctrl-C stops cleanly and leaves no half-written file.
 """
@@ -268,6 +270,7 @@ class TrainingCurve(BaseCallback):
         self._printed = 0.0
         self.rows: list[dict[str, float]] = []
         self.start: float | None = None
+        self.cpu_seconds = 0.0      # CPU seconds of this process in training, set after it
 
     def _on_training_start(self) -> None:
         self.start = time.perf_counter()
@@ -450,7 +453,7 @@ def clone(args: argparse.Namespace, maps: Maps, model: PPO) -> dict[str, Any]:
     plays ``--dagger-steps`` in the training env, the teacher labels every state it
     visits, and the policy is fitted again (``--dagger-epochs``) on all the labelled rows
     so far. Returns what was done, per round."""
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     demonstrations = collect_demonstrations(args, maps, model.gamma)
     collected = time.perf_counter()
     losses = imitate(model, demonstrations, args.imitate_epochs, args.batch_size,
@@ -486,6 +489,7 @@ def clone(args: argparse.Namespace, maps: Maps, model: PPO) -> dict[str, Any]:
         print("DAgger: " + ", ".join(f"{k} {v}" for k, v in rounds[-1].items()), flush=True)
     if rounds:
         cloning["dagger"] = {"epochs": args.dagger_epochs, "rounds": rounds}
+    cloning["cpu_seconds"] = round(time.process_time() - cpu_start, 1)
     return cloning
 
 
@@ -520,7 +524,9 @@ def train(args: argparse.Namespace, maps: Maps,
             with atomic_write(args.out / "cloned.zip", "wb") as handle:
                 model.save(handle)
         if args.timesteps:
+            cpu_start = time.process_time()
             model.learn(args.timesteps, callback=curve, progress_bar=sys.stderr.isatty())
+            curve.cpu_seconds = time.process_time() - cpu_start
     finally:
         envs.close()
     return model, curve, cloning
@@ -665,6 +671,7 @@ def record(args: argparse.Namespace, maps: Maps, model: PPO, seed: int) -> int:
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     args = parse_args(argv)
+    start, cpu_start = time.perf_counter(), time.process_time()
     args.out.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(1)    # small networks: more threads only contend for the cores
     maps = team_maps(args.scenario)
@@ -695,7 +702,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         seconds = curve.seconds
         report["training"] = {
             "agent_steps": model.num_timesteps, "game_steps": game_steps,
-            "seconds": round(seconds, 1),
+            "seconds": round(seconds, 1), "cpu_seconds": round(curve.cpu_seconds, 1),
             "agent_steps_per_s": round(model.num_timesteps / seconds, 1) if seconds else None,
             "game_steps_per_s": round(game_steps / seconds, 1) if seconds else None,
             "copies": args.copies, "n_steps": args.n_steps, "batch_size": args.batch_size,
@@ -712,7 +719,10 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
                        f"{args.defenders}" + (f" {args.grid1}/{args.grid2}"
                                               if args.defenders == "hj" else ""))
             report["curve"] = {"csv": str(args.out / "curve.csv"), "plot": str(args.plot)}
+    evaluation_start, evaluation_cpu = time.perf_counter(), time.process_time()
     results = evaluate(args, held_out, model, args.teams)
+    evaluation_seconds = (time.perf_counter() - evaluation_start,
+                          time.process_time() - evaluation_cpu)
     report["evaluation"] = {"seeds": [0, args.episodes - 1],
                             **{name: result.summary() for name, result in results.items()}}
     for first, second in (("learned", "shortest-path"), ("learned", args.imitate_from),
@@ -734,6 +744,10 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         report["video"] = {"path": str(args.video), "seed": 0,
                            "frames": record(args, held_out, model, seed=0)}
     report["per_episode"] = {name: asdict(result) for name, result in results.items()}
+    report["run"] = {"seconds": round(time.perf_counter() - start, 1),
+                     "cpu_seconds": round(time.process_time() - cpu_start, 1),
+                     "evaluation_seconds": round(evaluation_seconds[0], 1),
+                     "evaluation_cpu_seconds": round(evaluation_seconds[1], 1)}
     write_json(args.out / "report.json", report)
     print(f"wrote {args.out / 'report.json'}", flush=True)
     return report

@@ -87,7 +87,13 @@ def dashboard() -> list[dict[str, str]]:
     text = (ROOT / "BENCHMARKS.md").read_text()
     before_table = text.split("\n|", 1)[0]
     assert before_table.count("\n## ") == 0, "the dashboard table is not the first thing"
-    lines = [line for line in text.splitlines() if line.startswith("|")]
+    all_lines = text.splitlines()
+    first = next(i for i, line in enumerate(all_lines) if line.startswith("|"))
+    lines = []      # the first table only: the later tables of the file are not the dashboard
+    for line in all_lines[first:]:
+        if not line.startswith("|"):
+            break
+        lines.append(line)
     header = [cell.strip() for cell in lines[0].strip("|").split("|")]
     assert header == DASHBOARD_HEADER
     rows = []

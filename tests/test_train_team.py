@@ -25,6 +25,10 @@ def test_recipe_trains_evaluates_and_records(tmp_path):
 
     assert report["defenders"] == "hj" and report["grids"] == [11, 8]
     assert report["training"]["agent_steps"] >= 192
+    run = report["run"]
+    assert 0 < report["training"]["cpu_seconds"] <= run["cpu_seconds"]
+    assert 0 < run["evaluation_cpu_seconds"] <= run["cpu_seconds"]
+    assert 0 < run["evaluation_seconds"] <= run["seconds"]
     assert report["training"]["game_steps"] == (
         report["training"]["agent_steps"] // 6 * report["action_repeat"])
     evaluation = report["evaluation"]
@@ -132,6 +136,7 @@ def test_cloned_policy_alone_follows_the_script(tmp_path):
     assert imitation["agent_steps"] == 300 and imitation["episodes"] >= 1
     assert 0.0 <= imitation["scripted_arrival_rate"] <= 1.0
     assert imitation["action_mse"] < 1.0
+    assert 0 < imitation["cpu_seconds"] <= report["run"]["cpu_seconds"]
     assert report["training"]["agent_steps"] == 0 and "curve" not in report
     model = recipe.PPO.load(tmp_path / "model.zip", device="cpu")
     assert model.policy.log_std.detach().tolist() == pytest.approx([-1.5, -1.5])
