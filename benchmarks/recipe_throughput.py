@@ -8,7 +8,8 @@ included, with its defaults (``hj`` defenders on the coarse 31^4 / 15^6 tubes, a
 repeat 10), once on the vector env (today's default) and once on the recipe's old path
 (``--single-envs``: one Gymnasium env per copy; ``--supersuit``: SuperSuit's chain over the
 attacker-only env); ``--team-copies N`` adds the team recipe on the vector env with
-``--copies N`` (its default 2 copies leave the vector env little to batch). The paths
+``--copies N`` (2 copies, the figures' setting, leave the vector env little to batch;
+the recipe's default is 16). The paths
 alternate for ``--repeats`` rounds (vector, old, vector, old, ...) so that the machine's
 drift hits them alike. Before the timed runs, each path's envs
 are built and stepped a little (tubes mapped in, kernels loaded). Figures, medians of the
@@ -52,6 +53,9 @@ class Recipe(NamedTuple):
 
 RECIPES = {"sb3": Recipe("train_attacker_sb3", "--single-envs", 4096),
            "team": Recipe("train_attacker_team", "--supersuit", 6144)}
+TEAM_COPIES = 2
+"""The team recipe's copies on both paths (its default before it became 16), so that both
+paths run the same PPO rollouts."""
 """Default agent steps: one PPO rollout of the one-attacker recipe (16 copies x 256 steps;
 its old path takes a minute for it on a quiet core) and two of the team recipe (2 copies x
 6 attackers x 256 steps)."""
@@ -115,6 +119,8 @@ def measure(recipes: list[str], repeats: int, timesteps: dict[str, int],
         common = ["--timesteps", str(timesteps[name]), "--out", str(out / name)]
         if name == "sb3":
             common += ["--print-seconds", "1e9"]
+        if name == "team":
+            common += ["--copies", str(TEAM_COPIES)]
         paths = {"vector": module.parse_args(common),
                  "old": module.parse_args([*common, recipe.old_flag])}
         if name == "team" and team_copies is not None:

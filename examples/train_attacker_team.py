@@ -4,11 +4,12 @@ the same seeded starts.
 
 Needs the ``rl`` extra (torch, stable-baselines3, supersuit).
 
-    python examples/train_attacker_team.py --imitate-from hj --imitate-steps 150000 \\
-        --imitate-epochs 40 --timesteps 6000000 --max-minutes 45 --learning-rate 1e-4 \\
-        --clip-range 0.1 --out runs/attacker_team
-    python examples/train_attacker_team.py --imitate-from hj \\
-        --evaluate-only runs/attacker_team/model.zip
+    python examples/train_attacker_team.py --scenario paper_2v1 --imitate-from hj \\
+        --imitate-steps 40000 --imitate-epochs 40 --net-arch 256,256 --dagger-rounds 3 \\
+        --dagger-steps 20000 --dagger-epochs 20 --timesteps 3000000 --max-minutes 25 \\
+        --learning-rate 1e-4 --clip-range 0.1 --out runs/team_2v1
+    python examples/train_attacker_team.py --scenario paper_2v1 --imitate-from hj \\
+        --evaluate-only runs/team_2v1/model.zip
 
 The game is ``--scenario`` (default ``paper_6v2``) with random starts every episode; a map
 library (a folder of ``reachavoid maps``, its ``index.toml``) draws one of its maps per
@@ -19,8 +20,8 @@ to it), so a policy can carry over to maps it was not trained on. Training runs
 on the vector env (``policies.training.make_attackers_vector_env``, ``--copies`` games
 stepped together, the defenders acting on every copy in one call; ``--supersuit``: the
 attacker-only env through SuperSuit's chain, ``reachavoid_env.integrations.supersuit``):
-one vector slot per attacker and game copy, all slots one policy. The default 2 copies
-leave the vector env little to batch; more copies train faster (``BENCHMARKS.md``).
+one vector slot per attacker and game copy, all slots one policy: 16 copies by default
+(the measured runs of ``BENCHMARKS.md``); fewer leave the vector env little to batch.
 As in ``train_attacker_sb3.py`` (the one-attacker recipe), one agent step holds the
 action for ``--action-repeat 10`` game steps (0.05 s), the reward has the potential-based
 progress term (``--shaping 1``) and still being in play at the time limit scores
@@ -136,7 +137,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                              "(default: %(default)s)")
     parser.add_argument("--max-minutes", type=float, default=None,
                         help="stop training after this much wall time (None: no limit)")
-    parser.add_argument("--copies", type=int, default=2,
+    parser.add_argument("--copies", type=int, default=16,
                         help="game copies in the vector env (default: %(default)s)")
     parser.add_argument("--supersuit", action="store_true",
                         help="train through SuperSuit's chain over the attacker-only env "
