@@ -25,6 +25,7 @@ place while Ray runs.
 
 from __future__ import annotations
 
+import atexit
 import itertools
 import multiprocessing
 import os
@@ -79,6 +80,9 @@ class Sweep:
 
 _BUILT: dict[tuple[Scenario, PolicySpec], Policy] = {}
 _ENVS: dict[Scenario, Any] = {}
+"""One env per scenario and process, kept between episodes; emptied at exit, while pymunk
+can still free the envs' spaces (at interpreter teardown its module is gone first)."""
+atexit.register(_ENVS.clear)
 
 
 def _policy(spec: PolicySpec, scenario: Scenario, seed: int, progress: bool = False) -> Policy:
