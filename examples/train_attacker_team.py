@@ -271,13 +271,18 @@ class TrainingCurve(BaseCallback):
         self._printed = 0.0
         self.rows: list[dict[str, float]] = []
         self.start: float | None = None
-        self.cpu_seconds = 0.0      # CPU seconds of this process in training, set after it
+        self.cpu_seconds = 0.0      # this process's CPU seconds in training, set at its end
+        self._cpu_start = 0.0
 
     def _on_training_start(self) -> None:
         self.start = time.perf_counter()
+        self._cpu_start = time.process_time()
         self.status = np.zeros(self.training_env.num_envs, dtype=np.int64)
         self._ended: list[int] = []
         self._returns: list[float] = []
+
+    def _on_training_end(self) -> None:
+        self.cpu_seconds = time.process_time() - self._cpu_start
 
     def _on_step(self) -> bool:
         steps = zip(self.locals["infos"], self.locals["dones"], self.locals["rewards"],
@@ -525,9 +530,7 @@ def train(args: argparse.Namespace, maps: Maps,
             with atomic_write(args.out / "cloned.zip", "wb") as handle:
                 model.save(handle)
         if args.timesteps:
-            cpu_start = time.process_time()
             model.learn(args.timesteps, callback=curve, progress_bar=sys.stderr.isatty())
-            curve.cpu_seconds = time.process_time() - cpu_start
     finally:
         envs.close()
     return model, curve, cloning
