@@ -53,12 +53,12 @@ class Recipe(NamedTuple):
 
 RECIPES = {"sb3": Recipe("train_attacker_sb3", "--single-envs", 4096),
            "team": Recipe("train_attacker_team", "--supersuit", 6144)}
-TEAM_COPIES = 2
-"""The team recipe's copies on both paths (its default before it became 16), so that both
-paths run the same PPO rollouts."""
 """Default agent steps: one PPO rollout of the one-attacker recipe (16 copies x 256 steps;
 its old path takes a minute for it on a quiet core) and two of the team recipe (2 copies x
 6 attackers x 256 steps)."""
+TEAM_COPIES = 2
+"""The team recipe's copies on both paths (its default before it became 16), so that both
+paths run the same PPO rollouts."""
 
 
 class Run(NamedTuple):

@@ -21,11 +21,11 @@ first on the path, in every repeat: the vector view against the single env as it
 
 ``--floors`` splits the K-copy step where the issue's goals meet what cannot be made
 cheaper without changing the game or the method: the vector env's time inside the pymunk
-world (``World.step``: every player's body steps in Chipmunk, whose contacts depend on
-the body's broadphase history, so no player can skip the space without changing the
-dynamics) and the ``hj`` view's time inside the assignment program on CP-SAT
-(``solvers.assignment.solve_assignment``, solved where a copy's tables changed), with the
-number of programs solved per vector step, and inside its tube lookups.
+world (``World.step``: every player's body steps in Chipmunk, and a body taken out of
+the space and put back moves differently from one left in it, so no player can skip the
+space without changing the dynamics) and the ``hj`` view's time inside the assignment
+program on CP-SAT (``solvers.assignment.solve_assignment``, solved where a copy's tables
+changed), with the number of programs solved per vector step, and inside its tube lookups.
 """
 
 from __future__ import annotations
@@ -260,7 +260,8 @@ def main() -> None:
     parser.add_argument("--baseline", type=Path, metavar="CHECKOUT",
                         help="also time the single-env hj view of this checkout (--views)")
     parser.add_argument("--floors", action="store_true",
-                        help="time the pymunk world and the CP-SAT programs in a step")
+                        help="time the pymunk world, the CP-SAT programs and the tube lookups "
+                             "in a step")
     parser.add_argument("--json", type=Path, help="write the figures here")
     args = parser.parse_args()
     figures = measure(args)
