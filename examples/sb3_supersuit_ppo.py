@@ -44,7 +44,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--copies", type=int, default=2, help="game copies in the vector env")
     parser.add_argument("--timesteps", type=int, default=100_000, help="agent steps")
     parser.add_argument("--n-steps", type=int, default=256, help="PPO rollout per slot")
-    add_reward_arguments(parser)
+    add_reward_arguments(parser, team=True)
     parser.add_argument("--seed", type=int, default=0)
     return parser.parse_args(argv)
 

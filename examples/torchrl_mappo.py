@@ -46,7 +46,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--epochs", type=int, default=4)
     parser.add_argument("--minibatch", type=int, default=500)
     parser.add_argument("--lr", type=float, default=3e-4)
-    add_reward_arguments(parser)
+    add_reward_arguments(parser, team=True)
     parser.add_argument("--seed", type=int, default=0)
     return parser.parse_args(argv)
 

@@ -52,6 +52,8 @@ the game the policy played as value target) join the demonstrations, and the pol
 fitted again on all of them for ``--dagger-epochs`` (default ``--imitate-epochs``) passes.
 Each round reports the steps collected, the policy's arrival rate in them, its action MSE
 against the teacher's labels there before the refit and the fit's MSE after.
+``--init MODEL`` starts PPO from a saved policy instead (an earlier run's ``cloned.zip``,
+say, to compare fine-tuning settings from one clone; its network is kept).
 ``--net-arch 256,256`` sets the hidden layers of the policy and value networks (SB3's
 64,64 by default). For the fine-tuning, ``--learning-rate``,
 ``--clip-range`` and ``--ent-coef`` are PPO's (defaults: SB3's 3e-4, 0.2, 0).
@@ -174,7 +176,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                              "comma-separated, e.g. 256,256 (None: SB3's 64,64)")
     parser.add_argument("--imitate-log-std", type=float, default=-1.0,
                         help="log std of the actions after cloning (default: %(default)s)")
-    add_reward_arguments(parser)
+    add_reward_arguments(parser, team=True)
     parser.add_argument("--episodes", type=int, default=200,
                         help="evaluation starts, seeds 0..N-1 (default: %(default)s)")
     parser.add_argument("--teams", default=None,
@@ -196,6 +198,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--evaluate-on", default=None, metavar="SCENARIO|LIBRARY",
                         help="evaluate on these maps (held-out ones: a map library) instead "
                              "of --scenario's")
+    parser.add_argument("--init", type=Path, default=None, metavar="MODEL",
+                        help="start PPO from this saved policy (an earlier run's cloned.zip "
+                             "or model.zip, with its network) instead of a fresh or cloned one")
     parser.add_argument("--evaluate-only", type=Path, default=None, metavar="MODEL",
                         help="skip training: evaluate (and record) this saved model; without "
                              "it and without 'learned' in --teams nothing is trained")
@@ -233,8 +238,13 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
             args.net_arch = []
         if not args.net_arch or min(args.net_arch) < 1:
             parser.error("--net-arch: positive integers separated by commas")
-    if args.evaluate_only is not None and not args.evaluate_only.is_file():
-        parser.error(f"--evaluate-only: no such file {str(args.evaluate_only)!r}")
+    for name in ("init", "evaluate_only"):
+        path = getattr(args, name)
+        if path is not None and not path.is_file():
+            parser.error(f"--{name.replace('_', '-')}: no such file {str(path)!r}")
+    if args.init is not None and (args.imitate_steps or args.net_arch is not None):
+        parser.error("--init: the saved policy is the start (its network included); "
+                     "drop --imitate-steps and --net-arch")
     args.plot = args.plot or args.out / "curve.png"
     args.video = args.video or args.out / "learned.mp4"
     return args
@@ -518,10 +528,14 @@ def train(args: argparse.Namespace, maps: Maps,
     """PPO on the training env, from the cloned script with ``--imitate-steps``; returns the
     model, its curve and what the cloning did (None without it)."""
     envs = training_envs(args, maps)
-    model = PPO("MlpPolicy", envs, n_steps=args.n_steps, batch_size=args.batch_size,
-                learning_rate=args.learning_rate, clip_range=args.clip_range,
-                ent_coef=args.ent_coef, seed=args.seed, device="cpu", verbose=0,
-                policy_kwargs=None if args.net_arch is None else {"net_arch": args.net_arch})
+    settings = {"n_steps": args.n_steps, "batch_size": args.batch_size,
+                "learning_rate": args.learning_rate, "clip_range": args.clip_range,
+                "ent_coef": args.ent_coef, "seed": args.seed}
+    if args.init is not None:
+        model = PPO.load(args.init, env=envs, device="cpu", custom_objects=settings)
+    else:
+        model = PPO("MlpPolicy", envs, device="cpu", verbose=0, **settings,
+                    policy_kwargs=None if args.net_arch is None else {"net_arch": args.net_arch})
     curve = TrainingCurve(None if args.max_minutes is None else 60.0 * args.max_minutes)
     cloning: dict[str, Any] | None = None
     try:
@@ -711,7 +725,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
             "game_steps_per_s": round(game_steps / seconds, 1) if seconds else None,
             "copies": args.copies, "n_steps": args.n_steps, "batch_size": args.batch_size,
             "learning_rate": args.learning_rate, "clip_range": args.clip_range,
-            "ent_coef": args.ent_coef, "net_arch": args.net_arch,
+            "ent_coef": args.ent_coef, "net_arch": model.policy_kwargs.get("net_arch"),
+            "init": None if args.init is None else str(args.init),
             "stopped_by_time": model.num_timesteps < args.timesteps}
         if cloning is not None:
             report["imitation"] = cloning

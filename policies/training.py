@@ -91,10 +91,12 @@ def defender_options(args: argparse.Namespace) -> dict[str, Any] | None:
     return {"grid1": args.grid1, "grid2": args.grid2, "progress": False}
 
 
-def add_reward_arguments(parser: argparse.ArgumentParser) -> None:
+def add_reward_arguments(parser: argparse.ArgumentParser, team: bool = False) -> None:
     """The training scripts' ``--action-repeat`` (10 game steps per agent step),
     ``--shaping`` (1) and ``--timeout-reward`` (-1: in the game only arrival wins, so hiding
-    until the time limit scores as a loss); ``reward_options`` reads them."""
+    until the time limit scores as a loss), and with ``team`` (scripts where several
+    attackers learn) ``--team-reward`` (0: the views' ``team_reward``, each attacker's
+    share of its teammates' arrivals and captures); ``reward_options`` reads them."""
     parser.add_argument("--action-repeat", type=int, default=10,
                         help="game steps per agent step (default: %(default)s)")
     parser.add_argument("--shaping", type=float, default=1.0,
@@ -102,12 +104,17 @@ def add_reward_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--timeout-reward", type=float, default=-1.0,
                         help="reward for still being in play at the time limit "
                              "(default: %(default)s)")
+    if team:
+        parser.add_argument("--team-reward", type=float, default=0.0,
+                            help="weight of the teammates' arrivals (+1) and captures (-1) "
+                                 "in each attacker's reward (default: %(default)s)")
 
 
 def reward_options(args: argparse.Namespace) -> dict[str, Any]:
     """The training envs' keywords from ``add_reward_arguments``' values."""
+    team = {"team_reward": args.team_reward} if "team_reward" in vars(args) else {}
     return {"action_repeat": args.action_repeat, "shaping": args.shaping,
-            "timeout_reward": args.timeout_reward}
+            "timeout_reward": args.timeout_reward, **team}
 
 
 def attackers_from_args(args: argparse.Namespace) -> AttackerParallelEnv:
@@ -153,7 +160,7 @@ def make_attackers_parallel_env(scenario: ScenarioSource = "paper_2v1", defender
     """An ``AttackerParallelEnv``: every attacker learns, ``defenders`` (a name, a policy or
     a factory, as in ``make_attacker_env``) moves the defenders. ``env_kwargs``:
     ``starts`` (``"random"``: new starts at every reset), ``max_cycles``, ``render_mode``,
-    ``shaping``, ``timeout_reward``, ``action_repeat``, ``scripted_every``,
+    ``shaping``, ``timeout_reward``, ``team_reward``, ``action_repeat``, ``scripted_every``,
     ``render_width``, ``info_format`` (``AttackerParallelEnv``)."""
     return AttackerParallelEnv(_source(defenders, defender_options, "defenders", "defender"),
                                scenario=scenario, **env_kwargs)
@@ -180,10 +187,11 @@ def make_attackers_vector_env(scenario: ScenarioSource = "paper_2v1", defenders:
                               num_envs: int = 16,
                               defender_options: Mapping[str, Any] | None = None,
                               action_repeat: int = 1, timeout_reward: float = 0.0,
-                              autoreset: bool = True, **env_kwargs: Any) -> LearnerVectorEnv:
+                              autoreset: bool = True, team_reward: float = 0.0,
+                              **env_kwargs: Any) -> LearnerVectorEnv:
     """Every attacker of ``num_envs`` copies learns (``LearnerVectorEnv``, arrays
-    ``(K, M, ...)``); ``defenders`` (a name, a factory or a ``BatchPolicy``) move the
-    defenders of every copy. ``autoreset=False`` for TorchRL
+    ``(K, M, ...)``, ``team_reward`` as there); ``defenders`` (a name, a factory or a
+    ``BatchPolicy``) move the defenders of every copy. ``autoreset=False`` for TorchRL
     (``integrations.torchrl.VectorGroupEnv``). ``env_kwargs``: ``starts``
     (``"random"`` by default), ``max_cycles``, ``shaping``, ``observation``
     (``ReachAvoidVectorEnv``)."""
@@ -193,7 +201,7 @@ def make_attackers_vector_env(scenario: ScenarioSource = "paper_2v1", defenders:
         vec, base.attacker_names,
         [(batch_policy(defenders, defender_options, "defenders", "defender", vec),
           base.defender_names)], action_repeat=action_repeat, timeout_reward=timeout_reward,
-        autoreset=autoreset)
+        autoreset=autoreset, team_reward=team_reward)
 
 
 def make_defenders_vector_env(scenario: ScenarioSource = "paper_2v1",

@@ -15,12 +15,14 @@ and ``infos["final_observation"]`` ``(K, L, D)`` holds the ended one's last (row
 copies are the current ones), ``infos["episode_over"]`` ``(K,)`` marks those copies.
 
 Rewards are the env's (``shaping`` included) plus ``timeout_reward`` for a learner still
-in play when its episode is truncated. ``terminated`` ``(K, L)``: the learner was captured
-or arrived within this step; ``truncated``: it was still in play when ``max_cycles`` ran
-out. ``infos["active"]`` ``(K, L)``: the
-learner is in the game in the returned observation (a learner that left stays out, masked,
-until its copy resets); ``infos["arrived"]`` ``(K, L)``: the learner arrived within this
-step.
+in play when its episode is truncated, and, for learning attackers, ``team_reward`` times
+the sum of the other learners' +1 / -1 (arrival, capture) in each env step for a learner in
+play (``reachavoid_env.wrappers.team_bonus``, as ``AttackerParallelEnv``).
+``terminated`` ``(K, L)``: the learner was captured or arrived within this step;
+``truncated``: it was still in play when ``max_cycles`` ran out. ``infos["active"]``
+``(K, L)``: the learner is in the game in the returned observation (a learner that left
+stays out, masked, until its copy resets); ``infos["arrived"]`` ``(K, L)``: the learner
+arrived within this step.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ import numpy as np
 from reachavoid_env import checks
 from reachavoid_env.game_state import AttackerStatus, BatchPolicy
 from reachavoid_env.vector import ReachAvoidVectorEnv
+from reachavoid_env.wrappers import team_bonus
 
 _ARRIVED = AttackerStatus.ARRIVED.code
 
@@ -44,7 +47,7 @@ class LearnerVectorEnv:
     def __init__(self, vec: ReachAvoidVectorEnv, learners: Sequence[str],
                  scripted: Sequence[tuple[BatchPolicy, Sequence[str]]],
                  action_repeat: int = 1, timeout_reward: float = 0.0,
-                 autoreset: bool = True) -> None:
+                 autoreset: bool = True, team_reward: float = 0.0) -> None:
         if vec.autoreset:
             raise ValueError("vec: the training views reset copies themselves; make the "
                              "vector env with autoreset=False")
@@ -53,10 +56,14 @@ class LearnerVectorEnv:
         self.num_envs = vec.num_envs
         self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
         self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
+        self.team_reward = checks.real(team_reward, "team_reward")
         names = vec.possible_agents
         self.learners = list(learners)
         self._learner_rows = np.array([names.index(n) for n in self.learners])
         self._m = m = vec.base_scenario.num_attackers
+        if self.team_reward and (self._learner_rows >= m).any():
+            raise ValueError("team_reward: for learning attackers only (the defenders' "
+                             "reward is already their team's)")
         # (policy, the rows it moves among all players, the same among its side's players)
         self._scripted = []
         for policy, moved in scripted:
@@ -104,6 +111,7 @@ class LearnerVectorEnv:
             states = vec.batch_state()
             for policy, moved, side_rows in self._scripted:
                 full[:, moved] = policy.act_batch(states)[:, side_rows]
+            playing = vec.active[:, rows] if self.team_reward else None
             observations, rewards, terms, truncs, infos = vec.step(
                 {name: full[:, i] for i, name in enumerate(names)})
             table = np.stack([observations[name] for name in self.learners], axis=1)
@@ -112,8 +120,13 @@ class LearnerVectorEnv:
             terminated |= left
             truncated |= np.stack([truncs[n] for n in self.learners], axis=1)
             attackers = rows < self._m
-            arrived[:, attackers] |= left[:, attackers] & (
+            arrived_now = np.zeros_like(left)
+            arrived_now[:, attackers] = left[:, attackers] & (
                 infos["status"][:, rows[attackers]] == _ARRIVED)
+            arrived |= arrived_now
+            if self.team_reward and left.any():
+                outcomes = arrived_now.astype(np.float64) - (left & ~arrived_now)
+                totals += team_bonus(outcomes, playing, self.team_reward)
             ending = ~over & (infos["episode_over"] | ~infos["active"][:, rows].any(axis=1))
             if ending.any():          # these copies stand still for the rest of the step
                 vec.end_copies(np.flatnonzero(ending))

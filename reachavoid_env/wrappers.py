@@ -162,6 +162,24 @@ def _metadata(metadata: dict[str, Any], game: ReachAvoidEnv, action_repeat: int,
     return {**metadata, "render_fps": realtime_fps(game.base_scenario.dt, action_repeat)}
 
 
+def team_bonus(outcomes: np.ndarray, live: np.ndarray, weight: float) -> np.ndarray:
+    """The ``team_reward`` term of the attacker training views.
+
+    Args:
+        outcomes: ``(..., L)`` each learning attacker's outcome in one env step: +1 it
+            arrived, -1 it was captured, 0 otherwise.
+        live: ``(..., L)`` bool, the learner was in play at the start of the step.
+        weight: the views' ``team_reward``.
+
+    Returns:
+        ``(..., L)``: ``weight`` times the sum of the *other* learners' outcomes, for the
+        learners in play (0 for the others): a share of its teammates' arrivals and
+        captures, so that a learner gains by helping a teammate through.
+    """
+    others = outcomes.sum(axis=-1, keepdims=True) - outcomes
+    return np.where(live, weight * others, 0.0)
+
+
 class _OnGame:
     """What a training view passes straight to its ``game`` (a ``ReachAvoidEnv``)."""
 
@@ -171,10 +189,12 @@ class _OnGame:
     def _open_game(self, scenario: ScenarioSource, max_cycles: int | None,
                    render_mode: str | None, shaping: float, timeout_reward: float,
                    action_repeat: int, scripted_every: int, render_width: int,
-                   info_format: str, starts: str, observation: Any) -> ReachAvoidEnv:
+                   info_format: str, starts: str, observation: Any,
+                   team_reward: float = 0.0) -> ReachAvoidEnv:
         """Check the view's own options, set them and ``metadata``, and build the game
         (which checks the rest)."""
         self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
+        self.team_reward = checks.real(team_reward, "team_reward")
         self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
         self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
         game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
@@ -202,8 +222,10 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
     docstring has the layouts): the attackers' observations (``observation``, as
     ``ReachAvoidEnv``: egocentric by default); action ``Box(-1, 1, (2,))``,
     a velocity as a fraction of the attacker's speed; reward +1 on arrival, -1 on capture
-    (plus the optional ``shaping`` progress term, and ``timeout_reward`` for an attacker
-    still in play when the episode is truncated). An attacker leaves ``agents``
+    (plus the optional ``shaping`` progress term, ``timeout_reward`` for an attacker
+    still in play when the episode is truncated, and ``team_reward`` times the sum of the
+    other attackers' +1 / -1 in the step for an attacker in play, ``team_bonus``). An
+    attacker leaves ``agents``
     (terminated) on the step it is captured or arrives; after ``max_cycles`` env steps the
     rest are truncated. With ``action_repeat = k`` one step here is ``k`` env steps with the
     attackers' actions held (rewards summed; it ends early when no attacker is left).
@@ -226,15 +248,16 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
                  scripted_every: int = 1, render_width: int = 640,
                  info_format: str = "numeric", starts: str = "scenario",
-                 observation: Any = None) -> None:
+                 observation: Any = None, team_reward: float = 0.0) -> None:
         EzPickle.__init__(self, defenders, scenario=scenario, max_cycles=max_cycles,
                           render_mode=render_mode, shaping=shaping,
                           timeout_reward=timeout_reward, action_repeat=action_repeat,
                           scripted_every=scripted_every, render_width=render_width,
-                          info_format=info_format, starts=starts, observation=observation)
+                          info_format=info_format, starts=starts, observation=observation,
+                          team_reward=team_reward)
         game = self._open_game(scenario, max_cycles, render_mode, shaping, timeout_reward,
                                action_repeat, scripted_every, render_width, info_format,
-                               starts, observation)
+                               starts, observation, team_reward)
         self.game = game
         self.render_mode = render_mode
         self.defenders = scripted_policy(defenders, game, "defenders")
@@ -288,7 +311,10 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
         for _ in range(self.action_repeat):
             held = {name: actions[name] for name in self.game.agents
                     if name in self._learners and name in actions}
+            playing = [name for name in self.possible_agents if name in self.game.agents]
             obs, rew, term, trunc, info = self._core.step(held)
+            if self.team_reward and any(term[name] for name in playing):
+                self._share_outcomes(playing, term, rewards)
             for name in obs.keys() & self._learners:
                 observations[name] = obs[name]
                 rewards[name] += rew[name] + (self.timeout_reward if trunc[name] else 0.0)
@@ -299,6 +325,19 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
                 break
         self.agents = [name for name in self.game.agents if name in self._learners]
         return observations, rewards, terminations, truncations, infos
+
+    def _share_outcomes(self, playing: list[str], terminated: dict[str, bool],
+                        rewards: dict[str, float]) -> None:
+        """Add ``team_bonus`` to ``rewards`` of the attackers ``playing`` at the start of
+        the env step whose end ``terminated`` reports."""
+        status = self.game.game_state().attacker_status
+        index = {name: i for i, name in enumerate(self.possible_agents)}
+        outcomes = np.array([0.0 if not terminated[name] else
+                             1.0 if status[index[name]] is AttackerStatus.ARRIVED else -1.0
+                             for name in playing])
+        bonus = team_bonus(outcomes, np.ones(len(playing), dtype=bool), self.team_reward)
+        for name, value in zip(playing, bonus.tolist(), strict=True):
+            rewards[name] += value
 
     def state(self) -> np.ndarray:
         return self.game.state()

@@ -143,6 +143,36 @@ def test_cloned_policy_alone_follows_the_script(tmp_path):
     assert report["evaluation"]["learned"]["episodes"] == 3
 
 
+def test_init_starts_ppo_from_a_saved_policy(tmp_path, capsys):
+    """``--init`` continues from a saved policy (its network kept, the new run's PPO
+    settings used); ``--team-reward`` reaches the training env and the report."""
+    recipe = example("train_attacker_team")
+    recipe.main([*TINY, "--timesteps", "0", "--imitate-steps", "100", "--imitate-epochs", "1",
+                 "--net-arch", "8,8", "--teams", "learned", "--no-video",
+                 "--out", str(tmp_path / "clone")])
+    start = recipe.PPO.load(tmp_path / "clone" / "model.zip", device="cpu")
+    report = recipe.main([*TINY, "--init", str(tmp_path / "clone" / "model.zip"),
+                          "--learning-rate", "1e-5", "--team-reward", "0.5",
+                          "--teams", "learned", "--no-video", "--out", str(tmp_path / "tuned")])
+    training = report["training"]
+    assert training["init"] == str(tmp_path / "clone" / "model.zip")
+    assert training["net_arch"] == [8, 8] and training["agent_steps"] >= 192
+    assert report["team_reward"] == 0.5
+    tuned = recipe.PPO.load(tmp_path / "tuned" / "model.zip", device="cpu")
+    assert tuned.learning_rate == 1e-5
+    before = start.policy.state_dict()
+    after = tuned.policy.state_dict()
+    assert before.keys() == after.keys()
+    assert any(not np.array_equal(before[k].numpy(), after[k].numpy()) for k in before)
+    for argv in (["--init", str(tmp_path / "missing.zip")],
+                 ["--init", str(tmp_path / "clone" / "model.zip"), "--imitate-steps", "10"]):
+        with pytest.raises(SystemExit) as stopped:
+            recipe.main([*argv, "--out", str(tmp_path / "refused")])
+        assert stopped.value.code == 2
+    assert "--init: the saved policy is the start" in capsys.readouterr().err
+    assert not (tmp_path / "refused").exists()
+
+
 def test_demonstrations_line_up_with_their_returns(tmp_path):
     """Every recorded row is a live attacker's observation, the script's unit action and
     the discounted return of the rewards that followed it."""

@@ -7,7 +7,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from policies.training import make_attacker_env, make_attacker_vector_env, make_attackers_vector_env
+from policies.training import (
+    make_attacker_env,
+    make_attacker_vector_env,
+    make_attackers_parallel_env,
+    make_attackers_vector_env,
+)
 from reachavoid_env.integrations.vector import GymVectorEnv, sb3_vec_env
 
 
@@ -44,6 +49,44 @@ def test_copy_k_is_the_single_attacker_env(repeat, defenders):
                 episodes += 1
             seen[k] = obs
     assert episodes >= copies
+
+
+def test_team_reward_adds_the_teammates_outcomes():
+    """With ``team_reward = w`` each attacker in play gets w times the other attackers'
+    +1 / -1 of the step on top of its own reward, in the vector view as in copy k's
+    ``AttackerParallelEnv``."""
+    copies, seed, weight = 4, 3, 0.5
+    kwargs = dict(defenders="greedy", action_repeat=1, timeout_reward=-1.0, shaping=0.5,
+                  max_cycles=150, starts="random")
+    alone = make_attackers_vector_env("paper_6v2", num_envs=copies, **kwargs)
+    team = make_attackers_vector_env("paper_6v2", num_envs=copies, team_reward=weight, **kwargs)
+    singles = [make_attackers_parallel_env("paper_6v2", team_reward=weight, **kwargs)
+               for _ in range(copies)]
+    alone.reset(seed=seed)
+    _, infos = team.reset(seed=seed)
+    for k, env in enumerate(singles):
+        env.reset(seed=seed + k)
+    rng = np.random.default_rng(1)
+    shared = 0
+    for _ in range(300):
+        playing = infos["active"]
+        actions = rng.uniform(-1, 1, (copies, 6, 2))
+        _, own, *_ = alone.step(actions)
+        _, rewards, terminated, _, infos = team.step(actions)
+        outcomes = np.where(terminated, np.where(infos["arrived"], 1.0, -1.0), 0.0)
+        others = outcomes.sum(axis=1, keepdims=True) - outcomes
+        np.testing.assert_allclose(rewards, own + np.where(playing, weight * others, 0.0),
+                                   atol=1e-12)
+        shared += int((playing & (others != 0)).sum())
+        for k, env in enumerate(singles):
+            names = list(env.agents)
+            _, single, *_ = env.step({n: actions[k, int(n.split("_")[1])] for n in names})
+            for name in names:
+                assert single[name] == pytest.approx(rewards[k, int(name.split("_")[1])],
+                                                     abs=1e-12)
+            if not env.agents:
+                env.reset()
+    assert shared > 20
 
 
 def test_sb3_trains_the_shared_attacker_on_the_vector_env():
