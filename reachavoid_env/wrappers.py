@@ -189,12 +189,10 @@ class _OnGame:
     def _open_game(self, scenario: ScenarioSource, max_cycles: int | None,
                    render_mode: str | None, shaping: float, timeout_reward: float,
                    action_repeat: int, scripted_every: int, render_width: int,
-                   info_format: str, starts: str, observation: Any,
-                   team_reward: float = 0.0) -> ReachAvoidEnv:
+                   info_format: str, starts: str, observation: Any) -> ReachAvoidEnv:
         """Check the view's own options, set them and ``metadata``, and build the game
         (which checks the rest)."""
         self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
-        self.team_reward = checks.real(team_reward, "team_reward")
         self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
         self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
         game = ReachAvoidEnv(scenario=scenario, max_cycles=max_cycles, render_mode=render_mode,
@@ -225,10 +223,10 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
     (plus the optional ``shaping`` progress term, ``timeout_reward`` for an attacker
     still in play when the episode is truncated, and ``team_reward`` times the sum of the
     other attackers' +1 / -1 in the step for an attacker in play, ``team_bonus``). An
-    attacker leaves ``agents``
-    (terminated) on the step it is captured or arrives; after ``max_cycles`` env steps the
-    rest are truncated. With ``action_repeat = k`` one step here is ``k`` env steps with the
-    attackers' actions held (rewards summed; it ends early when no attacker is left).
+    attacker leaves ``agents`` (terminated) on the step it is captured or arrives; after
+    ``max_cycles`` env steps the rest are truncated. With ``action_repeat = k`` one step here
+    is ``k`` env steps with the attackers' actions held (rewards summed; it ends early when
+    no attacker is left).
     ``scripted_every``: see the module docstring.
 
     ``info_format`` and ``starts`` as ``ReachAvoidEnv`` (numeric infos by default, for
@@ -255,9 +253,10 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
                           scripted_every=scripted_every, render_width=render_width,
                           info_format=info_format, starts=starts, observation=observation,
                           team_reward=team_reward)
+        self.team_reward = checks.real(team_reward, "team_reward")
         game = self._open_game(scenario, max_cycles, render_mode, shaping, timeout_reward,
                                action_repeat, scripted_every, render_width, info_format,
-                               starts, observation, team_reward)
+                               starts, observation)
         self.game = game
         self.render_mode = render_mode
         self.defenders = scripted_policy(defenders, game, "defenders")

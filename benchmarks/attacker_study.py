@@ -1,0 +1,176 @@
+"""Which fine-tuning pays: the team recipe's PPO variants from one clone, side by side.
+
+    python benchmarks/attacker_study.py --scenario paper_2v1 \\
+        --init runs/team_2v1/cloned.zip --runs runs/study_2v1 --cores 0,1 \\
+        --json benchmarks/results/attacker_study_2v1.json
+
+Every variant of ``VARIANTS`` (the recipe's reward options) runs
+``examples/train_attacker_team.py --init CLONE`` in its own process, pinned to one of
+``--cores`` (as many at once as cores): ``--minutes`` of PPO at the measured recipe's
+settings (``RECIPE``: learning rate 1e-4, clip 0.1, 16 copies), then the learned team,
+``shortest-path`` and ``hj`` play the same ``--episodes`` starts against the ``hj``
+defenders. Only the reward differs between variants, and every one starts from the same
+cloned policy (an earlier run's ``cloned.zip``), so ``variant - base`` paired over the
+starts is what the reward option bought. A variant whose ``RUNS/NAME/report.json`` exists is
+read, not run again: stop with Ctrl-C and run the same command to go on.
+
+Figures per variant: the learned team's arrival rate, learned - shortest-path, learned -
+hj and variant - base (points, paired, 95% bootstrap over the starts), PPO agent steps
+and CPU minutes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from result_file import write_result
+
+from reachavoid.evaluation import bootstrap_interval
+
+RECIPE = ["--timesteps", "3000000", "--learning-rate", "1e-4", "--clip-range", "0.1",
+          "--copies", "16", "--teams", "learned,shortest-path,hj", "--no-video"]
+"""The recipe's PPO settings (BENCHMARKS "Learned attackers"); ``--minutes`` ends PPO
+first on this machine."""
+
+VARIANTS = {
+    "base": [],
+    "no-shaping": ["--shaping", "0"],
+    "team-reward": ["--team-reward", "1"],
+}
+"""Variant name -> the recipe's options that make it (``base``: the recipe's rewards:
+progress shaping 1, timeout -1, no team reward)."""
+
+ROOT = str(Path(__file__).resolve().parent.parent)
+RECIPE_SCRIPT = Path(ROOT) / "examples" / "train_attacker_team.py"
+
+
+def parse_args() -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scenario", default="paper_2v1")
+    parser.add_argument("--init", type=Path, required=True, metavar="CLONE",
+                        help="the policy every variant starts from (a cloned.zip)")
+    parser.add_argument("--runs", type=Path, required=True,
+                        help="folder of the variants' runs (RUNS/NAME)")
+    parser.add_argument("--variants", default=",".join(VARIANTS),
+                        help="comma-separated from %(default)s")
+    parser.add_argument("--minutes", type=float, default=15.0, help="PPO minutes per variant")
+    parser.add_argument("--episodes", type=int, default=200)
+    parser.add_argument("--cores", default="0", help="cores to pin the runs to, e.g. 0,1")
+    parser.add_argument("--json", default=None, help="write the result record here")
+    args = parser.parse_args()
+    args.variants = args.variants.split(",")
+    unknown = [name for name in args.variants if name not in VARIANTS]
+    if unknown:
+        parser.error(f"--variants: unknown variant {unknown[0]!r} (choose from "
+                     f"{', '.join(VARIANTS)})")
+    if args.json and "base" not in args.variants:
+        parser.error("--variants: needs base for --json (every variant is compared with it)")
+    if not args.init.is_file():
+        parser.error(f"--init: no such file {str(args.init)!r}")
+    try:
+        args.cores = [int(core) for core in args.cores.split(",")]
+    except ValueError:
+        parser.error("--cores: core numbers separated by commas")
+    if not args.minutes > 0 or args.episodes < 1:
+        parser.error("--minutes and --episodes: must be positive")
+    return args
+
+
+def command(args: argparse.Namespace, name: str) -> list[str]:
+    """The recipe's command line of variant ``name``."""
+    return [sys.executable, str(RECIPE_SCRIPT), "--scenario", args.scenario,
+            "--init", str(args.init), "--max-minutes", str(args.minutes),
+            "--episodes", str(args.episodes), *RECIPE, *VARIANTS[name],
+            "--out", str(args.runs / name)]
+
+
+def run_all(args: argparse.Namespace) -> None:
+    """Run the variants without a report, as many at once as ``--cores``; Ctrl-C stops
+    every run (each leaves no report, so the next call runs it again)."""
+    waiting = [name for name in args.variants if not (args.runs / name / "report.json").is_file()]
+    running: dict[int, tuple[str, subprocess.Popen]] = {}
+    try:
+        while waiting or running:
+            for core in [c for c in args.cores if c not in running][:len(waiting)]:
+                name = waiting.pop(0)
+                (args.runs / name).mkdir(parents=True, exist_ok=True)
+                print(f"{name}: started on core {core}", flush=True)
+                with open(args.runs / name / "log.txt", "w") as log:
+                    running[core] = (name, subprocess.Popen(
+                        ["taskset", "-c", str(core), *command(args, name)], stdout=log,
+                        stderr=subprocess.STDOUT, env={**os.environ, "PYTHONPATH": ROOT}))
+            time.sleep(5)
+            for core, (name, process) in list(running.items()):
+                if process.poll() is not None:
+                    del running[core]
+                    if process.returncode:
+                        raise SystemExit(f"{name}: the recipe exited with {process.returncode} "
+                                         f"(log: {args.runs / name / 'log.txt'})")
+                    print(f"{name}: done", flush=True)
+    finally:
+        for _, process in running.values():
+            process.terminate()
+            process.wait()
+
+
+def points(values: np.ndarray) -> list[float]:
+    """Mean and 95% bootstrap interval of per-start fractions, in percentage points."""
+    low, high = bootstrap_interval(values)
+    return [round(100 * float(values.mean()), 2), round(100 * low, 2), round(100 * high, 2)]
+
+
+def main() -> None:
+    args = parse_args()
+    run_all(args)
+    reports = {name: json.loads((args.runs / name / "report.json").read_text())
+               for name in args.variants}
+
+    def arrivals(name: str, team: str) -> np.ndarray:
+        episode = reports[name]["per_episode"][team]
+        return np.asarray(episode["arrived"], dtype=np.float64) / episode["attackers"]
+
+    figures: dict[str, float | list[float]] = {}
+    for name, report in reports.items():
+        learned = arrivals(name, "learned")
+        figures[f"arrival_percent.{name}"] = points(learned)
+        figures[f"minus_shortest_path_points.{name}"] = points(
+            learned - arrivals(name, "shortest-path"))
+        figures[f"minus_hj_points.{name}"] = points(learned - arrivals(name, "hj"))
+        if "base" in reports and name != "base":
+            figures[f"minus_base_points.{name}"] = points(learned - arrivals("base", "learned"))
+        figures[f"ppo_steps.{name}"] = report["training"]["agent_steps"]
+        figures[f"ppo_cpu_min.{name}"] = round(report["training"]["cpu_seconds"] / 60, 1)
+        print(f"{name:>12}: arrival {figures[f'arrival_percent.{name}']}, - shortest-path "
+              f"{figures[f'minus_shortest_path_points.{name}']}, - hj "
+              f"{figures[f'minus_hj_points.{name}']}"
+              + (f", - base {figures[f'minus_base_points.{name}']}"
+                 if f"minus_base_points.{name}" in figures else ""))
+    if not args.json:
+        return
+    figures["arrival_percent.shortest-path"] = points(arrivals("base", "shortest-path"))
+    figures["arrival_percent.hj"] = points(arrivals("base", "hj"))
+    write_result(args.json, "attacker_study", figures, {
+        "arrival_percent": f"{args.scenario}, the starts reset(seed=k), k < {args.episodes}, "
+                           "against hj (31^4 / 15^6 tubes): percent of attackers that "
+                           "arrive, [value, low, high], 95% bootstrap over the starts",
+        "minus_shortest_path_points": "the variant's learned team minus the shortest-path "
+                                      "team, paired over the starts, points",
+        "minus_hj_points": "the variant's learned team minus the hj team, paired, points",
+        "minus_base_points": "the variant's learned team minus base's, paired, points",
+        "ppo_steps": f"PPO agent steps in {args.minutes:g} minutes from {args.init.name}",
+        "ppo_cpu_min": "PPO CPU minutes (time.process_time of the run)"})
+    print(f"wrote {args.json}")
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except KeyboardInterrupt:
+        sys.exit(130)
