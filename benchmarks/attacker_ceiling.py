@@ -10,10 +10,7 @@ arrives:
 
 - ``1v1``: the 1 vs 1 value at the start: the attacker wins or the defender does;
 - ``2v1``: the 2 vs 1 value (the defender wins if it captures both) and how many of the
-  two attackers win their 1 vs 1 game alone;
-- ``6v2``: no tube decides a 6 vs 2 game, so only the attackers that win their 1 vs 1 game
-  against *every* defender (``free``): each team's arrival among them and beyond them.
-  What a team adds beyond the free attackers it can only add by playing together.
+  two attackers win their 1 vs 1 game alone.
 
 Each scripted team (``policies.registry.ATTACKERS``) plays the same seeded starts
 (``reset(seed=k)``, the team recipe's evaluation starts) against ``hj`` on the defenders'
@@ -43,7 +40,7 @@ from policies.tubes import tube_1v1, tube_2v1
 from reachavoid.evaluation import run_episodes
 from reachavoid_env import GameState, Scenario, builtin_scenario, parallel_env
 
-CELLS = {"1v1": ("paper_1v1", 1, 1), "2v1": ("paper_2v1", 2, 1), "6v2": ("paper_6v2", 6, 2)}
+CELLS = {"1v1": ("paper_1v1", 1, 1), "2v1": ("paper_2v1", 2, 1)}
 """Cell name: (built-in scenario, attackers, defenders)."""
 TEAMS = ("shortest-path", "hj", "straight")
 
@@ -68,16 +65,6 @@ def oracle(state: GameState, scenario: Scenario, grid1: int, grid2: int) -> Orac
     return Oracle(bool(vf21.attacker_wins(joint)[0]), solo)
 
 
-def free_attackers(state: GameState, scenario: Scenario, grid1: int) -> np.ndarray:
-    """``(M,)`` bool: the attacker wins its 1 vs 1 game against every defender at the start
-    (the oracle's ``grid1``^4 tube)."""
-    vf11 = tube_1v1(scenario, grid1, progress=False)
-    attackers, defenders = state.attacker_positions, state.defender_positions
-    pairs = np.concatenate([np.repeat(attackers, len(defenders), axis=0),
-                            np.tile(defenders, (len(attackers), 1))], axis=1)
-    return vf11.attacker_wins(pairs).reshape(len(attackers), len(defenders)).all(axis=1)
-
-
 def starts(scenario: Scenario, episodes: int) -> list[GameState]:
     """The first state of episodes ``reset(seed=k)``, k < ``episodes``."""
     env = parallel_env(scenario=scenario)
@@ -98,36 +85,9 @@ def room(arrived: np.ndarray, verdicts: list[Oracle]) -> int:
     return extra
 
 
-def team_cell(name: str, args: argparse.Namespace) -> dict[str, float | list[float]]:
-    """The figures of a cell with several defenders: the free attackers and where each
-    team arrives among them and beyond."""
-    base, attackers, defenders = CELLS[name]
-    scenario = builtin_scenario(base).with_players(attackers, defenders)
-    free = np.array([free_attackers(state, scenario, args.oracle_grid1)
-                     for state in starts(scenario, args.episodes)])
-    figures: dict[str, float | list[float]] = {f"free_percent.{name}": 100.0 * free.mean()}
-    env = parallel_env(scenario=scenario)
-    defender = make_policy("defenders", "hj", scenario, grid1=args.grid1, grid2=args.grid2)
-    names = scenario.attacker_names
-    for team in TEAMS:
-        options = {"grid1": args.grid1} if team == "hj" else {}
-        results = run_episodes(env, make_policy("attackers", team, scenario, **options),
-                               defender, args.episodes, progress=sys.stderr.isatty(),
-                               description=team)
-        arrived = np.array([[n in r.arrived for n in names] for r in results])
-        figures[f"arrival_percent.{name}.{team}"] = 100.0 * arrived.mean()
-        figures[f"free_arrived_percent.{name}.{team}"] = 100.0 * arrived[free].mean()
-        figures[f"arrived_beyond_free_points.{name}.{team}"] = (
-            100.0 * (arrived & ~free).sum() / arrived.size)
-    env.close()
-    return figures
-
-
 def cell(name: str, args: argparse.Namespace) -> dict[str, float | list[float]]:
     """The figures of one cell."""
     base, attackers, defenders = CELLS[name]
-    if defenders > 1:
-        return team_cell(name, args)
     scenario = builtin_scenario(base).with_players(attackers, defenders)
     verdicts = [oracle(state, scenario, args.oracle_grid1, args.oracle_grid2)
                 for state in starts(scenario, args.episodes)]
@@ -156,8 +116,7 @@ def cell(name: str, args: argparse.Namespace) -> dict[str, float | list[float]]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--cells", default="1v1,2v1,6v2",
-                        help="comma-separated: 1v1, 2v1, 6v2")
+    parser.add_argument("--cells", default="1v1,2v1", help="comma-separated: 1v1, 2v1")
     parser.add_argument("--episodes", type=int, default=200)
     parser.add_argument("--grid1", type=int, default=31, help="the defenders' 1 vs 1 grid")
     parser.add_argument("--grid2", type=int, default=15, help="the defenders' 2 vs 1 grid")
@@ -185,13 +144,7 @@ def main() -> None:
                                          "each attacker that wins alone)",
             "room_points": "missed_in_winnable_starts of shortest-path in percentage points "
                            "of arrival: at most this much can any attacker add over the "
-                           "script against defenders that do not err",
-            "free_percent": "percent of the attackers that win their 1 vs 1 game against "
-                            "every defender at the start (the oracle's 1 vs 1 tube)",
-            "free_arrived_percent": "percent of those free attackers that arrive, per team",
-            "arrived_beyond_free_points": "attackers that arrive without being free, in "
-                                          "percentage points of all attackers: what the "
-                                          "team's play won beyond the free ones"})
+                           "script against defenders that do not err"})
 
 
 if __name__ == "__main__":

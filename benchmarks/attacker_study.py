@@ -41,11 +41,13 @@ first on this machine."""
 
 VARIANTS = {
     "base": [],
+    "base-seed-1": ["--seed", "1"],
     "no-shaping": ["--shaping", "0"],
     "team-reward": ["--team-reward", "1"],
 }
 """Variant name -> the recipe's options that make it (``base``: the recipe's rewards:
-progress shaping 1, timeout -1, no team reward)."""
+progress shaping 1, timeout -1, no team reward; ``base-seed-1``: the same with PPO seeded
+otherwise, the spread of PPO alone against which the other variants are read)."""
 
 ROOT = str(Path(__file__).resolve().parent.parent)
 RECIPE_SCRIPT = Path(ROOT) / "examples" / "train_attacker_team.py"
