@@ -120,12 +120,10 @@ class LearnerVectorEnv:
             terminated |= left
             truncated |= np.stack([truncs[n] for n in self.learners], axis=1)
             attackers = rows < self._m
-            arrived_now = np.zeros_like(left)
-            arrived_now[:, attackers] = left[:, attackers] & (
-                infos["status"][:, rows[attackers]] == _ARRIVED)
-            arrived |= arrived_now
-            if self.team_reward and left.any():
-                outcomes = arrived_now.astype(np.float64) - (left & ~arrived_now)
+            arriving = left[:, attackers] & (infos["status"][:, rows[attackers]] == _ARRIVED)
+            arrived[:, attackers] |= arriving
+            if self.team_reward and left.any():    # every learner is an attacker here
+                outcomes = np.where(arriving, 1.0, np.where(left, -1.0, 0.0))
                 totals += team_bonus(outcomes, playing, self.team_reward)
             ending = ~over & (infos["episode_over"] | ~infos["active"][:, rows].any(axis=1))
             if ending.any():          # these copies stand still for the rest of the step
