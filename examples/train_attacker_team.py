@@ -266,6 +266,28 @@ def game(args: argparse.Namespace, maps: Maps, **env_kwargs: Any) -> AttackerPar
                                        defender_options=defender_options(args), **env_kwargs)
 
 
+class ModelError(ValueError):
+    """A saved model (``--init``, ``--evaluate-only``) this run cannot play; the command
+    prints it in one line and exits with status 2."""
+
+
+def load_model(path: Path, flag: str, maps: Maps, **options: Any) -> PPO:
+    """``PPO.load(path, **options)`` of a policy for the default observation of ``maps``;
+    ``ModelError`` naming ``flag`` if the file is not one (another game, or not SB3's)."""
+    size = DEFAULT_OBSERVATION.size(maps[0].num_attackers, maps[0].num_defenders)
+    try:
+        model = PPO.load(path, device="cpu", **options)
+    except Exception as err:  # SB3 raises many kinds on a foreign or damaged file
+        first_line = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise ModelError(f"{flag}: cannot load {str(path)!r} as a PPO attacker of "
+                         f"{maps[0].name} ({size} observation entries): {first_line}") from None
+    shape = model.observation_space.shape
+    if shape != (size,) or model.action_space.shape != (2,):
+        raise ModelError(f"{flag}: {str(path)!r} observes {shape} and acts "
+                         f"{model.action_space.shape}; this run needs ({size},) and (2,)")
+    return model
+
+
 # ---- the training curve -------------------------------------------------------------------
 
 class TrainingCurve(BaseCallback):
@@ -531,14 +553,14 @@ def train(args: argparse.Namespace, maps: Maps,
     settings = {"n_steps": args.n_steps, "batch_size": args.batch_size,
                 "learning_rate": args.learning_rate, "clip_range": args.clip_range,
                 "ent_coef": args.ent_coef, "seed": args.seed}
-    if args.init is not None:
-        model = PPO.load(args.init, env=envs, device="cpu", custom_objects=settings)
-    else:
-        model = PPO("MlpPolicy", envs, device="cpu", verbose=0, **settings,
-                    policy_kwargs=None if args.net_arch is None else {"net_arch": args.net_arch})
     curve = TrainingCurve(None if args.max_minutes is None else 60.0 * args.max_minutes)
     cloning: dict[str, Any] | None = None
     try:
+        if args.init is not None:
+            model = load_model(args.init, "--init", maps, env=envs, custom_objects=settings)
+        else:
+            model = PPO("MlpPolicy", envs, device="cpu", verbose=0, **settings, policy_kwargs=None
+                        if args.net_arch is None else {"net_arch": args.net_arch})
         if args.imitate_steps:
             cloning = clone(args, maps, model)
             with atomic_write(args.out / "cloned.zip", "wb") as handle:
@@ -708,7 +730,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     }
     model: PPO | None = None
     if args.evaluate_only is not None:
-        model = PPO.load(args.evaluate_only, device="cpu")
+        model = load_model(args.evaluate_only, "--evaluate-only", maps)
         report["model"] = str(args.evaluate_only)
     elif "learned" in args.teams:
         model, curve, cloning = train(args, maps)
@@ -775,5 +797,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
 if __name__ == "__main__":
     try:
         main()
+    except ModelError as err:
+        print(f"{Path(sys.argv[0]).name}: error: {err}", file=sys.stderr)
+        sys.exit(2)
     except KeyboardInterrupt:
         sys.exit(130)

@@ -6,6 +6,9 @@ from __future__ import annotations
 
 import csv
 import json
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -171,6 +174,29 @@ def test_init_starts_ppo_from_a_saved_policy(tmp_path, capsys):
         assert stopped.value.code == 2
     assert "--init: the saved policy is the start" in capsys.readouterr().err
     assert not (tmp_path / "refused").exists()
+
+
+def test_a_model_of_another_game_is_refused_in_one_line(tmp_path):
+    """``--init`` and ``--evaluate-only`` with a policy of other observations (here
+    Pendulum's) stop with a ``ModelError`` naming the flag and both shapes, before any
+    training; the command prints it in one line and exits with status 2."""
+    import gymnasium
+
+    recipe = example("train_attacker_team")
+    foreign = tmp_path / "pendulum.zip"
+    recipe.PPO("MlpPolicy", gymnasium.make("Pendulum-v1"), device="cpu").save(foreign)
+    for flag in ("--init", "--evaluate-only"):
+        with pytest.raises(recipe.ModelError, match=f"^{flag}: .*pendulum.zip") as refused:
+            recipe.main(["--defenders", "greedy", flag, str(foreign), "--no-video",
+                         "--out", str(tmp_path / flag.strip("-"))])
+        assert "\n" not in str(refused.value)
+    script = Path(recipe.__file__)
+    finished = subprocess.run([sys.executable, str(script), "--defenders", "greedy",
+                               "--evaluate-only", str(foreign), "--out", str(tmp_path / "cli")],
+                              capture_output=True, text=True, cwd=script.parent.parent)
+    assert finished.returncode == 2, finished.stderr
+    assert finished.stderr.startswith("train_attacker_team.py: error: --evaluate-only: ")
+    assert finished.stderr.count("\n") == 1
 
 
 def test_demonstrations_line_up_with_their_returns(tmp_path):
