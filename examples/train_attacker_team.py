@@ -59,7 +59,8 @@ say, to compare fine-tuning settings from one clone; its network is kept).
 ``--clip-range`` and ``--ent-coef`` are PPO's (defaults: SB3's 3e-4, 0.2, 0).
 
 **Evaluation** (``evaluate``; alone with ``--evaluate-only MODEL``): every team plays the
-``--episodes`` starts ``reset(seed=k)``, k = 0, 1, ..., of the attacker-only env against
+``--episodes`` starts ``reset(seed=k)``, k = F, F + 1, ... (F: ``--first-seed``, default 0;
+a later F gives fresh starts to confirm a result), of the attacker-only env against
 the same defenders, without shaping; each team decides at its own rate (the learned one
 every ``--action-repeat`` game steps, as trained; the scripted ``shortest-path`` and
 ``random`` teams of ``policies.registry``, and the ``--imitate-from`` team, every game
@@ -178,7 +179,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="log std of the actions after cloning (default: %(default)s)")
     add_reward_arguments(parser, team=True)
     parser.add_argument("--episodes", type=int, default=200,
-                        help="evaluation starts, seeds 0..N-1 (default: %(default)s)")
+                        help="evaluation starts, seeds F..F+N-1 (default: %(default)s)")
+    parser.add_argument("--first-seed", type=int, default=0, metavar="F",
+                        help="the first evaluation start's seed (default: %(default)s)")
     parser.add_argument("--teams", default=None,
                         help=f"teams to evaluate, comma-separated from {', '.join(TEAMS)} "
                              f"(None: {','.join(DEFAULT_TEAMS)}, and the --imitate-from "
@@ -209,6 +212,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                  "imitate_epochs", "video_every", "video_width"):
         if getattr(args, name) < 1:
             parser.error(f"--{name.replace('_', '-')}: must be a positive integer")
+    if args.first_seed < 0:
+        parser.error("--first-seed: must be a non-negative integer")
     if args.dagger_epochs is None:
         args.dagger_epochs = args.imitate_epochs
     for name in ("dagger_steps", "dagger_epochs"):
@@ -677,14 +682,16 @@ def make_team(name: str, model: PPO | None, args: argparse.Namespace,
 
 def evaluate(args: argparse.Namespace, maps: Maps, model: PPO | None,
              teams: Sequence[str]) -> dict[str, TeamResult]:
-    """Every team in ``teams`` on the starts ``reset(seed=k)``, k < ``args.episodes``, of one
-    attacker-only env (no shaping; the defenders of ``args``)."""
+    """Every team in ``teams`` on the starts ``reset(seed=k)``, ``args.first_seed`` <= k <
+    ``args.first_seed + args.episodes``, of one attacker-only env (no shaping; the defenders
+    of ``args``)."""
     env = game(args, maps)
     results = {}
     for name in teams:
         team = make_team(name, model, args, maps)
+        seeds = range(args.first_seed, args.first_seed + args.episodes)
         outcomes = [play(env, team, seed) for seed in tqdm(
-            range(args.episodes), desc=name, unit="episode", disable=not sys.stderr.isatty())]
+            seeds, desc=name, unit="episode", disable=not sys.stderr.isatty())]
         results[name] = TeamResult(name, *map(tuple, zip(*outcomes, strict=True)),
                                    attackers=maps[0].num_attackers)
     env.close()
@@ -764,7 +771,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     results = evaluate(args, held_out, model, args.teams)
     evaluation_seconds = (time.perf_counter() - evaluation_start,
                           time.process_time() - evaluation_cpu)
-    report["evaluation"] = {"seeds": [0, args.episodes - 1],
+    report["evaluation"] = {"seeds": [args.first_seed, args.first_seed + args.episodes - 1],
                             **{name: result.summary() for name, result in results.items()}}
     for first, second in (("learned", "shortest-path"), ("learned", args.imitate_from),
                           (args.imitate_from, "shortest-path")):
@@ -782,8 +789,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
             print(f"{key}: arrival {difference['arrival_rate']:+.4f} [{low:+.4f}, "
                   f"{high:+.4f}]", flush=True)
     if model is not None and not args.no_video:
-        report["video"] = {"path": str(args.video), "seed": 0,
-                           "frames": record(args, held_out, model, seed=0)}
+        report["video"] = {"path": str(args.video), "seed": args.first_seed,
+                           "frames": record(args, held_out, model, seed=args.first_seed)}
     report["per_episode"] = {name: asdict(result) for name, result in results.items()}
     report["run"] = {"seconds": round(time.perf_counter() - start, 1),
                      "cpu_seconds": round(time.process_time() - cpu_start, 1),

@@ -75,10 +75,24 @@ def test_scripted_teams_alone_train_nothing(tmp_path):
     assert sorted(path.name for path in tmp_path.iterdir()) == ["report.json"]
 
 
+def test_first_seed_shifts_the_evaluation_starts(tmp_path):
+    """``--first-seed 1 --episodes 2`` plays the starts 1 and 2: the last two of
+    ``--episodes 3``, episode by episode."""
+    recipe = example("train_attacker_team")
+    reports = [recipe.main(["--defenders", "greedy", "--teams", "shortest-path", *argv,
+                            "--out", str(tmp_path / str(k))])
+               for k, argv in enumerate((["--episodes", "3"],
+                                         ["--episodes", "2", "--first-seed", "1"]))]
+    assert reports[1]["evaluation"]["seeds"] == [1, 2]
+    every, later = (report["per_episode"]["shortest-path"] for report in reports)
+    assert later["arrived"] == every["arrived"][1:]
+    assert later["captured"] == every["captured"][1:]
+
+
 def test_bad_arguments_exit_2(tmp_path, capsys):
     recipe = example("train_attacker_team")
     for argv in (["--evaluate-only", str(tmp_path / "missing.zip")], ["--teams", "learnt"],
-                 ["--episodes", "0"]):
+                 ["--episodes", "0"], ["--first-seed", "-1"]):
         with pytest.raises(SystemExit) as stopped:
             recipe.main([*argv, "--out", str(tmp_path)])
         assert stopped.value.code == 2
