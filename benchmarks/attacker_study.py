@@ -1,17 +1,20 @@
-"""Which fine-tuning pays: the team recipe's PPO variants from one clone, side by side.
+"""Which training option pays: the team recipe's PPO variants, side by side.
 
     python benchmarks/attacker_study.py --scenario paper_2v1 \\
         --init runs/team_2v1/cloned.zip --runs runs/study_2v1 --cores 0,1 \\
         --json benchmarks/results/attacker_study_2v1.json
+    python benchmarks/attacker_study.py --scenario paper_1v1 --variants base,easy-starts \\
+        --runs runs/study_1v1 --cores 0,1 --json benchmarks/results/attacker_study_1v1.json
 
-Every variant of ``VARIANTS`` (the recipe's reward options) runs
-``examples/train_attacker_team.py --init CLONE`` in its own process, pinned to one of
-``--cores`` (as many at once as cores): ``--minutes`` of PPO at the measured recipe's
-settings (``RECIPE``: learning rate 1e-4, clip 0.1, 16 copies), then the learned team,
-``shortest-path`` and ``hj`` play the same ``--episodes`` starts against the ``hj``
-defenders. Only the reward differs between variants, and every one starts from the same
-cloned policy (an earlier run's ``cloned.zip``), so ``variant - base`` paired over the
-starts is what the reward option bought. A variant whose ``RUNS/NAME/report.json`` exists is
+Every variant of ``VARIANTS`` (the recipe's reward and curriculum options) runs
+``examples/train_attacker_team.py`` in its own process, pinned to one of ``--cores`` (as
+many at once as cores): ``--minutes`` of PPO (``RECIPE``: 16 copies), then the learned
+team, ``shortest-path`` and ``hj`` play the same ``--episodes`` starts against the ``hj``
+defenders. With ``--init CLONE`` every variant fine-tunes the same cloned policy (an
+earlier run's ``cloned.zip``) at the measured fine-tuning settings (``FINE_TUNING``:
+learning rate 1e-4, clip 0.1); without it every variant trains from scratch at SB3's
+defaults. Only the option differs between variants, so ``variant - base`` paired over the
+starts is what the option bought. A variant whose ``RUNS/NAME/report.json`` exists is
 read, not run again: stop with Ctrl-C and run the same command to go on.
 
 Figures per variant: the learned team's arrival rate, learned - shortest-path, learned -
@@ -34,20 +37,25 @@ from result_file import write_result
 
 from reachavoid.evaluation import bootstrap_interval
 
-RECIPE = ["--timesteps", "3000000", "--learning-rate", "1e-4", "--clip-range", "0.1",
-          "--copies", "16", "--teams", "learned,shortest-path,hj", "--no-video"]
-"""The recipe's PPO settings (BENCHMARKS "Learned attackers"); ``--minutes`` ends PPO
-first on this machine."""
+RECIPE = ["--timesteps", "3000000", "--copies", "16", "--teams", "learned,shortest-path,hj",
+          "--no-video"]
+"""The recipe's run (BENCHMARKS "Learned attackers"); ``--minutes`` ends PPO first on this
+machine."""
+FINE_TUNING = ["--learning-rate", "1e-4", "--clip-range", "0.1"]
+"""PPO's settings from a clone (``--init``)."""
 
 VARIANTS = {
     "base": [],
     "base-seed-1": ["--seed", "1"],
     "no-shaping": ["--shaping", "0"],
     "team-reward": ["--team-reward", "1"],
+    "easy-starts": ["--easy-starts", "0.3"],
 }
 """Variant name -> the recipe's options that make it (``base``: the recipe's rewards:
 progress shaping 1, timeout -1, no team reward; ``base-seed-1``: the same with PPO seeded
-otherwise, the spread of PPO alone against which the other variants are read)."""
+otherwise, the spread of PPO alone against which the other variants are read;
+``easy-starts``: the curriculum, attackers first within 0.3 map units of the target, the
+whole map from half-way)."""
 
 ROOT = str(Path(__file__).resolve().parent.parent)
 RECIPE_SCRIPT = Path(ROOT) / "examples" / "train_attacker_team.py"
@@ -56,8 +64,9 @@ RECIPE_SCRIPT = Path(ROOT) / "examples" / "train_attacker_team.py"
 def parse_args() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scenario", default="paper_2v1")
-    parser.add_argument("--init", type=Path, required=True, metavar="CLONE",
-                        help="the policy every variant starts from (a cloned.zip)")
+    parser.add_argument("--init", type=Path, default=None, metavar="CLONE",
+                        help="the policy every variant starts from (a cloned.zip; "
+                             "default: PPO from scratch)")
     parser.add_argument("--runs", type=Path, required=True,
                         help="folder of the variants' runs (RUNS/NAME)")
     parser.add_argument("--variants", default=",".join(VARIANTS),
@@ -74,7 +83,7 @@ def parse_args() -> argparse.Namespace:
                      f"{', '.join(VARIANTS)})")
     if args.json and "base" not in args.variants:
         parser.error("--variants: needs base for --json (every variant is compared with it)")
-    if not args.init.is_file():
+    if args.init is not None and not args.init.is_file():
         parser.error(f"--init: no such file {str(args.init)!r}")
     try:
         args.cores = [int(core) for core in args.cores.split(",")]
@@ -87,10 +96,10 @@ def parse_args() -> argparse.Namespace:
 
 def command(args: argparse.Namespace, name: str) -> list[str]:
     """The recipe's command line of variant ``name``."""
-    return [sys.executable, str(RECIPE_SCRIPT), "--scenario", args.scenario,
-            "--init", str(args.init), "--max-minutes", str(args.minutes),
-            "--episodes", str(args.episodes), *RECIPE, *VARIANTS[name],
-            "--out", str(args.runs / name)]
+    start = [] if args.init is None else ["--init", str(args.init), *FINE_TUNING]
+    return [sys.executable, str(RECIPE_SCRIPT), "--scenario", args.scenario, *start,
+            "--max-minutes", str(args.minutes), "--episodes", str(args.episodes), *RECIPE,
+            *VARIANTS[name], "--out", str(args.runs / name)]
 
 
 def run_all(args: argparse.Namespace) -> None:
@@ -166,7 +175,8 @@ def main() -> None:
                                       "team, paired over the starts, points",
         "minus_hj_points": "the variant's learned team minus the hj team, paired, points",
         "minus_base_points": "the variant's learned team minus base's, paired, points",
-        "ppo_steps": f"PPO agent steps in {args.minutes:g} minutes from {args.init.name}",
+        "ppo_steps": f"PPO agent steps in {args.minutes:g} minutes from "
+                     + ("scratch" if args.init is None else args.init.name),
         "ppo_cpu_min": "PPO CPU minutes (time.process_time of the run)"})
     print(f"wrote {args.json}")
 

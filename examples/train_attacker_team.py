@@ -52,6 +52,11 @@ the game the policy played as value target) join the demonstrations, and the pol
 fitted again on all of them for ``--dagger-epochs`` (default ``--imitate-epochs``) passes.
 Each round reports the steps collected, the policy's arrival rate in them, its action MSE
 against the teacher's labels there before the refit and the fit's MSE after.
+**Curriculum from easy starts** (``--easy-starts D``, vector env only): PPO's first
+episodes start every attacker within D map units of the target, and the reach grows
+linearly to the map's diagonal over the first ``--easy-fraction`` (default 0.5) of the
+training (of ``--timesteps``, or of ``--max-minutes`` when that share is larger); then
+anywhere (``policies.training.StartCurriculum``, set before every rollout).
 ``--init MODEL`` starts PPO from a saved policy instead (an earlier run's ``cloned.zip``,
 say, to compare fine-tuning settings from one clone; its network is kept).
 ``--net-arch 256,256`` sets the hidden layers of the policy and value networks (SB3's
@@ -86,6 +91,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import math
 import sys
 import time
 from collections.abc import Sequence
@@ -97,7 +103,7 @@ import numpy as np
 import torch
 from matplotlib.figure import Figure
 from stable_baselines3 import PPO
-from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.vec_env import VecMonitor
 from tqdm import tqdm
 
@@ -109,6 +115,8 @@ from policies.learned import (
 )
 from policies.registry import ATTACKERS, PolicySpec
 from policies.training import (
+    StartCurriculum,
+    add_curriculum_arguments,
     add_defender_arguments,
     add_reward_arguments,
     defender_factory,
@@ -116,9 +124,11 @@ from policies.training import (
     make_attackers_parallel_env,
     make_attackers_vector_env,
     reward_options,
+    start_curriculum,
 )
 from reachavoid.evaluation import bootstrap_interval, write_csv
 from reachavoid_env import AttackerStatus, Policy, Scenario
+from reachavoid_env.checks import FieldError
 from reachavoid_env.files import atomic_write, write_json
 from reachavoid_env.integrations.supersuit import sb3_vec_env as supersuit_vec_env
 from reachavoid_env.integrations.vector import sb3_vec_env
@@ -178,6 +188,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--imitate-log-std", type=float, default=-1.0,
                         help="log std of the actions after cloning (default: %(default)s)")
     add_reward_arguments(parser, team=True)
+    add_curriculum_arguments(parser)
     parser.add_argument("--episodes", type=int, default=200,
                         help="evaluation starts, seeds F..F+N-1 (default: %(default)s)")
     parser.add_argument("--first-seed", type=int, default=0, metavar="F",
@@ -214,6 +225,12 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
             parser.error(f"--{name.replace('_', '-')}: must be a positive integer")
     if args.first_seed < 0:
         parser.error("--first-seed: must be a non-negative integer")
+    try:
+        args.curriculum = start_curriculum(args)
+    except FieldError as err:
+        parser.error(f"--{err.field.replace('_', '-')}: {str(err).split(': ', 1)[1]}")
+    if args.curriculum is not None and args.supersuit:
+        parser.error("--easy-starts: needs the vector env (drop --supersuit)")
     if args.dagger_epochs is None:
         args.dagger_epochs = args.imitate_epochs
     for name in ("dagger_steps", "dagger_epochs"):
@@ -293,17 +310,47 @@ def load_model(path: Path, flag: str, maps: Maps, **options: Any) -> PPO:
     return model
 
 
+class EasyStarts(BaseCallback):
+    """Sets the training envs' ``start_reach`` from ``curriculum`` before every rollout;
+    the progress is the larger of the agent steps done over ``total_steps`` and the wall
+    time over ``max_seconds``. ``reach``: the current one (map units; ``None``: anywhere)."""
+
+    def __init__(self, curriculum: StartCurriculum, diagonal: float, total_steps: int,
+                 max_seconds: float | None) -> None:
+        super().__init__()
+        self.curriculum, self.diagonal = curriculum, diagonal
+        self.total_steps, self.max_seconds = total_steps, max_seconds
+        self.reach: float | None = None
+
+    def _on_training_start(self) -> None:
+        self.start = time.perf_counter()
+        self._on_rollout_start()
+
+    def _on_rollout_start(self) -> None:
+        progress = self.num_timesteps / self.total_steps
+        if self.max_seconds is not None:
+            progress = max(progress, (time.perf_counter() - self.start) / self.max_seconds)
+        self.reach = self.curriculum.reach(progress, self.diagonal)
+        self.training_env.set_attr("start_reach", self.reach)
+
+    def _on_step(self) -> bool:
+        return True
+
+
 # ---- the training curve -------------------------------------------------------------------
 
 class TrainingCurve(BaseCallback):
     """One row per PPO rollout: agent steps so far, wall seconds, and over the attacker
     episodes (slots) that ended in the rollout, how they ended and their mean return.
     Prints the latest row every ``print_seconds``; stops training after ``max_seconds`` of
-    wall time."""
+    wall time. With ``easy_starts`` (the curriculum's callback) each row also has the
+    rollout's ``start_reach`` (map units; empty: anywhere)."""
 
-    def __init__(self, max_seconds: float | None = None, print_seconds: float = 30.0) -> None:
+    def __init__(self, max_seconds: float | None = None, print_seconds: float = 30.0,
+                 easy_starts: EasyStarts | None = None) -> None:
         super().__init__()
         self.max_seconds = max_seconds
+        self.easy_starts = easy_starts
         self.print_seconds = print_seconds
         self._printed = 0.0
         self.rows: list[dict[str, float]] = []
@@ -360,6 +407,8 @@ class TrainingCurve(BaseCallback):
                           "attacker_episodes": len(ended), **rates,
                           "mean_return": float(np.mean(self._returns)) if self._returns
                           else float("nan")})
+        if self.easy_starts is not None:
+            self.rows[-1]["start_reach"] = self.easy_starts.reach
         self._ended, self._returns = [], []
         if self.seconds - self._printed >= self.print_seconds:
             self._printed = self.seconds
@@ -558,7 +607,11 @@ def train(args: argparse.Namespace, maps: Maps,
     settings = {"n_steps": args.n_steps, "batch_size": args.batch_size,
                 "learning_rate": args.learning_rate, "clip_range": args.clip_range,
                 "ent_coef": args.ent_coef, "seed": args.seed}
-    curve = TrainingCurve(None if args.max_minutes is None else 60.0 * args.max_minutes)
+    max_seconds = None if args.max_minutes is None else 60.0 * args.max_minutes
+    easy_starts = None if args.curriculum is None else EasyStarts(
+        args.curriculum, max(math.hypot(*s.map.size) for s in maps), args.timesteps,
+        max_seconds)
+    curve = TrainingCurve(max_seconds, easy_starts=easy_starts)
     cloning: dict[str, Any] | None = None
     try:
         if args.init is not None:
@@ -571,7 +624,9 @@ def train(args: argparse.Namespace, maps: Maps,
             with atomic_write(args.out / "cloned.zip", "wb") as handle:
                 model.save(handle)
         if args.timesteps:
-            model.learn(args.timesteps, callback=curve, progress_bar=sys.stderr.isatty())
+            model.learn(args.timesteps, callback=CallbackList(
+                [c for c in (easy_starts, curve) if c is not None]),
+                progress_bar=sys.stderr.isatty())
     finally:
         envs.close()
     return model, curve, cloning
@@ -756,6 +811,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
             "learning_rate": args.learning_rate, "clip_range": args.clip_range,
             "ent_coef": args.ent_coef, "net_arch": model.policy_kwargs.get("net_arch"),
             "init": None if args.init is None else str(args.init),
+            "easy_starts": args.easy_starts, "easy_fraction": args.easy_fraction,
             "stopped_by_time": model.num_timesteps < args.timesteps}
         if cloning is not None:
             report["imitation"] = cloning

@@ -181,21 +181,25 @@ class Scenario:
                                     f"(distance {gaps[j]:.3g} <= capture_radius "
                                     f"{self.capture_radius:g})", field=name)
 
-    def starts(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    def starts(self, rng: np.random.Generator, attacker_reach: float | None = None,
+               ) -> tuple[np.ndarray, np.ndarray]:
         """Start positions ``(attackers (M, 2), defenders (N, 2))``, float64.
 
         Fixed starts are returned as given; missing ones are drawn from ``rng``, uniformly
         over the free space with at least ``start_clearance`` to obstacles and walls; an
-        attacker also keeps that clearance from the target and from every capture disc.
+        attacker also keeps that clearance from the target and from every capture disc,
+        and with ``attacker_reach`` (map units; ``None``: anywhere) lies within that
+        distance of the target (easy starts for a curriculum). The same ``rng`` state
+        draws the same starts when ``attacker_reach`` is ``None``.
         """
         defenders = (np.asarray(self.defenders, dtype=np.float64) if self.defenders is not None
                      else self._sample(rng, self.num_defenders, None))
         attackers = (np.asarray(self.attackers, dtype=np.float64) if self.attackers is not None
-                     else self._sample(rng, self.num_attackers, defenders))
+                     else self._sample(rng, self.num_attackers, defenders, attacker_reach))
         return attackers, defenders
 
-    def _sample(self, rng: np.random.Generator, count: int,
-                defenders: np.ndarray | None) -> np.ndarray:
+    def _sample(self, rng: np.random.Generator, count: int, defenders: np.ndarray | None,
+                reach: float | None = None) -> np.ndarray:
         xmin, xmax, ymin, ymax = self.map.domain
         clearance = max(self.start_clearance, self.player_radius)
         chosen: list[np.ndarray] = []
@@ -203,15 +207,19 @@ class Scenario:
             batch = rng.uniform((xmin, ymin), (xmax, ymax), size=(256, 2))
             ok = self.map.obstacle_signed_distance(batch) >= clearance
             if defenders is not None:
-                ok &= self.map.target_signed_distance(batch) >= clearance
+                to_target = self.map.target_signed_distance(batch)
+                ok &= to_target >= clearance
+                if reach is not None:
+                    ok &= to_target <= reach
                 gaps = np.linalg.norm(batch[:, None, :] - defenders[None], axis=-1)
                 ok &= np.all(gaps >= self.capture_radius + clearance, axis=-1)
             chosen.extend(batch[ok])
             if len(chosen) >= count:
                 return np.asarray(chosen[:count])
         role = "attackers" if defenders is not None else "defenders"
+        within = "" if reach is None else f" within {reach:g} of the target"
         raise ScenarioError(f"players.{role}: could not draw {count} valid random starts with "
-                            f"clearance {clearance:g}", field=f"players.{role}")
+                            f"clearance {clearance:g}{within}", field=f"players.{role}")
 
     def with_players(self, num_attackers: int, num_defenders: int) -> Scenario:
         """The same map and settings with random starts for the given numbers of players."""

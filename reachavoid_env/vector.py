@@ -28,6 +28,11 @@ marks those copies, ``final_observation {agent: (K, D)}`` holds their last obser
 end of the step, before any reset; ``active`` ``(K, M + N)`` describes the returned
 observation (every player of a copy that was reset is active).
 
+**Easy starts** (a curriculum): ``start_reach`` (map units, ``None`` by default) may be set
+between steps; episodes that start afterwards draw their random attackers within that
+distance of the target (``Scenario.starts``' ``attacker_reach``). Set, it ends the match
+with the single env; ``None`` again restores it for later episodes.
+
 With ``autoreset=False`` a copy whose game ended stands still (no player moves, no reward,
 no event) until ``reset_copies`` starts its next episode; the training views use this to
 hold a learner's action over several steps without running into the next episode.
@@ -106,6 +111,17 @@ class ReachAvoidVectorEnv:
         self._worlds: dict[tuple[int, int], World] = {}
         self._observers: dict[int, Observer] = {}
         self._generators: list[np.random.Generator] = []
+        self._start_reach: float | None = None
+
+    @property
+    def start_reach(self) -> float | None:
+        """Random attackers of episodes that start from now on lie within this distance of
+        the target (map units; ``None``: anywhere); module docstring."""
+        return self._start_reach
+
+    @start_reach.setter
+    def start_reach(self, reach: float | None) -> None:
+        self._start_reach = None if reach is None else checks.positive(reach, "start_reach")
 
     # ------------------------------------------------------------------ reset
     def reset(self, seed: int | None = None,
@@ -137,7 +153,7 @@ class ReachAvoidVectorEnv:
         copies = np.asarray(copies, dtype=np.intp)
         for c in copies.tolist():
             drawn, index = draw_scenario(self.scenarios, self._generators[c])
-            attackers, defenders = drawn.starts(self._generators[c])
+            attackers, defenders = drawn.starts(self._generators[c], self._start_reach)
             self.episode_scenarios[c] = drawn.with_starts(attackers, defenders)
             self._map_of[c] = index
             self._positions[c] = np.concatenate([attackers, defenders])

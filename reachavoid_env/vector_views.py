@@ -18,6 +18,9 @@ Rewards are the env's (``shaping`` included) plus ``timeout_reward`` for a learn
 in play when its episode is truncated, and, for learning attackers, ``team_reward`` times
 the sum of the other learners' +1 / -1 (arrival, capture) in each env step for a learner in
 play (``reachavoid_env.wrappers.team_bonus``, as ``AttackerParallelEnv``).
+``start_reach`` reads and sets the vector env's (easy starts for a curriculum; Stable-
+Baselines3's ``set_attr`` reaches it through ``integrations.vector``).
+
 ``terminated`` ``(K, L)``: the learner was captured or arrived within this step;
 ``truncated``: it was still in play when ``max_cycles`` ran out. ``infos["active"]``
 ``(K, L)``: the learner is in the game in the returned observation (a learner that left
@@ -79,6 +82,15 @@ class LearnerVectorEnv:
         self.render_mode = None
         self.single_observation_space = vec.single_observation_space
         self.single_action_space = vec.single_action_space
+
+    @property
+    def start_reach(self) -> float | None:
+        """The vector env's ``start_reach`` (module docstring)."""
+        return self.vec.start_reach
+
+    @start_reach.setter
+    def start_reach(self, reach: float | None) -> None:
+        self.vec.start_reach = reach
 
     def reset(self, seed: int | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         observations, infos = self.vec.reset(seed=seed)

@@ -89,14 +89,35 @@ def test_first_seed_shifts_the_evaluation_starts(tmp_path):
     assert later["captured"] == every["captured"][1:]
 
 
+def test_easy_starts_open_the_map_over_the_training(tmp_path):
+    """``--easy-starts 0.3 --easy-fraction 0.5``: the curve's rows carry the reach of their
+    rollout, 0.3 map units at first, growing, then anywhere (empty) for the second half."""
+    recipe = example("train_attacker_team")
+    report = recipe.main(["--defenders", "greedy", "--scenario", "paper_2v1", "--copies", "2",
+                          "--n-steps", "16", "--batch-size", "32", "--timesteps", "320",
+                          "--easy-starts", "0.3", "--teams", "learned", "--episodes", "1",
+                          "--no-video", "--out", str(tmp_path)])
+    assert report["training"]["easy_starts"] == 0.3
+    with open(tmp_path / "curve.csv", newline="") as handle:
+        reaches = [row["start_reach"] for row in csv.DictReader(handle)]
+    assert len(reaches) == 5 and float(reaches[0]) == pytest.approx(0.3)
+    assert 0.3 < float(reaches[1]) < 2 * np.sqrt(2) and reaches[-2:] == ["", ""]
+
+
 def test_bad_arguments_exit_2(tmp_path, capsys):
     recipe = example("train_attacker_team")
     for argv in (["--evaluate-only", str(tmp_path / "missing.zip")], ["--teams", "learnt"],
-                 ["--episodes", "0"], ["--first-seed", "-1"]):
+                 ["--episodes", "0"], ["--first-seed", "-1"], ["--easy-starts", "0"],
+                 ["--easy-starts", "0.3", "--easy-fraction", "2"],
+                 ["--easy-starts", "0.3", "--supersuit"]):
         with pytest.raises(SystemExit) as stopped:
             recipe.main([*argv, "--out", str(tmp_path)])
         assert stopped.value.code == 2
-    assert "--teams: unknown team 'learnt'" in capsys.readouterr().err
+    errors = capsys.readouterr().err
+    assert "--teams: unknown team 'learnt'" in errors
+    assert "--easy-starts: must be > 0, got 0.0" in errors
+    assert "--easy-fraction: must be in (0, 1], got 2.0" in errors
+    assert "--easy-starts: needs the vector env" in errors
     assert list(tmp_path.iterdir()) == []
 
 
