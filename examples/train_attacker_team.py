@@ -353,7 +353,7 @@ class TrainingCurve(BaseCallback):
         self.easy_starts = easy_starts
         self.print_seconds = print_seconds
         self._printed = 0.0
-        self.rows: list[dict[str, float]] = []
+        self.rows: list[dict[str, float | None]] = []
         self.start: float | None = None
         self.cpu_seconds = 0.0      # this process's CPU seconds in training, set at its end
         self._cpu_start = 0.0
@@ -412,8 +412,13 @@ class TrainingCurve(BaseCallback):
         self._ended, self._returns = [], []
         if self.seconds - self._printed >= self.print_seconds:
             self._printed = self.seconds
-            print("PPO: " + ", ".join(f"{key} {value:.4g}" for key, value
-                                      in self.rows[-1].items()), flush=True)
+            print(row_text(self.rows[-1]), flush=True)
+
+
+def row_text(row: dict[str, float | None]) -> str:
+    """A curve row as the line the recipe prints (a ``None`` reach reads "anywhere")."""
+    return "PPO: " + ", ".join(f"{key} {'anywhere' if value is None else f'{value:.4g}'}"
+                               for key, value in row.items())
 
 
 # ---- behaviour cloning ------------------------------------------------------------------

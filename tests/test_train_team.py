@@ -102,6 +102,8 @@ def test_easy_starts_open_the_map_over_the_training(tmp_path):
         reaches = [row["start_reach"] for row in csv.DictReader(handle)]
     assert len(reaches) == 5 and float(reaches[0]) == pytest.approx(0.3)
     assert 0.3 < float(reaches[1]) < 2 * np.sqrt(2) and reaches[-2:] == ["", ""]
+    assert recipe.row_text({"timesteps": 320, "start_reach": None}) == (
+        "PPO: timesteps 320, start_reach anywhere")
 
 
 def test_bad_arguments_exit_2(tmp_path, capsys):
