@@ -1,10 +1,11 @@
 """Which training option pays: the team recipe's PPO variants, side by side.
 
     python benchmarks/attacker_study.py --scenario paper_2v1 \\
-        --init runs/team_2v1/cloned.zip --runs runs/study_2v1 --cores 0,1 \\
+        --init runs/team_2v1/cloned.zip --runs runs/study_2v1 --cores 0,1 --confirm 1000 \\
         --json benchmarks/results/attacker_study_2v1.json
     python benchmarks/attacker_study.py --scenario paper_1v1 --variants base,easy-starts \\
-        --runs runs/study_1v1 --cores 0,1 --json benchmarks/results/attacker_study_1v1.json
+        --runs runs/study_1v1 --cores 0,1 --confirm 1000 \\
+        --json benchmarks/results/attacker_study_1v1.json
 
 Every variant of ``VARIANTS`` (the recipe's reward and curriculum options) runs
 ``examples/train_attacker_team.py`` in its own process, pinned to one of ``--cores`` (as
@@ -19,7 +20,10 @@ read, not run again: stop with Ctrl-C and run the same command to go on.
 
 Figures per variant: the learned team's arrival rate, learned - shortest-path, learned -
 hj and variant - base (points, paired, 95% bootstrap over the starts), PPO agent steps
-and CPU minutes.
+and CPU minutes. With ``--confirm N`` every variant's model then plays N fresh starts
+(``--evaluate-only --first-seed EPISODES``, into ``RUNS/NAME/confirm``) beside the scripted
+teams: a difference found on the first starts and chosen among variants is confirmed, or
+not, on starts no choice has seen (``confirm_*`` figures).
 """
 
 from __future__ import annotations
@@ -73,6 +77,8 @@ def parse_args() -> argparse.Namespace:
                         help="comma-separated from %(default)s")
     parser.add_argument("--minutes", type=float, default=15.0, help="PPO minutes per variant")
     parser.add_argument("--episodes", type=int, default=200)
+    parser.add_argument("--confirm", type=int, default=0, metavar="N",
+                        help="then play every variant's model on N fresh starts (default: 0)")
     parser.add_argument("--cores", default="0", help="cores to pin the runs to, e.g. 0,1")
     parser.add_argument("--json", default=None, help="write the result record here")
     args = parser.parse_args()
@@ -91,6 +97,8 @@ def parse_args() -> argparse.Namespace:
         parser.error("--cores: core numbers separated by commas")
     if not args.minutes > 0 or args.episodes < 1:
         parser.error("--minutes and --episodes: must be positive")
+    if args.confirm < 0:
+        parser.error(f"--confirm: must be >= 0, got {args.confirm}")
     return args
 
 
@@ -102,20 +110,33 @@ def command(args: argparse.Namespace, name: str) -> list[str]:
             *VARIANTS[name], "--out", str(args.runs / name)]
 
 
-def run_all(args: argparse.Namespace) -> None:
-    """Run the variants without a report, as many at once as ``--cores``; Ctrl-C stops
-    every run (each leaves no report, so the next call runs it again)."""
-    waiting = [name for name in args.variants if not (args.runs / name / "report.json").is_file()]
+def confirm_command(args: argparse.Namespace, name: str) -> list[str]:
+    """The recipe's ``--evaluate-only`` command line of variant ``name``'s model on the
+    ``--confirm`` fresh starts."""
+    return [sys.executable, str(RECIPE_SCRIPT), "--scenario", args.scenario,
+            "--evaluate-only", str(args.runs / name / "model.zip"),
+            "--teams", "learned,shortest-path,hj", "--no-video", "--episodes",
+            str(args.confirm), "--first-seed", str(args.episodes),
+            "--out", str(args.runs / name / "confirm")]
+
+
+def run_all(args: argparse.Namespace, jobs: dict[str, tuple[Path, list[str]]]) -> None:
+    """Run the jobs (name -> (folder, command)) whose folder has no report, as many at once
+    as ``--cores``; Ctrl-C stops every run (each leaves no report, so the next call runs
+    it again)."""
+    waiting = [name for name, (folder, _) in jobs.items()
+               if not (folder / "report.json").is_file()]
     running: dict[int, tuple[str, subprocess.Popen]] = {}
     try:
         while waiting or running:
             for core in [c for c in args.cores if c not in running][:len(waiting)]:
                 name = waiting.pop(0)
-                (args.runs / name).mkdir(parents=True, exist_ok=True)
+                folder, line = jobs[name]
+                folder.mkdir(parents=True, exist_ok=True)
                 print(f"{name}: started on core {core}", flush=True)
-                with open(args.runs / name / "log.txt", "w") as log:
+                with open(folder / "log.txt", "w") as log:
                     running[core] = (name, subprocess.Popen(
-                        ["taskset", "-c", str(core), *command(args, name)], stdout=log,
+                        ["taskset", "-c", str(core), *line], stdout=log,
                         stderr=subprocess.STDOUT, env={**os.environ, "PYTHONPATH": ROOT}))
             time.sleep(5)
             for core, (name, process) in list(running.items()):
@@ -123,7 +144,7 @@ def run_all(args: argparse.Namespace) -> None:
                     del running[core]
                     if process.returncode:
                         raise SystemExit(f"{name}: the recipe exited with {process.returncode} "
-                                         f"(log: {args.runs / name / 'log.txt'})")
+                                         f"(log: {jobs[name][0] / 'log.txt'})")
                     print(f"{name}: done", flush=True)
     finally:
         for _, process in running.values():
@@ -139,12 +160,18 @@ def points(values: np.ndarray) -> list[float]:
 
 def main() -> None:
     args = parse_args()
-    run_all(args)
+    run_all(args, {name: (args.runs / name, command(args, name)) for name in args.variants})
+    if args.confirm:
+        run_all(args, {f"{name} (confirm)": (args.runs / name / "confirm",
+                                             confirm_command(args, name))
+                       for name in args.variants})
     reports = {name: json.loads((args.runs / name / "report.json").read_text())
                for name in args.variants}
 
-    def arrivals(name: str, team: str) -> np.ndarray:
-        episode = reports[name]["per_episode"][team]
+    def arrivals(name: str, team: str, confirmed: bool = False) -> np.ndarray:
+        report = (json.loads((args.runs / name / "confirm" / "report.json").read_text())
+                  if confirmed else reports[name])
+        episode = report["per_episode"][team]
         return np.asarray(episode["arrived"], dtype=np.float64) / episode["attackers"]
 
     figures: dict[str, float | list[float]] = {}
@@ -163,10 +190,30 @@ def main() -> None:
               f"{figures[f'minus_hj_points.{name}']}"
               + (f", - base {figures[f'minus_base_points.{name}']}"
                  if f"minus_base_points.{name}" in figures else ""))
+        if args.confirm:
+            learned = arrivals(name, "learned", confirmed=True)
+            figures[f"confirm_arrival_percent.{name}"] = points(learned)
+            for team in ("shortest-path", "hj"):
+                figures[f"confirm_minus_{team}_points.{name}".replace("-", "_")] = points(
+                    learned - arrivals(name, team, confirmed=True))
+            print(f"{name:>12}: on {args.confirm} fresh starts, arrival "
+                  f"{figures[f'confirm_arrival_percent.{name}']}, - shortest-path "
+                  f"{figures[f'confirm_minus_shortest_path_points.{name}']}")
     if not args.json:
         return
     figures["arrival_percent.shortest-path"] = points(arrivals("base", "shortest-path"))
     figures["arrival_percent.hj"] = points(arrivals("base", "hj"))
+    if args.confirm:
+        for team in ("shortest-path", "hj"):
+            figures[f"confirm_arrival_percent.{team}"] = points(
+                arrivals("base", team, confirmed=True))
+    confirm_units = {} if not args.confirm else {
+        "confirm_arrival_percent": f"the same on {args.confirm} fresh starts reset(seed=k), "
+                                   f"{args.episodes} <= k < {args.episodes + args.confirm} "
+                                   "(the variant's model, --evaluate-only)",
+        "confirm_minus_shortest_path_points": "learned minus shortest-path on the fresh "
+                                              "starts, paired, points",
+        "confirm_minus_hj_points": "learned minus hj on the fresh starts, paired, points"}
     write_result(args.json, "attacker_study", figures, {
         "arrival_percent": f"{args.scenario}, the starts reset(seed=k), k < {args.episodes}, "
                            "against hj (31^4 / 15^6 tubes): percent of attackers that "
@@ -177,7 +224,7 @@ def main() -> None:
         "minus_base_points": "the variant's learned team minus base's, paired, points",
         "ppo_steps": f"PPO agent steps in {args.minutes:g} minutes from "
                      + ("scratch" if args.init is None else args.init.name),
-        "ppo_cpu_min": "PPO CPU minutes (time.process_time of the run)"})
+        "ppo_cpu_min": "PPO CPU minutes (time.process_time of the run)", **confirm_units})
     print(f"wrote {args.json}")
 
 

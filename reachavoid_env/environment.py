@@ -45,7 +45,7 @@ _STATUSES = tuple(AttackerStatus)   # index = AttackerStatus.code
 _CAPTURED, _ARRIVED = AttackerStatus.CAPTURED.code, AttackerStatus.ARRIVED.code
 INFO_FORMATS = ("numeric", "readable")
 STARTS = ("scenario", "random")
-_RESET_OPTIONS = ("scenario", "attackers", "defenders")
+_RESET_OPTIONS = ("scenario", "attackers", "defenders", "attacker_reach")
 
 
 class ReachAvoidEnv(ParallelEnv, EzPickle):
@@ -112,7 +112,9 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     ``{"scenario": Scenario}`` with the same numbers of players, and/or
     ``{"attackers": (M, 2), "defenders": (N, 2)}`` start positions in map units (a missing
     side keeps the scenario's starts, or draws random ones). Invalid starts raise
-    ``ValueError`` naming the player.
+    ``ValueError`` naming the player. ``{"attacker_reach": D}`` draws random attacker starts
+    within ``D`` map units of the target (easy starts for a curriculum,
+    ``Scenario.starts``; fixed attacker starts are kept as they are).
 
     Rendering (``render_mode`` "rgb_array" or "human") draws ``game_state()`` with the
     overlay last given to ``set_overlay``, under the title given to ``set_caption``, and
@@ -202,8 +204,9 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         if seed is not None or self.np_random is None:
             self.np_random, self.np_random_seed = seeding.np_random(seed)
         try:
-            scenario = self._episode_scenario(_checked_options(options))
-            attackers, defenders = scenario.starts(self.np_random)
+            options = _checked_options(options)
+            scenario = self._episode_scenario(options)
+            attackers, defenders = scenario.starts(self.np_random, options.get("attacker_reach"))
             self.scenario = scenario.with_starts(attackers, defenders)
         except ScenarioError as err:
             raise ScenarioError(f"reset: {_name_player(err, self._m, self._n)}",
@@ -612,6 +615,8 @@ def _checked_options(options: Any) -> dict[str, Any]:
     if unknown:
         raise ValueError(f"reset: options[{unknown[0]!r}] is not an option (accepted: "
                          f"{', '.join(_RESET_OPTIONS)})")
+    if options.get("attacker_reach") is not None:
+        checks.positive(options["attacker_reach"], "options['attacker_reach']")
     return options
 
 

@@ -29,6 +29,24 @@ def test_attackers_start_within_the_reach_and_unchanged_without_it():
         scenario.starts(np.random.default_rng(0), attacker_reach=0.01)
 
 
+def test_the_env_resets_within_the_attacker_reach_option():
+    """``reset(options={"attacker_reach": D})`` on the single env: the same rule as the
+    vector env's ``start_reach``; without it the starts are those of ``reset(seed)``."""
+    from reachavoid_env import reach_avoid_v1
+
+    env = reach_avoid_v1.parallel_env(scenario="paper_2v1", starts="random")
+    for seed in range(10):
+        env.reset(seed=seed, options={"attacker_reach": 0.3})
+        near = env.scenario.map.target_signed_distance(np.asarray(env.scenario.attackers))
+        assert np.all(near <= 0.3)
+        env.reset(seed=seed, options={"attacker_reach": None})
+        plain = env.scenario.attackers
+        env.reset(seed=seed)
+        assert env.scenario.attackers == plain
+    with pytest.raises(ValueError, match=r"options\['attacker_reach'\]: must be > 0, got -1"):
+        env.reset(seed=0, options={"attacker_reach": -1})
+
+
 def test_the_vector_env_draws_new_episodes_within_start_reach():
     view = make_attackers_vector_env("paper_2v1", defenders="greedy", num_envs=8,
                                      starts="random", action_repeat=5)
