@@ -194,7 +194,7 @@ def main() -> None:
             learned = arrivals(name, "learned", confirmed=True)
             figures[f"confirm_arrival_percent.{name}"] = points(learned)
             for team in ("shortest-path", "hj"):
-                figures[f"confirm_minus_{team}_points.{name}".replace("-", "_")] = points(
+                figures[f"confirm_minus_{team.replace('-', '_')}_points.{name}"] = points(
                     learned - arrivals(name, team, confirmed=True))
             print(f"{name:>12}: on {args.confirm} fresh starts, arrival "
                   f"{figures[f'confirm_arrival_percent.{name}']}, - shortest-path "

@@ -1,0 +1,47 @@
+"""``benchmarks/attacker_study.py`` reads its variants' reports (a run with a report is not
+run again) and writes one figure per variant, team and set of starts."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def write_report(folder: Path, arrived: dict[str, list[int]]) -> None:
+    """A stand-in recipe report: per-episode arrivals of one attacker per team."""
+    folder.mkdir(parents=True)
+    report = {"per_episode": {team: {"arrived": values, "attackers": 1}
+                              for team, values in arrived.items()},
+              "training": {"agent_steps": 1000, "cpu_seconds": 60.0}}
+    (folder / "report.json").write_text(json.dumps(report))
+
+
+def test_the_study_reads_every_variant_and_its_confirmation(tmp_path):
+    """Variant names with a hyphen keep it in every key; the paired differences are the
+    learned team's arrivals minus the script's over the same starts."""
+    rng = np.random.default_rng(0)
+    for name in ("base", "easy-starts"):
+        for folder, episodes in ((tmp_path / name, 8), (tmp_path / name / "confirm", 12)):
+            write_report(folder, {team: rng.integers(0, 2, episodes).tolist()
+                                  for team in ("learned", "shortest-path", "hj")})
+    out = tmp_path / "study.json"
+    subprocess.run([sys.executable, str(ROOT / "benchmarks" / "attacker_study.py"),
+                    "--scenario", "paper_1v1", "--variants", "base,easy-starts",
+                    "--runs", str(tmp_path), "--episodes", "8", "--confirm", "12",
+                    "--json", str(out)], check=True, capture_output=True, cwd=ROOT)
+    figures = json.loads(out.read_text())["figures"]
+    confirm = json.loads((tmp_path / "easy-starts" / "confirm" / "report.json").read_text())
+    arrived = {team: np.asarray(e["arrived"]) for team, e in confirm["per_episode"].items()}
+    expected = 100 * float(np.mean(arrived["learned"] - arrived["shortest-path"]))
+    assert figures["confirm_minus_shortest_path_points.easy-starts"][0] == round(expected, 2)
+    for key in ("arrival_percent", "minus_shortest_path_points", "minus_hj_points",
+                "confirm_arrival_percent", "confirm_minus_hj_points"):
+        assert f"{key}.easy-starts" in figures and f"{key}.base" in figures
+    assert "minus_base_points.easy-starts" in figures
+    assert len(figures["confirm_arrival_percent.shortest-path"]) == 3
