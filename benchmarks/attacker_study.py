@@ -197,6 +197,9 @@ def main() -> None:
             for team in ("shortest-path", "hj"):
                 figures[f"confirm_minus_{team.replace('-', '_')}_points.{name}"] = points(
                     learned - arrivals(name, team, confirmed=True))
+            if "base" in reports and name != "base":
+                figures[f"confirm_minus_base_points.{name}"] = points(
+                    learned - arrivals("base", "learned", confirmed=True))
             print(f"{name:>12}: on {args.confirm} fresh starts, arrival "
                   f"{figures[f'confirm_arrival_percent.{name}']}, - shortest-path "
                   f"{figures[f'confirm_minus_shortest_path_points.{name}']}")
@@ -214,7 +217,9 @@ def main() -> None:
                                    "(the variant's model, --evaluate-only)",
         "confirm_minus_shortest_path_points": "learned minus shortest-path on the fresh "
                                               "starts, paired, points",
-        "confirm_minus_hj_points": "learned minus hj on the fresh starts, paired, points"}
+        "confirm_minus_hj_points": "learned minus hj on the fresh starts, paired, points",
+        "confirm_minus_base_points": "the variant's learned team minus base's on the fresh "
+                                     "starts, paired, points"}
     write_result(args.json, "attacker_study", figures, {
         "arrival_percent": f"{args.scenario}, the starts reset(seed=k), k < {args.episodes}, "
                            "against hj (31^4 / 15^6 tubes): percent of attackers that "

@@ -44,4 +44,6 @@ def test_the_study_reads_every_variant_and_its_confirmation(tmp_path):
                 "confirm_arrival_percent", "confirm_minus_hj_points"):
         assert f"{key}.easy-starts" in figures and f"{key}.base" in figures
     assert "minus_base_points.easy-starts" in figures
+    assert "confirm_minus_base_points.easy-starts" in figures
+    assert "confirm_minus_base_points.base" not in figures
     assert len(figures["confirm_arrival_percent.shortest-path"]) == 3
