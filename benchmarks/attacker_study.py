@@ -168,11 +168,11 @@ def main() -> None:
                        for name in args.variants})
     reports = {name: json.loads((args.runs / name / "report.json").read_text())
                for name in args.variants}
+    confirms = {name: json.loads((args.runs / name / "confirm" / "report.json").read_text())
+                for name in args.variants if args.confirm}
 
     def arrivals(name: str, team: str, confirmed: bool = False) -> np.ndarray:
-        report = (json.loads((args.runs / name / "confirm" / "report.json").read_text())
-                  if confirmed else reports[name])
-        episode = report["per_episode"][team]
+        episode = (confirms if confirmed else reports)[name]["per_episode"][team]
         return np.asarray(episode["arrived"], dtype=np.float64) / episode["attackers"]
 
     figures: dict[str, float | list[float]] = {}
