@@ -9,21 +9,23 @@
 
 Every variant of ``VARIANTS`` (the recipe's reward and curriculum options) runs
 ``examples/train_attacker_team.py`` in its own process, pinned to one of ``--cores`` (as
-many at once as cores): ``--minutes`` of PPO (``RECIPE``: 16 copies), then the learned
-team, ``shortest-path`` and ``hj`` play the same ``--episodes`` starts against the ``hj``
-defenders. With ``--init CLONE`` every variant fine-tunes the same cloned policy (an
-earlier run's ``cloned.zip``) at the measured fine-tuning settings (``FINE_TUNING``:
-learning rate 1e-4, clip 0.1); without it every variant trains from scratch at SB3's
-defaults. Only the option differs between variants, so ``variant - base`` paired over the
-starts is what the option bought. A variant whose ``RUNS/NAME/report.json`` exists is
-read, not run again: stop with Ctrl-C and run the same command to go on.
+many at once as cores): ``--minutes`` of PPO (``RECIPE``: 16 copies), then the learned team
+plays the first ``--episodes`` starts against the ``hj`` defenders; the scripted
+``shortest-path`` and ``hj`` teams play the same starts once, in their own run
+(``RUNS/scripted``: the same for every variant, so played once). With ``--init CLONE``
+every variant fine-tunes the same cloned policy (an earlier run's ``cloned.zip``) at the
+measured fine-tuning settings (``FINE_TUNING``: learning rate 1e-4, clip 0.1); without it
+every variant trains from scratch at SB3's defaults. Only the option differs between
+variants, so ``variant - base`` paired over the starts is what the option bought. A variant
+whose ``RUNS/NAME/report.json`` exists is read, not run again: stop with Ctrl-C and run the
+same command to go on.
 
-Figures per variant: the learned team's arrival rate, learned - shortest-path, learned -
-hj and variant - base (points, paired, 95% bootstrap over the starts), PPO agent steps
-and CPU minutes. With ``--confirm N`` every variant's model then plays N fresh starts
-(``--evaluate-only --first-seed EPISODES``, into ``RUNS/NAME/confirm``) beside the scripted
-teams: a difference found on the first starts and chosen among variants is confirmed, or
-not, on starts no choice has seen (``confirm_*`` figures).
+Figures per variant: the learned team's arrival rate, learned - shortest-path, learned - hj
+and variant - base (points, paired, 95% bootstrap over the starts), PPO agent steps and CPU
+minutes. With ``--confirm N`` every variant's model then plays N fresh starts
+(``--evaluate-only --first-seed EPISODES``, into ``RUNS/NAME/confirm``; the scripted teams
+into ``RUNS/scripted/confirm``): a difference found on the first starts and chosen among
+variants is confirmed, or not, on starts no choice has seen (``confirm_*`` figures).
 """
 
 from __future__ import annotations
@@ -41,10 +43,11 @@ from result_file import write_result
 
 from reachavoid.evaluation import bootstrap_interval
 
-RECIPE = ["--timesteps", "3000000", "--copies", "16", "--teams", "learned,shortest-path,hj",
-          "--no-video"]
+RECIPE = ["--timesteps", "3000000", "--copies", "16", "--teams", "learned", "--no-video"]
 """The recipe's run (BENCHMARKS "Learned attackers"); ``--minutes`` ends PPO first on this
 machine."""
+SCRIPTED_TEAMS = ("shortest-path", "hj")
+"""The scripted teams every variant is compared with, played once in ``RUNS/scripted``."""
 FINE_TUNING = ["--learning-rate", "1e-4", "--clip-range", "0.1"]
 """PPO's settings from a clone (``--init``)."""
 
@@ -111,12 +114,21 @@ def command(args: argparse.Namespace, name: str) -> list[str]:
             *VARIANTS[name], "--out", str(args.runs / name)]
 
 
+def scripted_command(args: argparse.Namespace, episodes: int, first_seed: int,
+                     out: Path) -> list[str]:
+    """The recipe's command line that plays the scripted teams (nothing trained) on the
+    starts ``first_seed`` <= k < ``first_seed + episodes``."""
+    return [sys.executable, str(RECIPE_SCRIPT), "--scenario", args.scenario, "--teams",
+            ",".join(SCRIPTED_TEAMS), "--no-video", "--episodes", str(episodes),
+            "--first-seed", str(first_seed), "--out", str(out)]
+
+
 def confirm_command(args: argparse.Namespace, name: str) -> list[str]:
     """The recipe's ``--evaluate-only`` command line of variant ``name``'s model on the
     ``--confirm`` fresh starts."""
     return [sys.executable, str(RECIPE_SCRIPT), "--scenario", args.scenario,
             "--evaluate-only", str(args.runs / name / "model.zip"),
-            "--teams", "learned,shortest-path,hj", "--no-video", "--episodes",
+            "--teams", "learned", "--no-video", "--episodes",
             str(args.confirm), "--first-seed", str(args.episodes),
             "--out", str(args.runs / name / "confirm")]
 
@@ -161,29 +173,46 @@ def points(values: np.ndarray) -> list[float]:
 
 def main() -> None:
     args = parse_args()
-    run_all(args, {name: (args.runs / name, command(args, name)) for name in args.variants})
+    scripted = args.runs / "scripted"
+    run_all(args, {"scripted": (scripted, scripted_command(args, args.episodes, 0, scripted)),
+                   **{name: (args.runs / name, command(args, name))
+                      for name in args.variants}})
     if args.confirm:
-        run_all(args, {f"{name} (confirm)": (args.runs / name / "confirm",
-                                             confirm_command(args, name))
-                       for name in args.variants})
+        run_all(args, {"scripted (confirm)": (scripted / "confirm", scripted_command(
+                           args, args.confirm, args.episodes, scripted / "confirm")),
+                       **{f"{name} (confirm)": (args.runs / name / "confirm",
+                                                confirm_command(args, name))
+                          for name in args.variants}})
     reports = {name: json.loads((args.runs / name / "report.json").read_text())
                for name in args.variants}
+    played = {False: json.loads((scripted / "report.json").read_text())["per_episode"]}
     confirms = {name: json.loads((args.runs / name / "confirm" / "report.json").read_text())
                 for name in args.variants if args.confirm}
+    if args.confirm:
+        played[True] = json.loads((scripted / "confirm" / "report.json").read_text())[
+            "per_episode"]
 
-    def arrivals(name: str, team: str, confirmed: bool = False) -> np.ndarray:
-        episode = (confirms if confirmed else reports)[name]["per_episode"][team]
+    def fractions(episode: dict) -> np.ndarray:
         return np.asarray(episode["arrived"], dtype=np.float64) / episode["attackers"]
+
+    def learned_arrivals(name: str, confirmed: bool = False) -> np.ndarray:
+        """Variant ``name``'s per-start arrival fractions on the study's starts or,
+        ``confirmed``, on the fresh ones."""
+        return fractions((confirms if confirmed else reports)[name]["per_episode"]["learned"])
+
+    def scripted_arrivals(team: str, confirmed: bool = False) -> np.ndarray:
+        """The same for a scripted team."""
+        return fractions(played[confirmed][team])
 
     figures: dict[str, float | list[float]] = {}
     for name, report in reports.items():
-        learned = arrivals(name, "learned")
+        learned = learned_arrivals(name)
         figures[f"arrival_percent.{name}"] = points(learned)
         figures[f"minus_shortest_path_points.{name}"] = points(
-            learned - arrivals(name, "shortest-path"))
-        figures[f"minus_hj_points.{name}"] = points(learned - arrivals(name, "hj"))
+            learned - scripted_arrivals("shortest-path"))
+        figures[f"minus_hj_points.{name}"] = points(learned - scripted_arrivals("hj"))
         if "base" in reports and name != "base":
-            figures[f"minus_base_points.{name}"] = points(learned - arrivals("base", "learned"))
+            figures[f"minus_base_points.{name}"] = points(learned - learned_arrivals("base"))
         figures[f"ppo_steps.{name}"] = report["training"]["agent_steps"]
         figures[f"ppo_cpu_min.{name}"] = round(report["training"]["cpu_seconds"] / 60, 1)
         print(f"{name:>12}: arrival {figures[f'arrival_percent.{name}']}, - shortest-path "
@@ -192,25 +221,24 @@ def main() -> None:
               + (f", - base {figures[f'minus_base_points.{name}']}"
                  if f"minus_base_points.{name}" in figures else ""))
         if args.confirm:
-            learned = arrivals(name, "learned", confirmed=True)
+            learned = learned_arrivals(name, confirmed=True)
             figures[f"confirm_arrival_percent.{name}"] = points(learned)
-            for team in ("shortest-path", "hj"):
+            for team in SCRIPTED_TEAMS:
                 figures[f"confirm_minus_{team.replace('-', '_')}_points.{name}"] = points(
-                    learned - arrivals(name, team, confirmed=True))
+                    learned - scripted_arrivals(team, confirmed=True))
             if "base" in reports and name != "base":
                 figures[f"confirm_minus_base_points.{name}"] = points(
-                    learned - arrivals("base", "learned", confirmed=True))
+                    learned - learned_arrivals("base", confirmed=True))
             print(f"{name:>12}: on {args.confirm} fresh starts, arrival "
                   f"{figures[f'confirm_arrival_percent.{name}']}, - shortest-path "
                   f"{figures[f'confirm_minus_shortest_path_points.{name}']}")
     if not args.json:
         return
-    figures["arrival_percent.shortest-path"] = points(arrivals("base", "shortest-path"))
-    figures["arrival_percent.hj"] = points(arrivals("base", "hj"))
-    if args.confirm:
-        for team in ("shortest-path", "hj"):
+    for team in SCRIPTED_TEAMS:
+        figures[f"arrival_percent.{team}"] = points(scripted_arrivals(team))
+        if args.confirm:
             figures[f"confirm_arrival_percent.{team}"] = points(
-                arrivals("base", team, confirmed=True))
+                scripted_arrivals(team, confirmed=True))
     confirm_units = {} if not args.confirm else {
         "confirm_arrival_percent": f"the same on {args.confirm} fresh starts reset(seed=k), "
                                    f"{args.episodes} <= k < {args.episodes + args.confirm} "

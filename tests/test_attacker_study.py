@@ -24,20 +24,24 @@ def write_report(folder: Path, arrived: dict[str, list[int]]) -> None:
 
 def test_the_study_reads_every_variant_and_its_confirmation(tmp_path):
     """Variant names with a hyphen keep it in every key; the paired differences are the
-    learned team's arrivals minus the script's over the same starts."""
+    learned team's arrivals minus the script's (played once, in ``scripted``) over the same
+    starts."""
     rng = np.random.default_rng(0)
-    for name in ("base", "easy-starts"):
+    for name, teams in (("base", ["learned"]), ("easy-starts", ["learned"]),
+                        ("scripted", ["shortest-path", "hj"])):
         for folder, episodes in ((tmp_path / name, 8), (tmp_path / name / "confirm", 12)):
             write_report(folder, {team: rng.integers(0, 2, episodes).tolist()
-                                  for team in ("learned", "shortest-path", "hj")})
+                                  for team in teams})
     out = tmp_path / "study.json"
     subprocess.run([sys.executable, str(ROOT / "benchmarks" / "attacker_study.py"),
                     "--scenario", "paper_1v1", "--variants", "base,easy-starts",
                     "--runs", str(tmp_path), "--episodes", "8", "--confirm", "12",
                     "--json", str(out)], check=True, capture_output=True, cwd=ROOT)
     figures = json.loads(out.read_text())["figures"]
-    confirm = json.loads((tmp_path / "easy-starts" / "confirm" / "report.json").read_text())
-    arrived = {team: np.asarray(e["arrived"]) for team, e in confirm["per_episode"].items()}
+    arrived = {team: np.asarray(e["arrived"])
+               for name in ("easy-starts", "scripted")
+               for team, e in json.loads((tmp_path / name / "confirm" / "report.json")
+                                         .read_text())["per_episode"].items()}
     expected = 100 * float(np.mean(arrived["learned"] - arrived["shortest-path"]))
     assert figures["confirm_minus_shortest_path_points.easy-starts"][0] == round(expected, 2)
     for key in ("arrival_percent", "minus_shortest_path_points", "minus_hj_points",
