@@ -58,12 +58,14 @@ VARIANTS = {
     "team-reward": ["--team-reward", "1"],
     "easy-starts": ["--easy-starts", "0.3"],
     "easy-starts-seed-1": ["--easy-starts", "0.3", "--seed", "1"],
+    "easy-starts-seed-2": ["--easy-starts", "0.3", "--seed", "2"],
 }
 """Variant name -> the recipe's options that make it (``base``: the recipe's rewards:
 progress shaping 1, timeout -1, no team reward; ``base-seed-1``: the same with PPO seeded
 otherwise, the spread of PPO alone against which the other variants are read;
 ``easy-starts``: the curriculum, attackers first within 0.3 map units of the target, the
-whole map from half-way; ``easy-starts-seed-1``: the same with PPO seeded otherwise)."""
+whole map from half-way; ``easy-starts-seed-1``, ``easy-starts-seed-2``: the same with PPO
+seeded otherwise)."""
 
 ROOT = str(Path(__file__).resolve().parent.parent)
 RECIPE_SCRIPT = Path(ROOT) / "examples" / "train_attacker_team.py"
