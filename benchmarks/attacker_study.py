@@ -173,6 +173,19 @@ def points(values: np.ndarray) -> list[float]:
     return [round(100 * float(values.mean()), 2), round(100 * low, 2), round(100 * high, 2)]
 
 
+def read_report(folder: Path, first_seed: int, episodes: int) -> dict:
+    """``folder``'s report, checked to have played the starts ``first_seed`` <= k <
+    ``first_seed + episodes`` (a run kept from a call with other ``--episodes`` is not)."""
+    report = json.loads((folder / "report.json").read_text())
+    seeds = report["evaluation"]["seeds"]
+    if seeds != [first_seed, first_seed + episodes - 1]:
+        print(f"attacker_study.py: error: {folder}: played the starts {seeds[0]}..{seeds[1]}, "
+              f"not {first_seed}..{first_seed + episodes - 1}; remove it or use another "
+              "--runs", file=sys.stderr)
+        raise SystemExit(2)
+    return report
+
+
 def main() -> None:
     args = parse_args()
     scripted = args.runs / "scripted"
@@ -185,14 +198,14 @@ def main() -> None:
                        **{f"{name} (confirm)": (args.runs / name / "confirm",
                                                 confirm_command(args, name))
                           for name in args.variants}})
-    reports = {name: json.loads((args.runs / name / "report.json").read_text())
+    reports = {name: read_report(args.runs / name, 0, args.episodes)
                for name in args.variants}
-    played = {False: json.loads((scripted / "report.json").read_text())["per_episode"]}
-    confirms = {name: json.loads((args.runs / name / "confirm" / "report.json").read_text())
+    played = {False: read_report(scripted, 0, args.episodes)["per_episode"]}
+    confirms = {name: read_report(args.runs / name / "confirm", args.episodes, args.confirm)
                 for name in args.variants if args.confirm}
     if args.confirm:
-        played[True] = json.loads((scripted / "confirm" / "report.json").read_text())[
-            "per_episode"]
+        played[True] = read_report(scripted / "confirm", args.episodes,
+                                   args.confirm)["per_episode"]
 
     def fractions(episode: dict) -> np.ndarray:
         return np.asarray(episode["arrived"], dtype=np.float64) / episode["attackers"]
