@@ -32,10 +32,11 @@ HJ tubes are solved once at ``--grid1``/``--grid2`` nodes per axis (coarse by de
 **Behaviour-cloning warm start** (``--imitate-steps N``, default 0: PPO from scratch): before
 PPO, the scripted team ``--imitate-from`` (default ``shortest-path``; ``hj``: the 1 vs 1
 HJ-optimal control against the most dangerous defender, on the defenders' ``--grid1``
-tube) plays the training env (same observations, same ``--action-repeat`` hold, the same
-shaped reward) until N agent steps are recorded, one per live attacker and env step,
-starting from seed ``--seed`` + 1,000,000 (far from the evaluation seeds); the script is
-asked at each decision step, as the learner is. The PPO
+tube; ``hj-pairs``: the attackers that lose alone play the 2 vs 1 game in pairs, on the
+defenders' ``--grid1``/``--grid2`` tubes) plays the training env (same observations,
+same ``--action-repeat`` hold, the same shaped reward) until N agent steps are recorded,
+one per live attacker and env step, starting from seed ``--seed`` + 1,000,000 (far from the
+evaluation seeds); the script is asked at each decision step, as the learner is. The PPO
 policy's action mean is then fitted to the script's actions and its value head to the
 discounted (``gamma`` of PPO) shaped returns, by mean-squared error, for
 ``--imitate-epochs`` passes of Adam (``--imitate-learning-rate``); the log standard
@@ -726,9 +727,11 @@ class TeamResult:
 
 def scripted_team(name: str, args: argparse.Namespace, maps: Maps) -> ScriptedTeam:
     """The scripted attackers ``name`` (``policies.registry.ATTACKERS``): ``random`` seeded
-    with ``--seed``, ``hj`` on the defenders' 1 vs 1 tube (``--grid1``)."""
-    grid = {"grid1": args.grid1} if PolicySpec("attackers", name).choice.takes("grid1") else {}
-    spec = PolicySpec.of("attackers", name, **grid)
+    with ``--seed``, ``hj`` and ``hj-pairs`` on the defenders' tubes (``--grid1``,
+    ``--grid2``)."""
+    choice = PolicySpec("attackers", name).choice
+    grids = {flag: getattr(args, flag) for flag in ("grid1", "grid2") if choice.takes(flag)}
+    spec = PolicySpec.of("attackers", name, **grids)
     return ScriptedTeam(PerMapPolicy(functools.partial(spec, seed=args.seed, progress=False),
                                      "attackers", first=maps[0]))
 

@@ -18,6 +18,7 @@ from reachavoid_env import lazy
 if TYPE_CHECKING:
     from policies.attackers import (
         HJAttacker,
+        HJPairsAttacker,
         RandomAttacker,
         ShortestPathAttacker,
         StraightAttacker,
@@ -35,6 +36,7 @@ __all__ = [
     "GreedyDefender",
     "HJAttacker",
     "HJDefenderPolicy",
+    "HJPairsAttacker",
     "HJPairsDefenderPolicy",
     "IdleDefender",
     "MatchingDefenderPolicy",
@@ -46,7 +48,8 @@ __all__ = [
 ]
 
 __getattr__, __dir__ = lazy.attributes(__name__, {
-    **dict.fromkeys(["HJAttacker", "RandomAttacker", "ShortestPathAttacker", "StraightAttacker"],
+    **dict.fromkeys(["HJAttacker", "HJPairsAttacker", "RandomAttacker", "ShortestPathAttacker",
+                     "StraightAttacker"],
                     "policies.attackers"),
     **dict.fromkeys(["GreedyDefender", "HJDefenderPolicy", "HJPairsDefenderPolicy",
                      "IdleDefender", "MatchingDefenderPolicy"], "policies.defenders"),

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from policies.geodesic import DEFAULT_CELLS, DistanceField, distance_field
-from policies.tubes import tube_1v1
+from policies.tubes import tube_1v1, tube_2v1
 from reachavoid_env import GameMap, GameState, Scenario
 from reachavoid_env.rules import unit_vectors
 from solvers.hj import PAPER_GRIDS, ValueFunction
@@ -127,6 +127,68 @@ class HJAttacker:
         for k, i in enumerate(active):
             if np.linalg.norm(controls[k]) > 0:
                 actions[f"attacker_{i}"] = controls[k].astype(np.float32)
+        return actions
+
+
+class HJPairsAttacker:
+    """Attackers that cannot win alone play the 2 vs 1 game in pairs; the others run the
+    shortest path.
+
+    Attacker ``i`` faces its most dangerous defender ``d`` (the largest 1 vs 1 value
+    ``V11(a_i, d_j)``, as ``HJAttacker``). If it wins that game alone (``V11 <= 0``), or no
+    other attacker in play loses its own, it runs the shortest path
+    (``ShortestPathAttacker``). Otherwise it teams up with the partner ``j``, among those
+    that lose alone, of the smallest 2 vs 1 value ``V21(a_i, a_j, d)`` and takes its own
+    heading of that game, ``-p_{A1} / |p_{A1}|``:
+    the pair splits so that ``d`` cannot stop both. It keeps doing so where the value says
+    the pair loses: against defenders that err (a tube coarser than the attackers', a
+    heuristic) that is where the extra arrivals come from. Other defenders are not in the
+    pair's game; with one defender it is the 2 vs 1 game itself.
+    """
+
+    def __init__(self, vf11: ValueFunction, vf21: ValueFunction,
+                 cells: int = DEFAULT_CELLS) -> None:
+        for name, vf, game in (("vf11", vf11, "1v1"), ("vf21", vf21, "2v1")):
+            if vf.game != game:
+                raise ValueError(f"{name}: expected a {game} value function, got {vf.game!r}")
+        self.vf11, self.vf21 = vf11, vf21
+        self._path = ShortestPathAttacker(cells)
+
+    @classmethod
+    def for_scenario(cls, scenario: Scenario, grid1: int = PAPER_GRIDS.grid1,
+                     grid2: int = PAPER_GRIDS.grid2, progress: bool = True) -> HJPairsAttacker:
+        """Load (or solve and cache) the scenario's 1 vs 1 and 2 vs 1 tubes."""
+        return cls(*tube_2v1(scenario, grid1, grid2, progress))
+
+    def reset(self, scenario: Scenario) -> None:
+        self._path.reset(scenario)
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]:
+        actions = self._path.act(state)
+        active = np.flatnonzero(state.active_attackers)
+        m, n = len(active), len(state.defender_positions)
+        if m < 2:
+            return actions
+        attackers, defenders = state.attacker_positions[active], state.defender_positions
+        duels = np.concatenate([np.broadcast_to(attackers[:, None], (m, n, 2)),
+                                np.broadcast_to(defenders[None], (m, n, 2))], axis=-1)
+        values = self.vf11.value(duels)
+        danger = np.argmax(values, axis=1)
+        lost = np.flatnonzero(values[np.arange(m), danger] > 0.0)
+        if len(lost) < 2:
+            return actions
+        players, rivals, count = attackers[lost], defenders[danger[lost]], len(lost)
+        games = np.concatenate([np.broadcast_to(players[:, None], (count, count, 2)),
+                                np.broadcast_to(players[None], (count, count, 2)),
+                                np.broadcast_to(rivals[:, None], (count, count, 2))],
+                               axis=-1)          # games[i, j]: (a_i, a_j, d_i)
+        pair_values = self.vf21.value(games)
+        np.fill_diagonal(pair_values, np.inf)
+        partner = np.argmin(pair_values, axis=1)
+        controls = self.vf21.attacker_control(games[np.arange(count), partner], 0)
+        for k, heading in zip(active[lost], controls, strict=True):
+            if np.linalg.norm(heading) > 0:
+                actions[f"attacker_{k}"] = heading.astype(np.float32)
         return actions
 
 

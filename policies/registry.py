@@ -158,6 +158,9 @@ ATTACKERS: dict[str, NamedPolicy] = {
                                  "policies.attackers:ShortestPathAttacker", scenario=False),
     "hj": NamedPolicy("1 vs 1 optimal control against the most dangerous defender",
                       "policies.attackers:HJAttacker.for_scenario"),
+    "hj-pairs": NamedPolicy("attackers that lose their 1 vs 1 game play the 2 vs 1 game in "
+                            "pairs (2 vs 1 tube), the others the shortest path",
+                            "policies.attackers:HJPairsAttacker.for_scenario"),
     "straight": NamedPolicy("run straight for the nearest target centre",
                             "policies.attackers:StraightAttacker", scenario=False),
     "random": NamedPolicy("run in random directions, redrawn every 0.25 s",

@@ -14,6 +14,7 @@ import reachavoid_env
 from policies import (
     HJAttacker,
     HJDefenderPolicy,
+    HJPairsAttacker,
     MatchingDefenderPolicy,
     RandomAttacker,
     ShortestPathAttacker,
@@ -325,3 +326,44 @@ def test_one_step_check_takes_the_worst_attacker_move(coarse_tubes):
             state.defender_speed * scenario.dt)
         worst = min(vf11.value(np.concatenate([a, defender])) for a in attackers)
         assert held[k] == (worst > policy.tubes.margins.m11)
+
+
+def test_hj_pairs_attackers_that_lose_alone_play_the_pair_game(coarse_tubes):
+    """At the paper's start both attackers lose their 1 vs 1 game against the one defender:
+    each takes its own heading of the 2 vs 1 game, not the shortest path."""
+    vf11, vf21 = coarse_tubes
+    env = reachavoid_env.parallel_env(scenario="paper_2v1")
+    env.reset(seed=0)
+    state = env.unwrapped.game_state()
+    (a0, a1), (d,) = state.attacker_positions, state.defender_positions
+    assert np.all(vf11.value(np.array([[*a0, *d], [*a1, *d]])) > 0)
+    attacker = HJPairsAttacker(vf11, vf21)
+    attacker.reset(env.unwrapped.scenario)
+    actions = attacker.act(state)
+    expected = vf21.attacker_control(np.array([[*a0, *a1, *d], [*a1, *a0, *d]]), 0)
+    np.testing.assert_allclose(actions["attacker_0"], expected[0], atol=1e-6)
+    np.testing.assert_allclose(actions["attacker_1"], expected[1], atol=1e-6)
+    path = ShortestPathAttacker()
+    path.reset(env.unwrapped.scenario)
+    assert not np.allclose(actions["attacker_0"], path.act(state)["attacker_0"], atol=1e-2)
+
+
+def test_hj_pairs_attacker_that_wins_alone_runs_the_shortest_path(coarse_tubes):
+    """An attacker that wins its 1 vs 1 game runs the shortest path, and its partner,
+    left the only one that loses alone, has no pair to play: it runs the path too."""
+    vf11, vf21 = coarse_tubes
+    env = reachavoid_env.parallel_env(scenario="paper_2v1")
+    env.reset(seed=0)
+    state = dataclasses.replace(env.unwrapped.game_state(),
+                                attacker_positions=np.array([[0.55, 0.35], [0.0, 0.8]]))
+    a0, a1, d = *state.attacker_positions, state.defender_positions[0]
+    wins_alone = vf11.value(np.array([[*a0, *d], [*a1, *d]])) <= 0
+    assert wins_alone.tolist() == [True, False]
+    attacker, path = HJPairsAttacker(vf11, vf21), ShortestPathAttacker()
+    for policy in (attacker, path):
+        policy.reset(env.unwrapped.scenario)
+    actions, expected = attacker.act(state), path.act(state)
+    for name in ("attacker_0", "attacker_1"):
+        np.testing.assert_array_equal(actions[name], expected[name])
+    with pytest.raises(ValueError, match="vf21: expected a 2v1 value function"):
+        HJPairsAttacker(vf11, vf11)
