@@ -11,7 +11,7 @@ Every variant of ``VARIANTS`` (the recipe's reward and curriculum options) runs
 ``examples/train_attacker_team.py`` in its own process, pinned to one of ``--cores`` (as
 many at once as cores): ``--minutes`` of PPO (``RECIPE``: 16 copies), then the learned team
 plays the first ``--episodes`` starts against the ``hj`` defenders; the scripted
-``shortest-path`` and ``hj`` teams play the same starts once, in their own run
+``shortest-path``, ``hj`` and ``hj-pairs`` teams play the same starts once, in their own run
 (``RUNS/scripted``: the same for every variant, so played once). With ``--init CLONE``
 every variant fine-tunes the same cloned policy (an earlier run's ``cloned.zip``) at the
 measured fine-tuning settings (``FINE_TUNING``: learning rate 1e-4, clip 0.1); without it
@@ -20,8 +20,8 @@ variants, so ``variant - base`` paired over the starts is what the option bought
 whose ``RUNS/NAME/report.json`` exists is read, not run again: stop with Ctrl-C and run the
 same command to go on.
 
-Figures per variant: the learned team's arrival rate, learned - shortest-path, learned - hj
-and variant - base (points, paired, 95% bootstrap over the starts), PPO agent steps and CPU
+Figures per variant: the learned team's arrival rate, learned minus each scripted team and
+variant - base (points, paired, 95% bootstrap over the starts), PPO agent steps and CPU
 minutes. With ``--confirm N`` every variant's model then plays N fresh starts
 (``--evaluate-only --first-seed EPISODES``, into ``RUNS/NAME/confirm``; the scripted teams
 into ``RUNS/scripted/confirm``): a difference found on the first starts and chosen among
@@ -46,7 +46,7 @@ from reachavoid.evaluation import bootstrap_interval
 RECIPE = ["--timesteps", "3000000", "--copies", "16", "--teams", "learned", "--no-video"]
 """The recipe's run (BENCHMARKS "Learned attackers"); ``--minutes`` ends PPO first on this
 machine."""
-SCRIPTED_TEAMS = ("shortest-path", "hj")
+SCRIPTED_TEAMS = ("shortest-path", "hj", "hj-pairs")
 """The scripted teams every variant is compared with, played once in ``RUNS/scripted``."""
 FINE_TUNING = ["--learning-rate", "1e-4", "--clip-range", "0.1"]
 """PPO's settings from a clone (``--init``)."""
@@ -223,9 +223,9 @@ def main() -> None:
     for name, report in reports.items():
         learned = learned_arrivals(name)
         figures[f"arrival_percent.{name}"] = points(learned)
-        figures[f"minus_shortest_path_points.{name}"] = points(
-            learned - scripted_arrivals("shortest-path"))
-        figures[f"minus_hj_points.{name}"] = points(learned - scripted_arrivals("hj"))
+        for team in SCRIPTED_TEAMS:
+            figures[f"minus_{team.replace('-', '_')}_points.{name}"] = points(
+                learned - scripted_arrivals(team))
         if "base" in reports and name != "base":
             figures[f"minus_base_points.{name}"] = points(learned - learned_arrivals("base"))
         figures[f"ppo_steps.{name}"] = report["training"]["agent_steps"]

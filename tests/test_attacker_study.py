@@ -31,7 +31,7 @@ def test_the_study_reads_every_variant_and_its_confirmation(tmp_path):
     starts."""
     rng = np.random.default_rng(0)
     for name, teams in (("base", ["learned"]), ("easy-starts", ["learned"]),
-                        ("scripted", ["shortest-path", "hj"])):
+                        ("scripted", ["shortest-path", "hj", "hj-pairs"])):
         for folder, episodes, first in ((tmp_path / name, 8, 0),
                                         (tmp_path / name / "confirm", 12, 8)):
             write_report(folder, {team: rng.integers(0, 2, episodes).tolist()
@@ -49,7 +49,8 @@ def test_the_study_reads_every_variant_and_its_confirmation(tmp_path):
     expected = 100 * float(np.mean(arrived["learned"] - arrived["shortest-path"]))
     assert figures["confirm_minus_shortest_path_points.easy-starts"][0] == round(expected, 2)
     for key in ("arrival_percent", "minus_shortest_path_points", "minus_hj_points",
-                "confirm_arrival_percent", "confirm_minus_hj_points"):
+                "minus_hj_pairs_points", "confirm_arrival_percent", "confirm_minus_hj_points",
+                "confirm_minus_hj_pairs_points"):
         assert f"{key}.easy-starts" in figures and f"{key}.base" in figures
     assert "minus_base_points.easy-starts" in figures
     assert "confirm_minus_base_points.easy-starts" in figures
@@ -60,7 +61,8 @@ def test_the_study_reads_every_variant_and_its_confirmation(tmp_path):
 def test_a_run_kept_from_other_starts_is_refused_in_one_line(tmp_path):
     """A scripted run kept from a call with another ``--episodes`` is not compared with."""
     write_report(tmp_path / "base", {"learned": [1, 0, 1, 0]})
-    write_report(tmp_path / "scripted", {"shortest-path": [1, 0], "hj": [0, 1]})
+    write_report(tmp_path / "scripted", {"shortest-path": [1, 0], "hj": [0, 1],
+                                                    "hj-pairs": [1, 1]})
     finished = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "attacker_study.py"),
                                "--variants", "base", "--runs", str(tmp_path),
                                "--episodes", "4"], capture_output=True, text=True, cwd=ROOT)
