@@ -14,13 +14,14 @@ arrives:
 
 Each scripted team (``policies.registry.ATTACKERS``) plays the same seeded starts
 (``reset(seed=k)``, the team recipe's evaluation starts) against ``hj`` on the defenders'
-tubes. Reported per cell: arrival percent per team; the starts the oracle calls winnable
-and lost; per team, its arrivals in each class; and ``room_points``, the arrival a team
-would add over ``shortest-path`` by reaching the oracle's count in every start: in 1 vs 1
-the winnable starts where the script did not arrive (a bound, if the oracle is exact and
-the defenders never err); in 2 vs 1 one attacker per start the pair wins where the
-script's pair brought in none, and the second attacker of each start where both win
-alone and only one came in (the count a defender that captures whom it can leaves)::
+tubes (the ``hj`` and ``hj-pairs`` attackers on those tubes too). Reported per cell: arrival
+percent per team; the starts the oracle calls winnable and lost; per team, its arrivals in
+each class; and ``room_points``, the arrival a team would add over ``shortest-path`` by
+reaching the oracle's count in every start: in 1 vs 1 the winnable starts where the script
+did not arrive (a bound, if the oracle is exact and the defenders never err); in 2 vs 1 one
+attacker per start the pair wins where the script's pair brought in none, and the second
+attacker of each start where both win alone and only one came in (the count a defender that
+captures whom it can leaves)::
 
     python benchmarks/attacker_ceiling.py --episodes 200 \\
         --json benchmarks/results/attacker_ceiling.json
@@ -35,14 +36,14 @@ from typing import NamedTuple
 import numpy as np
 from result_file import write_result
 
-from policies.registry import make_policy
+from policies.registry import PolicySpec, make_policy
 from policies.tubes import tube_1v1, tube_2v1
 from reachavoid.evaluation import run_episodes
 from reachavoid_env import GameState, Scenario, builtin_scenario, parallel_env
 
 CELLS = {"1v1": ("paper_1v1", 1, 1), "2v1": ("paper_2v1", 2, 1)}
 """Cell name: (built-in scenario, attackers, defenders)."""
-TEAMS = ("shortest-path", "hj", "straight")
+TEAMS = ("shortest-path", "hj", "hj-pairs", "straight")
 
 
 class Oracle(NamedTuple):
@@ -99,7 +100,8 @@ def cell(name: str, args: argparse.Namespace) -> dict[str, float | list[float]]:
     env = parallel_env(scenario=scenario)
     defender = make_policy("defenders", "hj", scenario, grid1=args.grid1, grid2=args.grid2)
     for team in TEAMS:
-        options = {"grid1": args.grid1} if team == "hj" else {}
+        choice = PolicySpec("attackers", team).choice
+        options = {flag: getattr(args, flag) for flag in ("grid1", "grid2") if choice.takes(flag)}
         results = run_episodes(env, make_policy("attackers", team, scenario, **options),
                                defender, args.episodes, progress=sys.stderr.isatty(),
                                description=team)
