@@ -53,6 +53,12 @@ the game the policy played as value target) join the demonstrations, and the pol
 fitted again on all of them for ``--dagger-epochs`` (default ``--imitate-epochs``) passes.
 Each round reports the steps collected, the policy's arrival rate in them, its action MSE
 against the teacher's labels there before the refit and the fit's MSE after.
+**Full-speed actions** (``--full-speed``): the policy's actions are headings, each scaled
+to length 1 before the game sees it, in PPO's rollouts (``FullSpeed``), in the DAgger
+rollouts and in play (``ObservationPolicy(full_speed=True)``, stored with the model, so
+``load_sb3`` and ``sb3:PATH`` play it so). Where the teacher switches between headings (the
+``hj-pairs`` attackers between running alone and splitting as a pair), the fitted mean
+averages them into a shorter vector, and a short action is a slow attacker.
 **Curriculum from easy starts** (``--easy-starts D``, vector env only): PPO's first
 episodes start every attacker within D map units of the target, and the reach grows
 linearly to the map's diagonal over the first ``--easy-fraction`` (default 0.5) of the
@@ -105,7 +111,7 @@ import torch
 from matplotlib.figure import Figure
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
-from stable_baselines3.common.vec_env import VecMonitor
+from stable_baselines3.common.vec_env import VecEnvWrapper, VecMonitor
 from tqdm import tqdm
 
 from policies.learned import (
@@ -134,6 +140,7 @@ from reachavoid_env.files import atomic_write, write_json
 from reachavoid_env.integrations.supersuit import sb3_vec_env as supersuit_vec_env
 from reachavoid_env.integrations.vector import sb3_vec_env
 from reachavoid_env.maps import load_library
+from reachavoid_env.rules import unit_vectors
 from reachavoid_env.video import RecordEpisode
 from reachavoid_env.wrappers import AttackerParallelEnv, PerMapPolicy
 
@@ -188,6 +195,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                              "comma-separated, e.g. 256,256 (None: SB3's 64,64)")
     parser.add_argument("--imitate-log-std", type=float, default=-1.0,
                         help="log std of the actions after cloning (default: %(default)s)")
+    parser.add_argument("--full-speed", action="store_true",
+                        help="the policy's actions are headings: each is scaled to length 1, "
+                             "in training and in play")
     add_reward_arguments(parser, team=True)
     add_curriculum_arguments(parser)
     parser.add_argument("--episodes", type=int, default=200,
@@ -569,7 +579,7 @@ def clone(args: argparse.Namespace, maps: Maps, model: PPO) -> dict[str, Any]:
     for number in range(1, args.dagger_rounds + 1):
         start = time.perf_counter()
         visited = collect_demonstrations(
-            args, maps, model.gamma, player=learned_team(model, hold=1),
+            args, maps, model.gamma, player=learned_team(model, 1, args.full_speed),
             steps=args.dagger_steps, seed=args.seed + IMITATION_SEED_OFFSET + number,
             desc=f"DAgger {number}")
         collected = time.perf_counter()
@@ -598,11 +608,25 @@ def training_envs(args: argparse.Namespace, maps: Maps) -> Any:
     copy, the defenders acting on every copy in one call), or SuperSuit's chain over the
     attacker-only env with ``--supersuit``."""
     if args.supersuit:
-        return supersuit_vec_env(game(args, maps, **reward_options(args)), copies=args.copies)
-    view = make_attackers_vector_env(maps, defenders=args.defenders, num_envs=args.copies,
-                                     defender_options=defender_options(args),
-                                     **reward_options(args))
-    return VecMonitor(sb3_vec_env(view))
+        envs = supersuit_vec_env(game(args, maps, **reward_options(args)), copies=args.copies)
+    else:
+        envs = VecMonitor(sb3_vec_env(make_attackers_vector_env(
+            maps, defenders=args.defenders, num_envs=args.copies,
+            defender_options=defender_options(args), **reward_options(args))))
+    return FullSpeed(envs) if args.full_speed else envs
+
+
+class FullSpeed(VecEnvWrapper):
+    """``--full-speed``: every action is scaled to length 1 before the games see it."""
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self.venv.step_async(unit_vectors(np.asarray(actions, dtype=np.float64)))
+
+    def step_wait(self) -> Any:
+        return self.venv.step_wait()
+
+    def reset(self) -> Any:
+        return self.venv.reset()
 
 
 def train(args: argparse.Namespace, maps: Maps,
@@ -685,12 +709,14 @@ class ScriptedTeam:
         return {name: chosen[name] for name in env.agents}
 
 
-def learned_team(model: PPO, hold: int) -> ScriptedTeam:
+def learned_team(model: PPO, hold: int, full_speed: bool) -> ScriptedTeam:
     """The shared policy as a ``reachavoid_env.Policy`` (``policies.learned``): every live
     attacker decides every ``hold`` game steps from its own observation, and holds its
-    action in between (``action_repeat`` in training)."""
+    action in between (``action_repeat`` in training); with ``full_speed`` (as trained)
+    its actions are headings."""
     return ScriptedTeam(ObservationPolicy(
-        lambda batch: model.predict(batch, deterministic=True)[0], action_repeat=hold))
+        lambda batch: model.predict(batch, deterministic=True)[0], action_repeat=hold,
+        full_speed=full_speed))
 
 
 def play(env: AttackerParallelEnv, team: Team, seed: int) -> tuple[int, int]:
@@ -739,7 +765,7 @@ def scripted_team(name: str, args: argparse.Namespace, maps: Maps) -> ScriptedTe
 def make_team(name: str, model: PPO | None, args: argparse.Namespace,
               maps: Maps) -> Team:
     if name == "learned":
-        return learned_team(model, args.action_repeat)
+        return learned_team(model, args.action_repeat, args.full_speed)
     return scripted_team(name, args, maps)
 
 
@@ -773,7 +799,7 @@ def record(args: argparse.Namespace, maps: Maps, model: PPO, seed: int) -> int:
     env = game(args, maps, render_mode="rgb_array", render_width=args.video_width)
     fps = 1.0 / (maps[0].dt * args.video_every)
     with RecordEpisode(env, args.video, fps=fps, every=args.video_every) as recorded:
-        play(recorded, learned_team(model, args.action_repeat), seed)
+        play(recorded, learned_team(model, args.action_repeat, args.full_speed), seed)
     return recorded.frames
 
 
@@ -796,7 +822,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         "evaluated_on": [s.name for s in held_out], "attackers": maps[0].num_attackers,
         "defenders": args.defenders,
         "grids": [args.grid1, args.grid2] if args.defenders == "hj" else None,
-        **reward_options(args), "seed": args.seed,
+        **reward_options(args), "full_speed": args.full_speed, "seed": args.seed,
     }
     model: PPO | None = None
     if args.evaluate_only is not None:
@@ -805,7 +831,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     elif "learned" in args.teams:
         model, curve, cloning = train(args, maps)
         setattr(model, TRAINING_ATTRIBUTE, training_record(
-            DEFAULT_OBSERVATION, action_repeat=args.action_repeat, scenario=args.scenario))
+            DEFAULT_OBSERVATION, action_repeat=args.action_repeat, full_speed=args.full_speed,
+            scenario=args.scenario))
         with atomic_write(args.out / "model.zip", "wb") as handle:
             model.save(handle)
         game_steps = model.num_timesteps // maps[0].num_attackers * args.action_repeat

@@ -14,7 +14,9 @@ On the command line a model is the policy spec ``sb3:PATH``
 A policy trained with ``action_repeat = k`` (``reachavoid_env.wrappers``) chose an action
 every ``k`` env steps and held it; played here it does the same, so it sees the game at
 the rate it was trained on. The training examples store ``k`` in the saved model
-(``TRAINING_ATTRIBUTE``); ``load_sb3`` reads it back.
+(``TRAINING_ATTRIBUTE``); ``load_sb3`` reads it back. A policy trained with full-speed
+actions (``full_speed``: every action scaled to length 1, ``rules.unit_vectors``, so the
+network picks a heading and the player always runs at its speed) is played so too.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import numpy as np
 
 from reachavoid_env import GameState, PolicyMismatch, Scenario, checks
 from reachavoid_env.observations import GLOBAL, ObservationConfig, observe
+from reachavoid_env.rules import unit_vectors
 
 DEFAULT_OBSERVATION = ObservationConfig()
 
@@ -40,9 +43,9 @@ SIDES = ("attackers", "defenders")
 TRAINING_ATTRIBUTE = "reachavoid_training"
 """The attribute of a saved SB3 model holding how it was trained: a dict with
 ``action_repeat``, ``observation`` (the ``ObservationConfig``'s fields; absent: v0's
-global observation) and ``max_cycles`` (the time left's unit; absent: the scenario's
-``max_steps``), and, for the record, ``scenario``. SB3 saves and loads an algorithm's
-plain attributes with the model."""
+global observation), ``max_cycles`` (the time left's unit; absent: the scenario's
+``max_steps``) and ``full_speed`` (absent: False), and, for the record, ``scenario``.
+SB3 saves and loads an algorithm's plain attributes with the model."""
 
 Predict = Callable[[np.ndarray], Any]
 
@@ -51,7 +54,7 @@ def training_record(observation: ObservationConfig, max_cycles: int | None = Non
                     **extra: Any) -> dict[str, Any]:
     """What ``TRAINING_ATTRIBUTE`` holds for a model trained on observations
     ``observation`` with episodes of ``max_cycles`` steps (``None``: the scenario's), and
-    ``extra`` (``action_repeat``, ``scenario``)."""
+    ``extra`` (``action_repeat``, ``full_speed``, ``scenario``)."""
     record = {"observation": asdict(observation), **extra}
     if max_cycles is not None:
         record["max_cycles"] = max_cycles
@@ -66,7 +69,9 @@ class ObservationPolicy:
     the env's egocentric default unless given) to actions ``(K, 2)`` in ``[-1, 1]`` (a velocity as a
     fraction of the player's speed), as ``model.predict`` does. Every agent of the side
     shares it (parameter sharing). Actions are chosen at env steps ``0, k, 2k, ...``
-    (``action_repeat = k``) and held in between. ``observation_size``, when given, is
+    (``action_repeat = k``) and held in between. With ``full_speed`` every action is scaled
+    to length 1 (a heading: the player runs at its full speed; a zero action stays zero),
+    else clipped to ``[-1, 1]``. ``observation_size``, when given, is
     checked against each scenario at ``reset``. ``max_cycles`` is the time left's unit (the
     scenario's ``max_steps`` when ``None``).
     """
@@ -74,7 +79,7 @@ class ObservationPolicy:
     def __init__(self, predict: Predict, side: str = "attackers", action_repeat: int = 1,
                  observation_size: int | None = None, label: str = "the learned policy",
                  observation: ObservationConfig = DEFAULT_OBSERVATION,
-                 max_cycles: int | None = None) -> None:
+                 max_cycles: int | None = None, full_speed: bool = False) -> None:
         if side not in SIDES:
             raise ValueError(f"side: expected one of {SIDES}, got {side!r}")
         self.predict = predict
@@ -84,6 +89,7 @@ class ObservationPolicy:
         self.label = label
         self.observation = observation
         self.max_cycles = max_cycles
+        self.full_speed = bool(full_speed)
         self._map = None
         self._max_cycles = 1
         self._held: dict[str, np.ndarray] = {}
@@ -121,7 +127,9 @@ class ObservationPolicy:
         observations = observe(state, self._map, self.observation, self._max_cycles)
         batch = np.stack([observations[name] for name in live])
         actions = np.asarray(self.predict(batch), dtype=np.float32).reshape(len(live), 2)
-        return dict(zip(live, np.clip(actions, -1.0, 1.0), strict=True))
+        actions = (unit_vectors(actions).astype(np.float32) if self.full_speed
+                   else np.clip(actions, -1.0, 1.0))
+        return dict(zip(live, actions, strict=True))
 
 
 def load_sb3(path: str | Path, side: str = "attackers", action_repeat: int | None = None,
@@ -129,7 +137,7 @@ def load_sb3(path: str | Path, side: str = "attackers", action_repeat: int | Non
     """The Stable-Baselines3 model saved at ``path`` (by ``algorithm``, a class of
     ``stable_baselines3``) as a deterministic ``ObservationPolicy`` for ``side``.
     ``action_repeat`` defaults to the one stored by the training examples
-    (``TRAINING_ATTRIBUTE``), else 1."""
+    (``TRAINING_ATTRIBUTE``), else 1; so does ``full_speed`` (else False)."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"{side}: model {str(path)!r} is not a file")
@@ -154,7 +162,8 @@ def load_sb3(path: str | Path, side: str = "attackers", action_repeat: int | Non
                              observation_size=shape[0], label=f"model {str(path)!r}",
                              observation=ObservationConfig(**trained["observation"])
                              if "observation" in trained else GLOBAL,
-                             max_cycles=trained.get("max_cycles"))
+                             max_cycles=trained.get("max_cycles"),
+                             full_speed=trained.get("full_speed", False))
 
 
 def _installed(module: str) -> bool:

@@ -109,6 +109,26 @@ def test_observation_policy_holds_its_actions_for_action_repeat_steps():
         ObservationPolicy(predict, observation_size=11).reset(builtin_scenario("paper_6v2"))
 
 
+def test_full_speed_actions_are_headings():
+    """``full_speed``: every action is scaled to length 1 (a zero action stays zero), where
+    the default only clips to ``[-1, 1]``: a network that hesitates between two headings
+    (a short mean) still runs at full speed."""
+    def predict(batch):
+        return np.tile([[0.3, 0.4], [0.0, 0.0]], (len(batch) // 2, 1))
+
+    scenario = builtin_scenario("paper_2v1")
+    env = reachavoid_env.parallel_env(scenario=scenario)
+    env.reset(seed=0)
+    state = env.game_state()
+    for full_speed, expected in ((True, [0.6, 0.8]), (False, [0.3, 0.4])):
+        policy = ObservationPolicy(predict, full_speed=full_speed)
+        policy.reset(scenario)
+        actions = policy.act(state)
+        np.testing.assert_allclose(actions["attacker_0"], expected, rtol=1e-6)
+        np.testing.assert_array_equal(actions["attacker_1"], [0.0, 0.0])
+        assert actions["attacker_0"].dtype == np.float32
+
+
 # ------------------------------------------------------------------ SB3 models
 @pytest.fixture(scope="module")
 def model_path(tmp_path_factory):
@@ -135,7 +155,7 @@ def test_a_model_plays_as_it_was_trained(model_path):
     from stable_baselines3 import PPO
 
     policy = load_sb3(model_path)
-    assert policy.action_repeat == 10
+    assert policy.action_repeat == 10 and not policy.full_speed
     model = PPO.load(model_path, device="cpu")
     training = make_attackers_parallel_env("paper_1v1", defenders=GreedyDefender(),
                                            starts="random", action_repeat=10)

@@ -378,3 +378,30 @@ def test_trained_on_one_library_evaluated_on_another(tmp_path):
     assert [m.split("_")[0] for m in report["maps"]] == ["gen-s0-0000", "gen-s0-0001"]
     assert [m.split("_")[0] for m in report["evaluated_on"]] == ["gen-s1-0000", "gen-s1-0001"]
     assert report["evaluation"]["shortest-path"]["episodes"] == 4
+
+
+def test_full_speed_actions_are_headings_in_training_and_play(tmp_path):
+    """``--full-speed``: PPO's actions reach the games scaled to length 1, the saved model
+    records it, and ``load_sb3`` plays it so."""
+    import gymnasium
+
+    from policies.learned import load_sb3
+
+    recipe = example("train_attacker_team")
+    report = recipe.main([*TINY, "--full-speed", "--teams", "learned", "--no-video",
+                          "--out", str(tmp_path)])
+    assert report["full_speed"] is True
+    assert load_sb3(tmp_path / "model.zip").full_speed
+
+    class Games:        # the least of a VecEnv that VecEnvWrapper reads
+        num_envs, render_mode = 3, None
+        observation_space = gymnasium.spaces.Box(-1.0, 1.0, (4,))
+        action_space = gymnasium.spaces.Box(-1.0, 1.0, (2,))
+
+        def step_async(self, actions):
+            self.actions = actions
+
+    games = Games()
+    recipe.FullSpeed(games).step_async(np.array([[0.3, 0.4], [0.0, 0.0], [-1.0, 1.0]]))
+    np.testing.assert_allclose(games.actions, [[0.6, 0.8], [0.0, 0.0],
+                                               [-0.5 ** 0.5, 0.5 ** 0.5]])
