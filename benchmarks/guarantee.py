@@ -1,7 +1,8 @@
 """Benchmark: how often Algorithm 1's guarantee breaks (BENCHMARKS.md, "The guarantee").
 
 Seeded random starts of 4v2, 6v2 and 8v4 on the paper map and of 6v4 on the equal-speed
-scenario (``paper_6v4_equal``), against shortest-path, random and HJ attackers; the
+scenario (``paper_6v4_equal``), against shortest-path, random, HJ and HJ-pairs attackers
+(``--attackers``: a comma-separated choice of them); the
 defenders (``--defenders``, default the reference ``hj``; ``hj-pairs`` also plays the
 equal-speed scenario) report their certified ``guaranteed_captures`` every step. An
 episode *violates* the guarantee when captured-so-far plus guaranteed-from-now falls
@@ -31,7 +32,7 @@ from reachavoid.sweep import BACKENDS
 
 CONFIGS = (("paper_2v1", 4, 2), ("paper_2v1", 6, 2), ("paper_2v1", 8, 4),
            ("paper_6v4_equal", 6, 4))
-ATTACKERS = ("shortest-path", "random", "hj")
+ATTACKERS = ("shortest-path", "random", "hj", "hj-pairs")
 PAIRS_ON = "paper_6v4_equal"
 """``hj-pairs`` (when asked for) plays the scenario where teams matter."""
 
@@ -44,12 +45,20 @@ def main() -> None:
                         help="per configuration and attacker (seeds 0..N-1)")
     parser.add_argument("--defenders", default="hj,hj-pairs",
                         help="comma-separated methods (hj-pairs on the equal-speed scenario)")
+    parser.add_argument("--attackers", default=",".join(ATTACKERS),
+                        help="comma-separated attackers, each against every method "
+                             "(default: %(default)s)")
     parser.add_argument("--margin-cells", type=float, default=CERTIFICATE_CELLS)
     parser.add_argument("--backend", choices=BACKENDS, default="serial")
     parser.add_argument("--workers", type=int, default=None)
     parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
     methods = [m.strip() for m in args.defenders.split(",") if m.strip()]
+    attacker_teams = [a.strip() for a in args.attackers.split(",") if a.strip()]
+    unknown = [a for a in attacker_teams if a not in ATTACKERS]
+    if unknown or not attacker_teams:
+        parser.error(f"--attackers: expected some of {', '.join(ATTACKERS)}, got "
+                     f"{args.attackers!r}")
 
     print(f"tubes {args.grid1}^4 / {args.grid2}^6, margin {args.margin_cells:g} cells, "
           f"{args.episodes} episodes per configuration and attacker (seeds 0.."
@@ -63,7 +72,7 @@ def main() -> None:
     for name, m, n in CONFIGS:
         scenario = reachavoid_env.builtin_scenario(name).with_players(m, n)
         here = [x for x in methods if x != "hj-pairs" or name == PAIRS_ON]
-        for attackers in ATTACKERS:
+        for attackers in attacker_teams:
             comparison = compare_defenders(scenario, here, attackers, args.episodes,
                                            backend=args.backend, workers=args.workers,
                                            grid1=args.grid1, grid2=args.grid2,

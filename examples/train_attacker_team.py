@@ -74,7 +74,8 @@ say, to compare fine-tuning settings from one clone; its network is kept).
 ``--episodes`` starts ``reset(seed=k)``, k = F, F + 1, ... (F: ``--first-seed``, default 0;
 a later F gives fresh starts to confirm a result), of the attacker-only env against
 the same defenders, without shaping; each team decides at its own rate (the learned one
-every ``--action-repeat`` game steps, as trained; the scripted ``shortest-path`` and
+every ``--action-repeat`` game steps, its actions scaled with ``--full-speed``: give
+``--evaluate-only`` the flags the model was trained with; the scripted ``shortest-path`` and
 ``random`` teams of ``policies.registry``, and the ``--imitate-from`` team, every game
 step; ``--teams`` takes any of ``policies.registry.ATTACKERS``). Per team: the arrival rate
 (the mean over episodes of the fraction of attackers that arrive) and the mean number
