@@ -69,6 +69,9 @@ def main() -> None:
     if unknown or not attacker_teams:
         parser.error(f"--attackers: expected some of {', '.join(ATTACKERS)} or "
                      f"{SB3_PREFIX}MODEL.zip, got {args.attackers!r}")
+    if sum(a.startswith(SB3_PREFIX) for a in attacker_teams) > 1:
+        parser.error("--attackers: one sb3:MODEL.zip team per run (their records share the "
+                     "key 'trained')")
     configs = [c.strip() for c in args.configs.split(",") if c.strip()]
     if not configs or any(c not in CONFIGS for c in configs):
         parser.error(f"--configs: expected some of {', '.join(CONFIGS)}, got {args.configs!r}")
@@ -86,10 +89,13 @@ def main() -> None:
         scenario = reachavoid_env.builtin_scenario(name).with_players(m, n)
         here = [x for x in methods if x != "hj-pairs" or name == PAIRS_ON]
         for attackers in attacker_teams:
-            comparison = compare_defenders(scenario, here, attackers, args.episodes,
-                                           backend=args.backend, workers=args.workers,
-                                           grid1=args.grid1, grid2=args.grid2,
-                                           margin_cells=args.margin_cells)
+            try:
+                comparison = compare_defenders(scenario, here, attackers, args.episodes,
+                                               backend=args.backend, workers=args.workers,
+                                               grid1=args.grid1, grid2=args.grid2,
+                                               margin_cells=args.margin_cells)
+            except reachavoid_env.PolicyMismatch as error:   # a model trained on other teams
+                parser.error(f"--attackers: {error}")
             for s in comparison.summaries:
                 totals[s.label] = [a + b for a, b in zip(
                     totals[s.label], (s.guarantee_violations, s.arrivals_beyond_promise,
