@@ -141,6 +141,7 @@ from reachavoid_env.files import atomic_write, write_json
 from reachavoid_env.integrations.supersuit import sb3_vec_env as supersuit_vec_env
 from reachavoid_env.integrations.vector import sb3_vec_env
 from reachavoid_env.maps import load_library
+from reachavoid_env.observations import ObservationConfig
 from reachavoid_env.rules import unit_vectors
 from reachavoid_env.video import RecordEpisode
 from reachavoid_env.wrappers import AttackerParallelEnv, PerMapPolicy
@@ -161,6 +162,11 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="stop training after this much wall time (None: no limit)")
     parser.add_argument("--copies", type=int, default=16,
                         help="game copies in the vector env (default: %(default)s)")
+    parser.add_argument("--copies-per-map", type=int, default=1,
+                        help="over a map library, copies that take their maps together: each "
+                             "map drawn serves this many episodes of a group of as many "
+                             "copies, so the defenders act on a map's copies in one call "
+                             "(ReachAvoidVectorEnv's copies_per_map; default: %(default)s)")
     parser.add_argument("--supersuit", action="store_true",
                         help="train through SuperSuit's chain over the attacker-only env "
                              "(one game per copy) instead of the vector env")
@@ -196,6 +202,12 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                              "comma-separated, e.g. 256,256 (None: SB3's 64,64)")
     parser.add_argument("--imitate-log-std", type=float, default=-1.0,
                         help="log std of the actions after cloning (default: %(default)s)")
+    parser.add_argument("--teammates", type=int, default=None, metavar="T",
+                        help="observe the T nearest teammates (with --opponents; default: "
+                             "every player): one observation size for any team size, so a "
+                             "2 vs 1 policy (--teammates 1 --opponents 1) plays 6 vs 2")
+    parser.add_argument("--opponents", type=int, default=None, metavar="O",
+                        help="observe the O nearest opponents (with --teammates)")
     parser.add_argument("--full-speed", action="store_true",
                         help="the policy's actions are headings: each is scaled to length 1, "
                              "in training and in play")
@@ -231,7 +243,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="skip training: evaluate (and record) this saved model; without "
                              "it and without 'learned' in --teams nothing is trained")
     args = parser.parse_args(argv)
-    for name in ("copies", "n_steps", "batch_size", "action_repeat", "episodes",
+    for name in ("copies", "copies_per_map", "n_steps", "batch_size", "action_repeat", "episodes",
                  "imitate_epochs", "video_every", "video_width"):
         if getattr(args, name) < 1:
             parser.error(f"--{name.replace('_', '-')}: must be a positive integer")
@@ -241,6 +253,15 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         args.curriculum = start_curriculum(args)
     except FieldError as err:
         parser.error(f"--{err.field.replace('_', '-')}: {str(err).split(': ', 1)[1]}")
+    try:
+        args.observation = (DEFAULT_OBSERVATION if args.teammates is None and
+                            args.opponents is None else ObservationConfig(
+                                teammates=args.teammates, opponents=args.opponents))
+    except ValueError as err:
+        field, reason = str(err).split(": ", 1)
+        parser.error(f"--{field.removeprefix('observation.')}: {reason}")
+    if args.copies_per_map > 1 and args.supersuit:
+        parser.error("--copies-per-map: needs the vector env (drop --supersuit)")
     if args.curriculum is not None and args.supersuit:
         parser.error("--easy-starts: needs the vector env (drop --supersuit)")
     if args.dagger_epochs is None:
@@ -297,7 +318,8 @@ def team_maps(source: str) -> Maps:
 
 def game(args: argparse.Namespace, maps: Maps, **env_kwargs: Any) -> AttackerParallelEnv:
     return make_attackers_parallel_env(maps, defenders=args.defenders,
-                                       defender_options=defender_options(args), **env_kwargs)
+                                       defender_options=defender_options(args),
+                                       observation=args.observation, **env_kwargs)
 
 
 class ModelError(ValueError):
@@ -305,10 +327,11 @@ class ModelError(ValueError):
     prints it in one line and exits with status 2."""
 
 
-def load_model(path: Path, flag: str, maps: Maps, **options: Any) -> PPO:
-    """``PPO.load(path, **options)`` of a policy for the default observation of ``maps``;
+def load_model(path: Path, flag: str, maps: Maps, observation: ObservationConfig,
+               **options: Any) -> PPO:
+    """``PPO.load(path, **options)`` of a policy for ``observation`` of ``maps``;
     ``ModelError`` naming ``flag`` if the file is not one (another game, or not SB3's)."""
-    size = DEFAULT_OBSERVATION.size(maps[0].num_attackers, maps[0].num_defenders)
+    size = observation.size(maps[0].num_attackers, maps[0].num_defenders)
     try:
         model = PPO.load(path, device="cpu", **options)
     except Exception as err:  # SB3 raises many kinds on a foreign or damaged file
@@ -580,7 +603,8 @@ def clone(args: argparse.Namespace, maps: Maps, model: PPO) -> dict[str, Any]:
     for number in range(1, args.dagger_rounds + 1):
         start = time.perf_counter()
         visited = collect_demonstrations(
-            args, maps, model.gamma, player=learned_team(model, 1, args.full_speed),
+            args, maps, model.gamma,
+            player=learned_team(model, 1, args.full_speed, args.observation),
             steps=args.dagger_steps, seed=args.seed + IMITATION_SEED_OFFSET + number,
             desc=f"DAgger {number}")
         collected = time.perf_counter()
@@ -613,7 +637,8 @@ def training_envs(args: argparse.Namespace, maps: Maps) -> Any:
     else:
         envs = VecMonitor(sb3_vec_env(make_attackers_vector_env(
             maps, defenders=args.defenders, num_envs=args.copies,
-            defender_options=defender_options(args), **reward_options(args))))
+            copies_per_map=args.copies_per_map, defender_options=defender_options(args),
+            observation=args.observation, **reward_options(args))))
     return FullSpeed(envs) if args.full_speed else envs
 
 
@@ -646,7 +671,8 @@ def train(args: argparse.Namespace, maps: Maps,
     cloning: dict[str, Any] | None = None
     try:
         if args.init is not None:
-            model = load_model(args.init, "--init", maps, env=envs, custom_objects=settings)
+            model = load_model(args.init, "--init", maps, args.observation, env=envs,
+                               custom_objects=settings)
         else:
             model = PPO("MlpPolicy", envs, device="cpu", verbose=0, **settings, policy_kwargs=None
                         if args.net_arch is None else {"net_arch": args.net_arch})
@@ -710,14 +736,15 @@ class ScriptedTeam:
         return {name: chosen[name] for name in env.agents}
 
 
-def learned_team(model: PPO, hold: int, full_speed: bool) -> ScriptedTeam:
+def learned_team(model: PPO, hold: int, full_speed: bool,
+                 observation: ObservationConfig) -> ScriptedTeam:
     """The shared policy as a ``reachavoid_env.Policy`` (``policies.learned``): every live
-    attacker decides every ``hold`` game steps from its own observation, and holds its
+    attacker decides every ``hold`` game steps from its own ``observation``, and holds its
     action in between (``action_repeat`` in training); with ``full_speed`` (as trained)
     its actions are headings."""
     return ScriptedTeam(ObservationPolicy(
         lambda batch: model.predict(batch, deterministic=True)[0], action_repeat=hold,
-        full_speed=full_speed))
+        full_speed=full_speed, observation=observation))
 
 
 def play(env: AttackerParallelEnv, team: Team, seed: int) -> tuple[int, int]:
@@ -766,7 +793,7 @@ def scripted_team(name: str, args: argparse.Namespace, maps: Maps) -> ScriptedTe
 def make_team(name: str, model: PPO | None, args: argparse.Namespace,
               maps: Maps) -> Team:
     if name == "learned":
-        return learned_team(model, args.action_repeat, args.full_speed)
+        return learned_team(model, args.action_repeat, args.full_speed, args.observation)
     return scripted_team(name, args, maps)
 
 
@@ -800,7 +827,8 @@ def record(args: argparse.Namespace, maps: Maps, model: PPO, seed: int) -> int:
     env = game(args, maps, render_mode="rgb_array", render_width=args.video_width)
     fps = 1.0 / (maps[0].dt * args.video_every)
     with RecordEpisode(env, args.video, fps=fps, every=args.video_every) as recorded:
-        play(recorded, learned_team(model, args.action_repeat, args.full_speed), seed)
+        play(recorded, learned_team(model, args.action_repeat, args.full_speed,
+                                    args.observation), seed)
     return recorded.frames
 
 
@@ -827,12 +855,12 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     }
     model: PPO | None = None
     if args.evaluate_only is not None:
-        model = load_model(args.evaluate_only, "--evaluate-only", maps)
+        model = load_model(args.evaluate_only, "--evaluate-only", maps, args.observation)
         report["model"] = str(args.evaluate_only)
     elif "learned" in args.teams:
         model, curve, cloning = train(args, maps)
         setattr(model, TRAINING_ATTRIBUTE, training_record(
-            DEFAULT_OBSERVATION, action_repeat=args.action_repeat, full_speed=args.full_speed,
+            args.observation, action_repeat=args.action_repeat, full_speed=args.full_speed,
             scenario=args.scenario))
         with atomic_write(args.out / "model.zip", "wb") as handle:
             model.save(handle)
@@ -843,7 +871,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
             "seconds": round(seconds, 1), "cpu_seconds": round(curve.cpu_seconds, 1),
             "agent_steps_per_s": round(model.num_timesteps / seconds, 1) if seconds else None,
             "game_steps_per_s": round(game_steps / seconds, 1) if seconds else None,
-            "copies": args.copies, "n_steps": args.n_steps, "batch_size": args.batch_size,
+            "copies": args.copies, "copies_per_map": args.copies_per_map,
+            "n_steps": args.n_steps, "batch_size": args.batch_size,
             "learning_rate": args.learning_rate, "clip_range": args.clip_range,
             "ent_coef": args.ent_coef, "net_arch": model.policy_kwargs.get("net_arch"),
             "init": None if args.init is None else str(args.init),

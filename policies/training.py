@@ -39,6 +39,7 @@ caches them on disk (design.md section 4); later envs, subprocesses included, lo
 from __future__ import annotations
 
 import argparse
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -48,7 +49,7 @@ import pettingzoo
 
 from policies.registry import DEFENDERS, PolicySpec, make_batch_policy
 from reachavoid_env import checks
-from reachavoid_env.game_state import BatchPolicy, PerCopy
+from reachavoid_env.game_state import BatchPolicy, PerCopy, PerMap
 from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.scenario import builtin_names
 from reachavoid_env.vector import ReachAvoidVectorEnv
@@ -210,13 +211,17 @@ def make_attackers_parallel_env(scenario: ScenarioSource = "paper_2v1", defender
 def batch_policy(source: Any, options: Mapping[str, Any] | None, side: str, field: str,
                  vec: ReachAvoidVectorEnv) -> BatchPolicy:
     """A ``BatchPolicy`` for the scripted ``side`` of ``vec``'s copies: a ``BatchPolicy``
-    as it is; on one map, a name through ``make_batch_policy`` (its batched class where it
-    has one: all copies in one call); otherwise a name or a factory ``scenario -> policy``
-    asked copy by copy (``PerCopy``)."""
+    as it is; a name through ``make_batch_policy`` (its batched class where it has one: all
+    copies of a map in one call), one per map over several maps (``PerMap``); otherwise a
+    factory ``scenario -> policy`` asked copy by copy (``PerCopy``)."""
     if isinstance(source, BatchPolicy):
         return source
-    if isinstance(source, str) and len(vec.scenarios) == 1:
-        return make_batch_policy(side, source, vec.base_scenario, **(options or {}))
+    if isinstance(source, str):
+        options = dict(options or {})
+        if len(vec.scenarios) == 1:
+            return make_batch_policy(side, source, vec.base_scenario, **options)
+        PolicySpec.of(side, source, **options)   # a wrong name or option fails here, once
+        return PerMap(functools.partial(make_batch_policy, side, source, **options))
     built = _source(source, options, side, field)
     if not callable(built) or isinstance(built, type):
         raise TypeError(f"{field}s: the vector env needs a name, a factory scenario -> policy "
@@ -234,8 +239,8 @@ def make_attackers_vector_env(scenario: ScenarioSource = "paper_2v1", defenders:
     ``(K, M, ...)``, ``team_reward`` as there); ``defenders`` (a name, a factory or a
     ``BatchPolicy``) move the defenders of every copy. ``autoreset=False`` for TorchRL
     (``integrations.torchrl.VectorGroupEnv``). ``env_kwargs``: ``starts``
-    (``"random"`` by default), ``max_cycles``, ``shaping``, ``observation``
-    (``ReachAvoidVectorEnv``)."""
+    (``"random"`` by default), ``max_cycles``, ``shaping``, ``observation``,
+    ``copies_per_map`` (``ReachAvoidVectorEnv``)."""
     vec = ReachAvoidVectorEnv(scenario, num_envs=num_envs, autoreset=False, **env_kwargs)
     base = vec.base_scenario
     return LearnerVectorEnv(

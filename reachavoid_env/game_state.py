@@ -339,3 +339,62 @@ class PerCopy:
             for name, action in self.policies[k].act(states.game_state(k)).items():
                 actions[k, int(name.removeprefix(prefix))] = action
         return actions
+
+
+class PerMap:
+    """A ``BatchPolicy`` made of one ``BatchPolicy`` per map, for copies that play several
+    maps: ``factory(scenario)`` builds a map's policy the first time a copy plays it (the
+    scenario without its starts), and ``act_batch`` asks each map's policy once for all the
+    copies on that map. Each map's policy sees every copy's row (its own copy slots, as on
+    one map); the rows of copies on other maps reach it with every attacker out of the game,
+    and their actions are not taken. So each copy gets what its map's policy gives it, and a
+    batched class that matches its single policy bit for bit keeps doing so over many maps.
+    """
+
+    def __init__(self, factory: Callable[[Scenario], BatchPolicy]) -> None:
+        self.factory = factory
+        self.policies: list[BatchPolicy] = []
+        self._maps: dict[Any, int] = {}             # a map's scenario -> its policy's index
+        self._map_of = np.zeros(0, dtype=np.intp)  # copy -> its map's index (-1: not reset)
+
+    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
+        copies = np.asarray(copies, dtype=np.int64).reshape(-1)
+        if len(copies) != len(scenarios):
+            raise ValueError(f"scenarios: expected one per copy ({len(copies)}), got "
+                             f"{len(scenarios)}")
+        if len(copies):
+            self._grow(int(copies.max()) + 1)
+        for k, scenario in zip(copies.tolist(), scenarios, strict=True):
+            key = dataclasses.replace(scenario, attackers=None, defenders=None)
+            if key not in self._maps:
+                self._maps[key] = len(self.policies)
+                self.policies.append(policy := self.factory(key))
+                slots = np.arange(len(self._map_of))
+                policy.reset_copies(slots, [key] * len(slots))
+            self._map_of[k] = self._maps[key]
+            self.policies[self._map_of[k]].reset_copies(np.array([k]), [scenario])
+
+    def _grow(self, count: int) -> None:
+        """Slots for copies up to ``count``, reset on every map built so far."""
+        new = np.arange(len(self._map_of), count)
+        if not len(new):
+            return
+        self._map_of = np.concatenate([self._map_of, np.full(len(new), -1, dtype=np.intp)])
+        for key, index in self._maps.items():
+            self.policies[index].reset_copies(new, [key] * len(new))
+
+    def act_batch(self, states: BatchState) -> np.ndarray:
+        count = len(states.step)
+        maps = self._map_of[:count]
+        if len(maps) < count or (maps < 0).any():
+            raise RuntimeError("act_batch: call reset_copies for every copy first")
+        actions: np.ndarray | None = None
+        for index in np.unique(maps).tolist():
+            here = maps == index
+            status = np.where(here[:, None], states.attacker_status,
+                              AttackerStatus.CAPTURED.code).astype(np.int8)
+            acted = self.policies[index].act_batch(states._replace(attacker_status=status))
+            if actions is None:
+                actions = np.zeros_like(acted)
+            actions[here] = acted[here]
+        return actions

@@ -27,6 +27,13 @@ when ``velocities`` / ``time_left`` are on; a velocity is the player's displacem
 the last step (walls included) divided by ``dt``, zero at reset and for players out of the
 game. Size: ``7 + R + 5 (M + N - 1) + 1`` with every part on.
 
+**Nearest players** (``teammates=T, opponents=O``): the blocks of the ``T`` nearest
+teammates, then of the ``O`` nearest opponents, instead of every one in agent order: the
+players in the game first, nearest first (ties in agent order), then those out of it
+(nearest first), then zero blocks where a side has fewer. Size: ``7 + R + 5 (T + O) + 1``,
+whatever ``M`` and ``N``: a policy trained on one team size plays another (one teammate
+and one opponent are exactly an attacker's blocks in a 2 vs 1 game).
+
 **Global** (``ReachAvoid-v0``, ``egocentric=False``): ``2 + 3 (M + N)``, positions
 normalised to the domain (``-1`` at ``xmin``/``ymin``, ``+1`` at ``xmax``/``ymax``)::
 
@@ -41,6 +48,7 @@ keeps the position where it left.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -53,6 +61,8 @@ from reachavoid_env.game_state import GameState
 from reachavoid_env.lidar import Lidar, RayScene
 
 MAX_RAYS = 360
+MAX_NEAREST = 1024
+"""The most nearest teammates or opponents an observation may hold."""
 
 
 @dataclass(frozen=True)
@@ -63,6 +73,8 @@ class ObservationConfig:
     are then unused). ``lidar_rays``: rays per agent (0 to 360). ``lidar_range``: the
     longest distance a ray reports, map units (``None``: the domain's diagonal).
     ``velocities`` / ``time_left``: include the players' velocities / the time left.
+    ``teammates`` / ``opponents``: observe that many nearest teammates / opponents (module
+    docstring; both or neither; ``None``: every player, in agent order).
     """
 
     egocentric: bool = True
@@ -70,6 +82,8 @@ class ObservationConfig:
     lidar_range: float | None = None
     velocities: bool = True
     time_left: bool = True
+    teammates: int | None = None
+    opponents: int | None = None
 
     def __post_init__(self) -> None:
         for name in ("egocentric", "velocities", "time_left"):
@@ -79,6 +93,18 @@ class ObservationConfig:
         checks.integer(self.lidar_rays, "observation.lidar_rays", 0, MAX_RAYS)
         if self.lidar_range is not None:
             checks.positive(self.lidar_range, "observation.lidar_range")
+        if (self.teammates is None) != (self.opponents is None):
+            missing = "opponents" if self.opponents is None else "teammates"
+            raise ValueError(f"observation.{missing}: set teammates and opponents together "
+                             f"(every agent's observation has one size)")
+        if self.teammates is not None:
+            checks.integer(self.teammates, "observation.teammates", 0, MAX_NEAREST)
+            checks.integer(self.opponents, "observation.opponents", 0, MAX_NEAREST)
+
+    @property
+    def nearest(self) -> bool:
+        """Whether the observation holds the nearest players rather than every one."""
+        return self.teammates is not None
 
     def size(self, num_attackers: int, num_defenders: int) -> int:
         """Entries of every agent's observation in a game of these player counts."""
@@ -87,7 +113,8 @@ class ObservationConfig:
             return 2 + 3 * players
         own = 4 if self.velocities else 2
         other = 5 if self.velocities else 3
-        return own + 3 + self.lidar_rays + other * (players - 1) + int(self.time_left)
+        blocks = self.teammates + self.opponents if self.nearest else players - 1
+        return own + 3 + self.lidar_rays + other * blocks + int(self.time_left)
 
 
 GLOBAL = ObservationConfig(egocentric=False)
@@ -151,6 +178,8 @@ class Observer:
                  num_defenders: int, fastest: float, max_cycles: int) -> None:
         self.config = config
         self.size = config.size(num_attackers, num_defenders)
+        self._full = dataclasses.replace(config, teammates=None, opponents=None)
+        self._sides = (num_attackers, num_defenders)
         self.normaliser = Normaliser.of(game_map)
         self.target = game_map.target
         width, height = game_map.size
@@ -196,14 +225,46 @@ class Observer:
             distance = distances.min(axis=0)
         time_left = 1.0 - np.asarray(steps, dtype=np.float64) / self.max_cycles
         lidar = self.lidar
-        observations = np.empty((k, p, self.size), dtype=np.float32)
+        observations = np.empty((k, p, self._full.size(*self._sides)), dtype=np.float32)
         egocentric(np.ascontiguousarray(positions, dtype=np.float64),
                    np.ascontiguousarray(velocities, dtype=np.float64), active, time_left,
                    nearest - positions, distance, self.others,
                    self.normaliser.centre, self.normaliser.half, self.diagonal,
                    self.fastest, config.velocities, config.time_left,
                    *(lidar.arrays() if lidar else _NO_LIDAR), observations)
-        return observations
+        return self._nearest(observations) if config.nearest else observations
+
+    def _nearest(self, full: np.ndarray) -> np.ndarray:
+        """``(K, P, size)``: the observations ``full`` (every player's block, agent order)
+        with the nearest teammates' and opponents' blocks instead (module docstring)."""
+        config, (m, n) = self.config, self._sides
+        width = 5 if config.velocities else 3
+        start = (4 if config.velocities else 2) + 3 + config.lidar_rays
+        end = start + width * (m + n - 1)
+        blocks = full[..., start:end].reshape(*full.shape[:2], m + n - 1, width)
+        out = np.empty((*full.shape[:2], self.size), dtype=np.float32)
+        out[..., :start] = full[..., :start]
+        out[..., self.size - (full.shape[-1] - end):] = full[..., end:]
+        for rows, mates in ((slice(0, m), m - 1), (slice(m, m + n), n - 1)):
+            chosen = [nearest_blocks(blocks[:, rows, :mates], config.teammates),
+                      nearest_blocks(blocks[:, rows, mates:], config.opponents)]
+            picked = np.concatenate(chosen, axis=2)
+            out[:, rows, start:start + picked.shape[2] * width] = picked.reshape(
+                *picked.shape[:2], -1)
+        return out
+
+
+def nearest_blocks(blocks: np.ndarray, count: int) -> np.ndarray:
+    """``(K, L, count, w)``: of each row's blocks ``(K, L, G, w)`` (``dx, dy, ..., active``,
+    the egocentric layout's), the ``count`` nearest: active ones first, then by distance
+    ``hypot(dx, dy)`` (ties in the given order), zero blocks past ``G``."""
+    out = np.zeros((*blocks.shape[:2], count, blocks.shape[3]), dtype=np.float32)
+    if blocks.shape[2] and count:
+        # |dx|, |dy| <= 1 (the diagonal's fraction), so 4 puts the inactive last
+        key = np.hypot(blocks[..., 0], blocks[..., 1]) + 4.0 * (blocks[..., -1] < 0.5)
+        order = np.argsort(key, axis=2, kind="stable")[..., :count]
+        out[:, :, :order.shape[2]] = np.take_along_axis(blocks, order[..., None], axis=2)
+    return out
 
 
 _NO_LIDAR = (np.zeros((0, 2)), np.zeros((0, 4)), np.zeros((0, 0)), np.zeros((0, 3)), 1.0)

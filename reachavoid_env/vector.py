@@ -33,6 +33,15 @@ between steps; episodes that start afterwards draw their random attackers within
 distance of the target (``Scenario.starts``' ``attacker_reach``). Set, it ends the match
 with the single env; ``None`` again restores it for later episodes.
 
+**Copies per map** (a library of several maps): ``copies_per_map=g`` takes the copies ``g``
+at a time (copies ``0..g-1``, ``g..2g-1``, ...); each map a group draws serves its next ``g``
+episodes, whichever of its copies start them (the draw is made with the generator of the
+copy whose episode comes first). Every map is still drawn uniformly, and episodes on one
+map come in runs of ``g`` per group, so a scripted side with a batched class acts on the
+copies of a map in one call (``PerMap``) rather than one copy at a time. With ``g > 1`` the
+copies that take their group's map no longer match the single env; ``g = 1`` (the default)
+is the single env's draw.
+
 With ``autoreset=False`` a copy whose game ended stands still (no player moves, no reward,
 no event) until ``reset_copies`` starts its next episode; the training views use this to
 hold a learner's action over several steps without running into the next episode.
@@ -75,15 +84,17 @@ class ReachAvoidVectorEnv:
 
     Args as ``ReachAvoidEnv`` (``scenario``: a built-in, file, ``Scenario`` or library, whose
     maps must then share ``dt``, the speeds, ``capture_radius`` and ``player_radius``;
-    ``starts`` ``"random"`` by default), plus ``num_envs``, the number of copies.
+    ``starts`` ``"random"`` by default), plus ``num_envs``, the number of copies, and
+    ``copies_per_map`` (module docstring).
     """
 
     def __init__(self, scenario: ScenarioSource = "paper_2v1", num_envs: int = 1,
                  starts: str = "random", max_cycles: int | None = None, shaping: float = 0.0,
                  observation: ObservationConfig | Mapping[str, Any] | None = None,
-                 autoreset: bool = True) -> None:
+                 autoreset: bool = True, copies_per_map: int = 1) -> None:
         self.autoreset = bool(autoreset)
         self.num_envs = checks.integer(num_envs, "num_envs", 1, MAX_COPIES)
+        self.copies_per_map = checks.integer(copies_per_map, "copies_per_map", 1, MAX_COPIES)
         if starts not in STARTS:
             raise ValueError(f"starts: {starts!r} is not one of {STARTS}")
         self.scenarios = library(scenario, starts)
@@ -139,6 +150,9 @@ class ReachAvoidVectorEnv:
         self._steps = np.zeros(k, dtype=np.int64)
         self._counts = np.zeros((k, 2), dtype=np.int64)      # captured, arrived
         self._map_of = np.zeros(k, dtype=np.intp)
+        groups = -(-k // self.copies_per_map)
+        self._group_map = np.zeros(groups, dtype=np.intp)    # each group's current map
+        self._group_served = np.zeros(groups, dtype=np.int64)  # episodes it has started
         self.episode_scenarios: list[Scenario] = [self.base_scenario] * k
         self._worlds, self._observers = {}, {}
         self._running = np.zeros(k, dtype=bool)
@@ -152,7 +166,8 @@ class ReachAvoidVectorEnv:
         ``(len(copies), M + N, D)``."""
         copies = np.asarray(copies, dtype=np.intp)
         for c in copies.tolist():
-            drawn, index = draw_scenario(self.scenarios, self._generators[c])
+            index = self._draw_map(c)
+            drawn = self.scenarios[index]
             attackers, defenders = drawn.starts(self._generators[c], self._start_reach)
             self.episode_scenarios[c] = drawn.with_starts(attackers, defenders)
             self._map_of[c] = index
@@ -165,6 +180,18 @@ class ReachAvoidVectorEnv:
         self._running[copies] = True
         self._place(copies)
         return self._observations(copies)
+
+    def _draw_map(self, copy: int) -> int:
+        """The index of the map of ``copy``'s new episode: its own draw, or its group's
+        (module docstring, "Copies per map")."""
+        generator = self._generators[copy]
+        if self.copies_per_map == 1:
+            return draw_scenario(self.scenarios, generator)[1]
+        group = copy // self.copies_per_map
+        if self._group_served[group] % self.copies_per_map == 0:
+            self._group_map[group] = draw_scenario(self.scenarios, generator)[1]
+        self._group_served[group] += 1
+        return int(self._group_map[group])
 
     def _chunk(self, chunk: int) -> np.ndarray:
         """The copies whose bodies share a world (``COPIES_PER_WORLD`` consecutive ones)."""
@@ -371,5 +398,6 @@ class ReachAvoidVectorEnv:
 def vector_env(scenario: ScenarioSource = "paper_2v1", num_envs: int = 1,
                starts: str = "random", **env_kwargs: Any) -> ReachAvoidVectorEnv:
     """``num_envs`` copies of the game stepped together (``ReachAvoidVectorEnv``);
-    ``env_kwargs``: ``max_cycles``, ``shaping``, ``observation``."""
+    ``env_kwargs``: ``max_cycles``, ``shaping``, ``observation``, ``autoreset``,
+    ``copies_per_map``."""
     return ReachAvoidVectorEnv(scenario, num_envs=num_envs, starts=starts, **env_kwargs)

@@ -1,6 +1,7 @@
 """Batched defenders (policies.batch_defenders) against one single-game policy per copy
 (reachavoid_env.PerCopy): the same actions, bit for bit, over hundreds of steps of K
-random-start games played forward with those actions."""
+random-start games played forward with those actions; over several maps through
+reachavoid_env.PerMap."""
 
 import dataclasses
 
@@ -13,14 +14,15 @@ from policies.batch_defenders import BatchGreedyDefenders, BatchHJDefenders
 from policies.certificate import Basis
 from policies.defenders import GreedyDefender, HJDefenderPolicy
 from policies.registry import make_batch_policy
-from reachavoid_env import BatchState, PerCopy
+from reachavoid_env import BatchState, PerCopy, PerMap
 
 EPISODE = 400
 """Steps after which a copy starts a new game (a new random start)."""
 
 
 class Copies:
-    """K random-start games of ``scenario``; even copies' attackers take the shortest
+    """K random-start games of ``scenario`` (or of a list of maps, one drawn per game);
+    even copies' attackers take the shortest
     path, odd ones random actions; a copy whose game ends (or reaches ``EPISODE``) starts
     again, and the policies hear of it through ``reset_copies``."""
 
@@ -105,6 +107,37 @@ def test_batched_hj_plays_as_one_policy_per_copy(coarse_tubes, name, count, step
                                BatchHJDefenders(vf11, vf21, margin_cells=margin), watch)
     assert copies.games > count  # copies restarted mid-run
     assert kinds <= seen
+
+
+def test_per_map_gives_each_copy_its_maps_batched_policy(coarse_tubes):
+    """Copies restart on maps drawn from three (the paper's geometry under three names, so
+    one pair of tubes serves them): one batched policy per map, each acting for its copies
+    only and keeping each copy's state, still the single policy bit for bit."""
+    vf11, vf21 = coarse_tubes
+    paper = reachavoid_env.builtin_scenario("paper_6v2")
+    maps = [dataclasses.replace(paper, name=f"{c}_paper") for c in "abc"]
+    built = []
+
+    def factory(scenario):
+        built.append(scenario.name)
+        return BatchHJDefenders(vf11, vf21)
+
+    per_map = PerMap(factory)
+    copies = play_side_by_side(maps, 8, 250, PerCopy(lambda _: HJDefenderPolicy(vf11, vf21)),
+                               per_map)
+    assert copies.games > 8 and sorted(built) == [f"{c}_random_6v2" for c in "abc"]
+    assert len(set(per_map._map_of.tolist())) > 1   # copies on several maps at the end
+    with pytest.raises(ValueError, match="scenarios"):
+        per_map.reset_copies(np.array([0, 1]), maps[:1])
+
+
+def test_per_map_needs_every_copy_reset():
+    env = reachavoid_env.parallel_env(scenario="paper_6v2", starts="random")
+    env.reset(seed=0)
+    policy = PerMap(lambda _: BatchGreedyDefenders())
+    policy.reset_copies(np.array([1]), [env.scenario])
+    with pytest.raises(RuntimeError, match="reset_copies"):
+        policy.act_batch(BatchState.of([env.game_state()] * 2))
 
 
 def test_batched_greedy_plays_as_one_policy_per_copy():

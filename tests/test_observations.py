@@ -12,7 +12,7 @@ from lidar_reference import cast
 import reachavoid_env
 from reachavoid_env import Box, Circle, GameMap, Polygon, builtin_scenario
 from reachavoid_env.lidar import Lidar, RayScene
-from reachavoid_env.observations import ObservationConfig
+from reachavoid_env.observations import ObservationConfig, observe
 
 OPEN = GameMap(domain=(-1.0, 1.0, -1.0, 1.0), target=(Box((0.6, 0.6), (0.9, 0.9)),))
 
@@ -83,6 +83,54 @@ def test_layout_and_options():
         _env("paper_2v1", observation={"rays": 8})
     with pytest.raises(ValueError, match="observation.velocities: expected true or false"):
         ObservationConfig(velocities=1)
+
+
+def test_nearest_players_are_every_players_blocks_sorted_and_padded():
+    """``teammates`` / ``opponents``: against the full observation and the players'
+    positions (a plain reference: sort each side's players by distance, in-game first)."""
+    config = ObservationConfig(teammates=2, opponents=3)
+    env = _env("paper_6v2", observation=config)
+    assert env.observation_space("attacker_0").shape == (7 + 16 + 5 * 5 + 1,)
+    observations, _ = env.reset(seed=3)
+    rng = np.random.default_rng(0)
+    for _ in range(120):
+        state = env.game_state()
+        near = observe(state, env.scenario.map, config, env.max_cycles)
+        every = observe(state, env.scenario.map, ObservationConfig(), env.max_cycles)
+        for name in observations:
+            np.testing.assert_array_equal(observations[name], near[name])
+        positions = np.concatenate([state.attacker_positions, state.defender_positions])
+        active = np.concatenate([state.active_attackers,
+                                 np.full(2, state.active_attackers.any())])
+        for i, name in enumerate(env.possible_agents):
+            side = range(6) if i < 6 else range(6, 8)
+            mates = [k for k in side if k != i]
+            foes = [k for k in range(8) if k not in side]
+            others = mates + foes                    # the full layout's order
+            blocks = every[name][23:-1].reshape(7, 5)
+            got = near[name][23:-1].reshape(5, 5)
+            for group, count, rows in ((mates, 2, got[:2]), (foes, 3, got[2:])):
+                ranked = sorted(group, key=lambda k: (not active[k], np.hypot(
+                    *(positions[k] - positions[i]))))[:count]
+                expected = [blocks[others.index(k)] for k in ranked]
+                expected += [np.zeros(5, np.float32)] * (count - len(ranked))
+                np.testing.assert_array_equal(rows, np.array(expected))
+            np.testing.assert_array_equal(near[name][:23], every[name][:23])
+            assert near[name][-1] == every[name][-1]
+        observations, *_ = env.step({name: rng.uniform(-1, 1, 2) for name in env.agents})
+        if not env.agents:
+            break
+    assert env.game_state().step > 50
+    # one teammate and one opponent: an attacker's blocks in a 2 vs 1 game, bit for bit
+    two = _env("paper_2v1", observation={"teammates": 1, "opponents": 1})
+    obs, _ = two.reset(seed=1)
+    plain, _ = _env("paper_2v1").reset(seed=1)
+    for name in ("attacker_0", "attacker_1"):
+        np.testing.assert_array_equal(obs[name], plain[name])
+    with pytest.raises(ValueError, match="observation.opponents: set teammates and opponents"):
+        ObservationConfig(teammates=1)
+    with pytest.raises(ValueError, match="observation.teammates: must be an integer"):
+        ObservationConfig(teammates=-1, opponents=1)
 
 
 def test_velocities_and_time_left_follow_the_game():

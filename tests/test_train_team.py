@@ -405,3 +405,29 @@ def test_full_speed_actions_are_headings_in_training_and_play(tmp_path):
     recipe.FullSpeed(games).step_async(np.array([[0.3, 0.4], [0.0, 0.0], [-1.0, 1.0]]))
     np.testing.assert_allclose(games.actions, [[0.6, 0.8], [0.0, 0.0],
                                                [-0.5 ** 0.5, 0.5 ** 0.5]])
+
+
+def test_a_two_vs_one_policy_of_the_nearest_players_plays_six_vs_two(tmp_path):
+    """``--teammates 1 --opponents 1``: the model trained in 2 vs 1 stores that observation,
+    and the same flags evaluate it (and ``sb3:`` plays it) in 6 vs 2, whose full
+    observation it could not read; one flag alone is a one-line error."""
+    from policies.learned import load_sb3
+    from reachavoid_env import builtin_scenario
+
+    recipe = example("train_attacker_team")
+    nearest = ["--teammates", "1", "--opponents", "1", "--defenders", "greedy", "--no-video"]
+    recipe.main([*TINY, *nearest, "--scenario", "paper_2v1", "--teams", "learned",
+                 "--out", str(tmp_path / "two")])
+    model = tmp_path / "two" / "model.zip"
+    report = recipe.main([*TINY, *nearest, "--scenario", "paper_6v2", "--evaluate-only",
+                          str(model), "--teams", "learned,shortest-path",
+                          "--out", str(tmp_path / "six")])
+    assert report["evaluation"]["learned"]["episodes"] == 3
+    assert load_sb3(model).observation.teammates == 1
+    load_sb3(model).reset(builtin_scenario("paper_6v2"))
+    with pytest.raises(recipe.ModelError, match="^--evaluate-only: .*observes"):
+        recipe.main([*TINY, "--defenders", "greedy", "--scenario", "paper_6v2",
+                     "--evaluate-only", str(model), "--out", str(tmp_path / "full")])
+    with pytest.raises(SystemExit) as stopped:
+        recipe.main(["--teammates", "1", "--out", str(tmp_path / "refused")])
+    assert stopped.value.code == 2

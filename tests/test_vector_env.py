@@ -85,6 +85,33 @@ def test_copies_on_a_library_of_maps_in_several_worlds(monkeypatch):
     assert _play_side_by_side(library, copies=8, steps=150, seed=2) >= 8
 
 
+def test_copies_per_map_play_each_drawn_map_in_runs():
+    """With ``copies_per_map=3`` each map a group of three copies draws serves its next three
+    episodes; every copy still plays its own random starts."""
+    library = [replace(CROWDED, name=f"{c}_crowded", max_steps=30 + i)
+               for i, c in enumerate("abcde")]
+    vec = vector_env(library, num_envs=6, copies_per_map=3)
+    vec.reset(seed=4)
+    played = [[vec.episode_scenarios[c].max_steps for c in range(6)]]
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        _, _, _, _, infos = vec.step({name: rng.uniform(-1, 1, (6, 2))
+                                      for name in vec.possible_agents})
+        for c in np.flatnonzero(infos["episode_over"]).tolist():
+            played.append([c, vec.episode_scenarios[c].max_steps])
+    assert played[0][:3] == [played[0][0]] * 3 and played[0][3:] == [played[0][3]] * 3
+    for group in (0, 1):                       # per group: maps in runs of 3 episodes
+        maps = played[0][3 * group:3 * group + 3] + [m for c, m in played[1:]
+                                                     if c // 3 == group]
+        runs = [maps[i:i + 3] for i in range(0, len(maps) - 2, 3)]
+        assert len(runs) >= 5 and all(len(set(run)) == 1 for run in runs)
+        assert len({run[0] for run in runs}) > 1
+    starts = vec.episode_scenarios[0].attackers, vec.episode_scenarios[1].attackers
+    assert starts[0] != starts[1]
+    with pytest.raises(ValueError, match="copies_per_map"):
+        vector_env(library, num_envs=6, copies_per_map=0)
+
+
 def test_spaces_and_shapes():
     vec = vector_env("paper_8v4", num_envs=5)
     observations, infos = vec.reset(seed=0)
