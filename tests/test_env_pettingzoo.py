@@ -45,6 +45,16 @@ def test_parallel_api(scenario):
     checked(parallel_api_test, reachavoid_env.parallel_env(scenario=scenario), num_cycles=400)
 
 
+def test_parallel_api_with_the_nearest_players():
+    """The nearest-players observation (fewer teammates than a side has, more opponents):
+    spaces and observations still agree as players leave."""
+    env = reachavoid_env.parallel_env(scenario=SCENARIOS["crowded_4v3"],
+                                      observation={"teammates": 2, "opponents": 5})
+    checked(parallel_api_test, env, num_cycles=400)
+    checked(seed_test, partial(reachavoid_env.env, scenario=SCENARIOS["crowded_4v3"],
+                               observation={"teammates": 1, "opponents": 1}))
+
+
 def test_aec_api(scenario):
     checked(api_test, reachavoid_env.env(scenario=scenario, max_cycles=150), num_cycles=150)
 
