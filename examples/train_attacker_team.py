@@ -16,9 +16,14 @@ library (a folder of ``reachavoid maps``, its ``index.toml``) draws one of its m
 episode, and ``--evaluate-on LIBRARY`` evaluates on other maps (held-out ones) than those
 trained on. Each attacker sees the env's default observation (``reachavoid_env.observations``,
 v1: egocentric, with the target, lidar rays to the walls and the other players relative
-to it), so a policy can carry over to maps it was not trained on. Training runs
+to it), so a policy can carry over to maps it was not trained on; with ``--teammates T
+--opponents O`` it sees the T nearest teammates and O nearest defenders instead of every
+player, one observation size for any team sizes, so it can carry over to another game
+(a 2 vs 1 team trained with ``--teammates 1 --opponents 1`` plays 6 vs 2). Training runs
 on the vector env (``policies.training.make_attackers_vector_env``, ``--copies`` games
-stepped together, the defenders acting on every copy in one call; ``--supersuit``: the
+stepped together, the defenders acting on every copy in one call; over a map library with
+``--copies-per-map G`` the copies take their maps G at a time, so each map's defenders act
+on its copies in one call; ``--supersuit``: the
 attacker-only env through SuperSuit's chain, ``reachavoid_env.integrations.supersuit``):
 one vector slot per attacker and game copy, all slots one policy: 16 copies by default
 (the measured runs of ``BENCHMARKS.md``); fewer leave the vector env little to batch.
@@ -74,8 +79,9 @@ say, to compare fine-tuning settings from one clone; its network is kept).
 ``--episodes`` starts ``reset(seed=k)``, k = F, F + 1, ... (F: ``--first-seed``, default 0;
 a later F gives fresh starts to confirm a result), of the attacker-only env against
 the same defenders, without shaping; each team decides at its own rate (the learned one
-every ``--action-repeat`` game steps, its actions scaled with ``--full-speed``: give
-``--evaluate-only`` the flags the model was trained with; the scripted ``shortest-path`` and
+every ``--action-repeat`` game steps, its actions scaled with ``--full-speed``, seeing the
+players ``--teammates`` / ``--opponents`` name: give ``--evaluate-only`` the flags the
+model was trained with; the scripted ``shortest-path`` and
 ``random`` teams of ``policies.registry``, and the ``--imitate-from`` team, every game
 step; ``--teams`` takes any of ``policies.registry.ATTACKERS``). Per team: the arrival rate
 (the mean over episodes of the fraction of attackers that arrive) and the mean number
