@@ -292,6 +292,21 @@ class BatchPolicy(Protocol):
     def act_batch(self, states: BatchState) -> np.ndarray: ...
 
 
+def checked_copies(copies: np.ndarray, scenarios: Sequence[Scenario]) -> np.ndarray:
+    """``copies`` of ``BatchPolicy.reset_copies`` as an int array, checked to have one
+    scenario each."""
+    copies = np.asarray(copies, dtype=np.int64).reshape(-1)
+    if len(copies) != len(scenarios):
+        raise ValueError(f"scenarios: expected one per copy ({len(copies)}), got "
+                         f"{len(scenarios)}")
+    return copies
+
+
+def map_key(scenario: Scenario) -> Scenario:
+    """``scenario`` without its starts: what a policy built for a map depends on."""
+    return dataclasses.replace(scenario, attackers=None, defenders=None)
+
+
 class PerCopy:
     """A ``BatchPolicy`` made of one ordinary ``Policy`` per copy: ``factory(scenario)``
     builds copy ``k``'s policy for each map it plays (kept for later episodes on that
@@ -311,16 +326,13 @@ class PerCopy:
         self._built: list[dict[Any, Policy]] = []
 
     def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
-        copies = np.asarray(copies, dtype=np.int64).reshape(-1)
-        if len(copies) != len(scenarios):
-            raise ValueError(f"scenarios: expected one per copy ({len(copies)}), got "
-                             f"{len(scenarios)}")
+        copies = checked_copies(copies, scenarios)
         if len(copies):
             grow = int(copies.max()) + 1 - len(self.policies)
             self.policies += [None] * max(grow, 0)
             self._built += [{} for _ in range(max(grow, 0))]
         for k, scenario in zip(copies.tolist(), scenarios, strict=True):
-            key = dataclasses.replace(scenario, attackers=None, defenders=None)
+            key = map_key(scenario)
             built = self._built[k]
             if key not in built:
                 built[key] = self.factory(key)
@@ -358,14 +370,11 @@ class PerMap:
         self._map_of = np.zeros(0, dtype=np.intp)  # copy -> its map's index (-1: not reset)
 
     def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
-        copies = np.asarray(copies, dtype=np.int64).reshape(-1)
-        if len(copies) != len(scenarios):
-            raise ValueError(f"scenarios: expected one per copy ({len(copies)}), got "
-                             f"{len(scenarios)}")
+        copies = checked_copies(copies, scenarios)
         if len(copies):
             self._grow(int(copies.max()) + 1)
         for k, scenario in zip(copies.tolist(), scenarios, strict=True):
-            key = dataclasses.replace(scenario, attackers=None, defenders=None)
+            key = map_key(scenario)
             if key not in self._maps:
                 self._maps[key] = len(self.policies)
                 self.policies.append(policy := self.factory(key))
