@@ -858,6 +858,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         "defenders": args.defenders,
         "grids": [args.grid1, args.grid2] if args.defenders == "hj" else None,
         **reward_options(args), "full_speed": args.full_speed, "seed": args.seed,
+        "teammates": args.teammates, "opponents": args.opponents,
     }
     model: PPO | None = None
     if args.evaluate_only is not None:
