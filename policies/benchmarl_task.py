@@ -32,7 +32,7 @@ from reachavoid_env.integrations.benchmarl import VectorGroupClass
 from reachavoid_env.vector_views import LearnerVectorEnv
 
 CONFIG_KEYS = ("scenario", "defenders", "defender_options", "starts", "max_cycles",
-               "shaping", "action_repeat", "timeout_reward", "observation")
+               "shaping", "action_repeat", "timeout_reward", "observation", "copies_per_map")
 """The keywords of ``make_attackers_vector_env`` a task config may hold."""
 
 
