@@ -178,8 +178,9 @@ class Observer:
                  num_defenders: int, fastest: float, max_cycles: int) -> None:
         self.config = config
         self.size = config.size(num_attackers, num_defenders)
-        self._full = dataclasses.replace(config, teammates=None, opponents=None)
         self._sides = (num_attackers, num_defenders)
+        self._full_size = dataclasses.replace(config, teammates=None, opponents=None).size(
+            num_attackers, num_defenders)     # every player's block, before the nearest
         self.normaliser = Normaliser.of(game_map)
         self.target = game_map.target
         width, height = game_map.size
@@ -225,7 +226,7 @@ class Observer:
             distance = distances.min(axis=0)
         time_left = 1.0 - np.asarray(steps, dtype=np.float64) / self.max_cycles
         lidar = self.lidar
-        observations = np.empty((k, p, self._full.size(*self._sides)), dtype=np.float32)
+        observations = np.empty((k, p, self._full_size), dtype=np.float32)
         egocentric(np.ascontiguousarray(positions, dtype=np.float64),
                    np.ascontiguousarray(velocities, dtype=np.float64), active, time_left,
                    nearest - positions, distance, self.others,
