@@ -55,6 +55,7 @@ from policies.steering import steer
 from policies.strategy import CERTIFICATE_CELLS, check_margin_cells
 from policies.tubes import check_tube, tube_1v1, tube_2v1
 from reachavoid_env import BatchState, Scenario
+from reachavoid_env.game_state import checked_copies
 from solvers import open_space
 from solvers.assignment import AssignmentSolver
 from solvers.hj import PAPER_GRIDS, ValueFunction
@@ -132,10 +133,7 @@ class BatchHJDefenders:
         return self.margin_cells > 0.0
 
     def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
-        copies = np.asarray(copies, dtype=np.int64).reshape(-1)
-        if len(copies) != len(scenarios):
-            raise ValueError(f"scenarios: expected one per copy ({len(copies)}), got "
-                             f"{len(scenarios)}")
+        copies = checked_copies(copies, scenarios)
         for k, scenario in zip(copies.tolist(), scenarios, strict=True):
             self._prepare(scenario)
             self._copies += [None] * (k + 1 - len(self._copies))
