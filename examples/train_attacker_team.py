@@ -69,6 +69,12 @@ episodes start every attacker within D map units of the target, and the reach gr
 linearly to the map's diagonal over the first ``--easy-fraction`` (default 0.5) of the
 training (of ``--timesteps``, or of ``--max-minutes`` when that share is larger); then
 anywhere (``policies.training.StartCurriculum``, set before every rollout).
+**Self-play with past policies** (``--past-selves POOL``, vector env only): one attacker
+per copy learns and its teammates play frozen snapshots of the learner
+(``policies.self_play.PastSelves``): the policy PPO starts from, then one taken after every
+rollout; each episode draws one of the newest POOL for all the teammates of its copy
+(deterministic actions, held ``--action-repeat`` steps, headings with ``--full-speed``).
+An agent step is then one game decision of the learner, not one per attacker.
 ``--init MODEL`` starts PPO from a saved policy instead (an earlier run's ``cloned.zip``,
 say, to compare fine-tuning settings from one clone; its network is kept).
 ``--net-arch 256,256`` sets the hidden layers of the policy and value networks (SB3's
@@ -104,6 +110,7 @@ first evaluation start). Ctrl-C stops cleanly and leaves no half-written file.
 from __future__ import annotations
 
 import argparse
+import copy
 import functools
 import math
 import sys
@@ -125,9 +132,11 @@ from policies.learned import (
     DEFAULT_OBSERVATION,
     TRAINING_ATTRIBUTE,
     ObservationPolicy,
+    Predict,
     training_record,
 )
 from policies.registry import ATTACKERS, PolicySpec
+from policies.self_play import PastSelves
 from policies.training import (
     StartCurriculum,
     add_curriculum_arguments,
@@ -135,6 +144,7 @@ from policies.training import (
     add_reward_arguments,
     defender_factory,
     defender_options,
+    make_attacker_vector_env,
     make_attackers_parallel_env,
     make_attackers_vector_env,
     reward_options,
@@ -214,6 +224,11 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                              "2 vs 1 policy (--teammates 1 --opponents 1) plays 6 vs 2")
     parser.add_argument("--opponents", type=int, default=None, metavar="O",
                         help="observe the O nearest opponents (with --teammates)")
+    parser.add_argument("--past-selves", type=int, default=0, metavar="POOL",
+                        help="self-play with past policies: one attacker per copy learns, its "
+                             "teammates play snapshots of the learner (one taken after every "
+                             "rollout; each episode draws one of the newest POOL); 0: every "
+                             "attacker learns (default: %(default)s)")
     parser.add_argument("--full-speed", action="store_true",
                         help="the policy's actions are headings: each is scaled to length 1, "
                              "in training and in play")
@@ -270,6 +285,13 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         parser.error("--copies-per-map: needs the vector env (drop --supersuit)")
     if args.curriculum is not None and args.supersuit:
         parser.error("--easy-starts: needs the vector env (drop --supersuit)")
+    if args.past_selves < 0:
+        parser.error("--past-selves: must be a non-negative integer")
+    if args.past_selves and args.supersuit:
+        parser.error("--past-selves: needs the vector env (drop --supersuit)")
+    if args.past_selves and args.team_reward:
+        parser.error("--past-selves: one attacker per copy learns, so there is no team "
+                     "reward among learners (drop --team-reward)")
     if args.dagger_epochs is None:
         args.dagger_epochs = args.imitate_epochs
     for name in ("dagger_steps", "dagger_epochs"):
@@ -634,12 +656,20 @@ def clone(args: argparse.Namespace, maps: Maps, model: PPO) -> dict[str, Any]:
 
 # ---- training ---------------------------------------------------------------------------
 
-def training_envs(args: argparse.Namespace, maps: Maps) -> Any:
+def training_envs(args: argparse.Namespace, maps: Maps,
+                  past_selves: PastSelves | None = None) -> Any:
     """The SB3 ``VecEnv`` of ``--copies`` games: the vector env (one slot per attacker and
-    copy, the defenders acting on every copy in one call), or SuperSuit's chain over the
-    attacker-only env with ``--supersuit``."""
+    copy, the defenders acting on every copy in one call; with ``past_selves``, one slot
+    per copy, its teammates played by them), or SuperSuit's chain over the attacker-only
+    env with ``--supersuit``."""
     if args.supersuit:
         envs = supersuit_vec_env(game(args, maps, **reward_options(args)), copies=args.copies)
+    elif past_selves is not None:
+        envs = VecMonitor(sb3_vec_env(make_attacker_vector_env(
+            maps, defenders=args.defenders, teammates=past_selves, num_envs=args.copies,
+            copies_per_map=args.copies_per_map, defender_options=defender_options(args),
+            observation=args.observation,
+            **{k: v for k, v in reward_options(args).items() if k != "team_reward"})))
     else:
         envs = VecMonitor(sb3_vec_env(make_attackers_vector_env(
             maps, defenders=args.defenders, num_envs=args.copies,
@@ -665,7 +695,9 @@ def train(args: argparse.Namespace, maps: Maps,
           ) -> tuple[PPO, TrainingCurve, dict[str, Any] | None]:
     """PPO on the training env, from the cloned script with ``--imitate-steps``; returns the
     model, its curve and what the cloning did (None without it)."""
-    envs = training_envs(args, maps)
+    past_selves = None if not args.past_selves else PastSelves(
+        args.observation, args.past_selves, args.action_repeat, args.full_speed, args.seed)
+    envs = training_envs(args, maps, past_selves)
     settings = {"n_steps": args.n_steps, "batch_size": args.batch_size,
                 "learning_rate": args.learning_rate, "clip_range": args.clip_range,
                 "ent_coef": args.ent_coef, "seed": args.seed}
@@ -686,13 +718,38 @@ def train(args: argparse.Namespace, maps: Maps,
             cloning = clone(args, maps, model)
             with atomic_write(args.out / "cloned.zip", "wb") as handle:
                 model.save(handle)
+        snapshots = None
+        if past_selves is not None:
+            snapshots = PastSelfSnapshots(past_selves)
+            past_selves.add(frozen(model))
         if args.timesteps:
             model.learn(args.timesteps, callback=CallbackList(
-                [c for c in (easy_starts, curve) if c is not None]),
+                [c for c in (easy_starts, curve, snapshots) if c is not None]),
                 progress_bar=sys.stderr.isatty())
     finally:
         envs.close()
     return model, curve, cloning
+
+
+def frozen(model: PPO) -> Predict:
+    """A snapshot of ``model``'s policy now: its deterministic action of observations."""
+    policy = copy.deepcopy(model.policy)
+    policy.set_training_mode(False)
+    return lambda batch: policy.predict(batch, deterministic=True)[0]
+
+
+class PastSelfSnapshots(BaseCallback):
+    """``--past-selves``: a snapshot of the learner into the pool after every rollout."""
+
+    def __init__(self, past_selves: PastSelves) -> None:
+        super().__init__()
+        self.past_selves = past_selves
+
+    def _on_rollout_end(self) -> None:
+        self.past_selves.add(frozen(self.model))
+
+    def _on_step(self) -> bool:
+        return True
 
 
 def plot_curve(rows: list[dict[str, float]], path: Path, title: str) -> None:
@@ -871,7 +928,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
             scenario=args.scenario))
         with atomic_write(args.out / "model.zip", "wb") as handle:
             model.save(handle)
-        game_steps = model.num_timesteps // maps[0].num_attackers * args.action_repeat
+        learners = 1 if args.past_selves else maps[0].num_attackers
+        game_steps = model.num_timesteps // learners * args.action_repeat
         seconds = curve.seconds
         report["training"] = {
             "agent_steps": model.num_timesteps, "game_steps": game_steps,
@@ -884,6 +942,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
             "ent_coef": args.ent_coef, "net_arch": model.policy_kwargs.get("net_arch"),
             "init": None if args.init is None else str(args.init),
             "easy_starts": args.easy_starts, "easy_fraction": args.easy_fraction,
+            "past_selves": args.past_selves,
             "stopped_by_time": model.num_timesteps < args.timesteps}
         if cloning is not None:
             report["imitation"] = cloning

@@ -431,3 +431,23 @@ def test_a_two_vs_one_policy_of_the_nearest_players_plays_six_vs_two(tmp_path):
     with pytest.raises(SystemExit) as stopped:
         recipe.main(["--teammates", "1", "--out", str(tmp_path / "refused")])
     assert stopped.value.code == 2
+
+
+def test_past_selves_train_one_attacker_per_copy(tmp_path, capsys):
+    """``--past-selves POOL``: one slot per copy (agent steps are game decisions), the
+    teammates played by snapshots; it needs the vector env and no team reward."""
+    recipe = example("train_attacker_team")
+    report = recipe.main([*TINY, "--copies", "2", "--past-selves", "2", "--teams", "learned",
+                          "--no-video", "--out", str(tmp_path / "run")])
+    training = report["training"]
+    assert training["past_selves"] == 2
+    assert training["game_steps"] == training["agent_steps"] * report["action_repeat"]
+    for argv in (["--past-selves", "-1"], ["--past-selves", "2", "--supersuit"],
+                 ["--past-selves", "2", "--team-reward", "0.5"]):
+        with pytest.raises(SystemExit) as stopped:
+            recipe.main([*argv, "--out", str(tmp_path / "refused")])
+        assert stopped.value.code == 2
+    errors = capsys.readouterr().err
+    assert "--past-selves: must be a non-negative integer" in errors
+    assert "--past-selves: needs the vector env" in errors
+    assert "--past-selves: one attacker per copy learns" in errors
