@@ -148,6 +148,7 @@ from policies.training import (
     make_attackers_parallel_env,
     make_attackers_vector_env,
     reward_options,
+    scenario_argument,
     start_curriculum,
 )
 from reachavoid.evaluation import bootstrap_interval, write_csv
@@ -255,6 +256,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="video width in pixels (default: %(default)s)")
     parser.add_argument("--no-video", action="store_true", help="skip the video")
     parser.add_argument("--evaluate-on", default=None, metavar="SCENARIO|LIBRARY",
+                        type=scenario_argument(library=True),
                         help="evaluate on these maps (held-out ones: a map library) instead "
                              "of --scenario's")
     parser.add_argument("--init", type=Path, default=None, metavar="MODEL",
@@ -289,6 +291,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         parser.error("--past-selves: must be a non-negative integer")
     if args.past_selves and args.supersuit:
         parser.error("--past-selves: needs the vector env (drop --supersuit)")
+    if args.past_selves and load_library(args.scenario)[0].num_attackers < 2:
+        parser.error("--past-selves: needs teammates (a game of two or more attackers)")
     if args.past_selves and args.team_reward:
         parser.error("--past-selves: one attacker per copy learns, so there is no team "
                      "reward among learners (drop --team-reward)")

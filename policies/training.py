@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import argparse
 import functools
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -50,8 +50,8 @@ import pettingzoo
 from policies.registry import DEFENDERS, PolicySpec, make_batch_policy
 from reachavoid_env import checks
 from reachavoid_env.game_state import BatchPolicy, PerCopy, PerMap
-from reachavoid_env.maps import ScenarioSource
-from reachavoid_env.scenario import builtin_names
+from reachavoid_env.maps import ScenarioSource, load_library
+from reachavoid_env.scenario import builtin_names, load_scenario
 from reachavoid_env.vector import ReachAvoidVectorEnv
 from reachavoid_env.vector_views import LearnerVectorEnv
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
@@ -70,12 +70,25 @@ def attacker_factory(name: str = "shortest-path", **options: Any) -> PolicySpec:
     return PolicySpec.of("attackers", name, **options)
 
 
+def scenario_argument(library: bool = False) -> Callable[[str], str]:
+    """An argparse ``type`` that checks a scenario (with ``library``, a map library too)
+    loads and keeps its name: a bad one is argparse's one-line error, exit status 2."""
+    def checked(source: str) -> str:
+        try:
+            (load_library if library else load_scenario)(source)
+        except (checks.FieldError, OSError, ValueError) as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+        return source
+    checked.__name__ = "scenario"
+    return checked
+
+
 def add_defender_arguments(parser: argparse.ArgumentParser, scenario: str = "paper_6v2",
                            defenders: str = "hj", library: bool = False) -> None:
     """The training scripts' ``--scenario`` (a map library too when the script takes one:
-    ``library``), ``--defenders``, ``--grid1`` and ``--grid2`` (coarse tubes by default, so a
-    run starts in seconds; ``defender_options`` reads them)."""
-    parser.add_argument("--scenario", default=scenario,
+    ``library``; checked to load), ``--defenders``, ``--grid1`` and ``--grid2`` (coarse tubes
+    by default, so a run starts in seconds; ``defender_options`` reads them)."""
+    parser.add_argument("--scenario", default=scenario, type=scenario_argument(library),
                         help="built-in name, TOML file or map library (folder or index.toml)"
                         if library else "built-in name or TOML file")
     parser.add_argument("--defenders", default=defenders, choices=DEFENDERS,

@@ -443,7 +443,8 @@ def test_past_selves_train_one_attacker_per_copy(tmp_path, capsys):
     assert training["past_selves"] == 2
     assert training["game_steps"] == training["agent_steps"] * report["action_repeat"]
     for argv in (["--past-selves", "-1"], ["--past-selves", "2", "--supersuit"],
-                 ["--past-selves", "2", "--team-reward", "0.5"]):
+                 ["--past-selves", "2", "--team-reward", "0.5"],
+                 ["--past-selves", "2", "--scenario", "paper_1v1"]):
         with pytest.raises(SystemExit) as stopped:
             recipe.main([*argv, "--out", str(tmp_path / "refused")])
         assert stopped.value.code == 2
@@ -451,3 +452,14 @@ def test_past_selves_train_one_attacker_per_copy(tmp_path, capsys):
     assert "--past-selves: must be a non-negative integer" in errors
     assert "--past-selves: needs the vector env" in errors
     assert "--past-selves: one attacker per copy learns" in errors
+    assert "--past-selves: needs teammates" in errors
+
+
+def test_a_scenario_that_does_not_load_is_a_one_line_error(tmp_path, capsys):
+    recipe = example("train_attacker_team")
+    for flag in ("--scenario", "--evaluate-on"):
+        with pytest.raises(SystemExit) as stopped:
+            recipe.main([flag, str(tmp_path / "missing"), "--out", str(tmp_path / "out")])
+        assert stopped.value.code == 2
+        assert f"argument {flag}: scenario: no such file" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
