@@ -111,11 +111,18 @@ def test_bad_arguments_exit_2(tmp_path, capsys):
     for argv in (["--evaluate-only", str(tmp_path / "missing.zip")], ["--teams", "learnt"],
                  ["--episodes", "0"], ["--first-seed", "-1"], ["--easy-starts", "0"],
                  ["--easy-starts", "0.3", "--easy-fraction", "2"],
-                 ["--easy-starts", "0.3", "--supersuit"]):
+                 ["--easy-starts", "0.3", "--supersuit"], ["--past-selves", "-1"],
+                 ["--past-selves", "2", "--supersuit"],
+                 ["--past-selves", "2", "--team-reward", "0.5"],
+                 ["--past-selves", "2", "--scenario", "paper_1v1"]):
         with pytest.raises(SystemExit) as stopped:
             recipe.main([*argv, "--out", str(tmp_path)])
         assert stopped.value.code == 2
     errors = capsys.readouterr().err
+    assert "--past-selves: must be a non-negative integer" in errors
+    assert "--past-selves: needs the vector env" in errors
+    assert "--past-selves: one attacker per copy learns" in errors
+    assert "--past-selves: needs teammates" in errors
     assert "--teams: unknown team 'learnt'" in errors
     assert "--easy-starts: must be > 0, got 0.0" in errors
     assert "--easy-fraction: must be in (0, 1], got 2.0" in errors
@@ -433,26 +440,15 @@ def test_a_two_vs_one_policy_of_the_nearest_players_plays_six_vs_two(tmp_path):
     assert stopped.value.code == 2
 
 
-def test_past_selves_train_one_attacker_per_copy(tmp_path, capsys):
+def test_past_selves_train_one_attacker_per_copy(tmp_path):
     """``--past-selves POOL``: one slot per copy (agent steps are game decisions), the
-    teammates played by snapshots; it needs the vector env and no team reward."""
+    teammates played by snapshots (its refusals: ``test_bad_arguments_exit_2``)."""
     recipe = example("train_attacker_team")
     report = recipe.main([*TINY, "--copies", "2", "--past-selves", "2", "--teams", "learned",
                           "--no-video", "--out", str(tmp_path / "run")])
     training = report["training"]
     assert training["past_selves"] == 2
     assert training["game_steps"] == training["agent_steps"] * report["action_repeat"]
-    for argv in (["--past-selves", "-1"], ["--past-selves", "2", "--supersuit"],
-                 ["--past-selves", "2", "--team-reward", "0.5"],
-                 ["--past-selves", "2", "--scenario", "paper_1v1"]):
-        with pytest.raises(SystemExit) as stopped:
-            recipe.main([*argv, "--out", str(tmp_path / "refused")])
-        assert stopped.value.code == 2
-    errors = capsys.readouterr().err
-    assert "--past-selves: must be a non-negative integer" in errors
-    assert "--past-selves: needs the vector env" in errors
-    assert "--past-selves: one attacker per copy learns" in errors
-    assert "--past-selves: needs teammates" in errors
 
 
 def test_a_scenario_that_does_not_load_is_a_one_line_error(tmp_path, capsys):
