@@ -29,7 +29,7 @@ from policies.geodesic import DistanceField, distance_field
 from policies.intercept import Plan, plan_intercepts, race_all
 from policies.intercept import headings as intercept_headings
 from policies.lookups import DecisionTables, TubeArrays, decision_controls, decision_tables
-from policies.steering import steer
+from policies.steering import pair_keepers, steer
 from policies.strategy import Program, Strategy
 from policies.tube_states import control_headings, pair_states, team_states, team_values
 from policies.tubes import check_tube
@@ -78,9 +78,12 @@ class AssignmentDefender:
     **The spare defenders** (``policies.strategy.Spare``). ``INTERCEPT``: the plan
     proposes, the certificate filters. One ``policies.intercept.plan_intercepts`` plan of
     the whole team each step; every defender outside the certified games (with
-    ``margin_cells=0`` every game of the assignment is one) plays it, and the defender of
-    a certified 1 vs 1 game plays it as far as the value allows (``policies.steering``);
-    certified pairs and teams keep their optimal controls. The others: every assigned
+    ``margin_cells=0`` every game of the assignment is one) plays it, but for the defender
+    of a pair game whom the plan sends after one of its pair, which keeps the pair's
+    optimal control (``policies.steering.pair_keepers``: a pair that splits beats the
+    plan); the defender of a certified 1 vs 1 game plays the plan as far as the value
+    allows (``policies.steering.steer``); certified pairs and teams keep their optimal
+    controls. The others: every assigned
     defender plays its game's optimal control and the unassigned ones the attacker
     ``Spare.targets`` gives them.
     """
@@ -98,6 +101,7 @@ class AssignmentDefender:
         self._nominal_solver = strategy.program.solver()
         self._decision: Decision | None = None
         self._certified: list[Match] = []
+        self._played: list[Match] = []
         self._nominal: int | None = None
         self._plan: Plan | None = None
         self._field: DistanceField | None = None
@@ -122,7 +126,7 @@ class AssignmentDefender:
         self.solver.reset()
         self._nominal_solver.reset()
         self._decision = self._nominal = self._plan = None
-        self._certified = []
+        self._certified, self._played = [], []
         self._dt = scenario.dt
         self._open = OpenSpace.of(scenario) if self.strategy.certifies else None
         self._previous = None
@@ -140,6 +144,13 @@ class AssignmentDefender:
     def certified_games(self) -> list[Match]:
         """The games of the last decision that are certified (``policies.certificate``)."""
         return list(self._certified)
+
+    @property
+    def played_games(self) -> list[Match]:
+        """The games of the last decision played by their own controls: the certified
+        games and, with the intercept plan, the pair games whose defender keeps the pair's
+        control (``policies.steering.pair_keepers``)."""
+        return list(self._played)
 
     @property
     def guaranteed_captures(self) -> int | None:
@@ -176,12 +187,13 @@ class AssignmentDefender:
         return None if self._decision is None else self._decision.assignment
 
     def overlay(self) -> Overlay:
-        """The games played (the certified ones with the intercept plan, else the
-        assignment's) and the races along their ways (``policies.drawing``)."""
+        """The games played (with the intercept plan the certified ones and the pair games
+        whose defender keeps the pair's control, else the assignment's) and the races
+        along their ways (``policies.drawing``)."""
         decision = self._decision
         if decision is None:
             return Overlay()
-        games = self._certified if self.strategy.plans else games_of(decision.assignment)
+        games = self._played if self.strategy.plans else games_of(decision.assignment)
         line = (f"guaranteed: {self.guaranteed_captures} of "
                 f"{int(decision.state.active_attackers.sum())}, "
                 f"program's count: {self.nominal_captures}")
@@ -191,12 +203,12 @@ class AssignmentDefender:
         return drawing.overlay(games, races, line, ways)
 
     def _races(self) -> tuple[tuple[int, int], ...]:
-        """``(attacker, defender)``: the plan's race of every defender outside the
-        certified games (none without the plan)."""
+        """``(attacker, defender)``: the plan's race of every defender outside the games
+        played (none without the plan)."""
         if self._plan is None:
             return ()
         free = np.ones(len(self._plan.targets), dtype=bool)
-        free[[j for game in self._certified for j in game.defenders]] = False
+        free[[j for game in self._played for j in game.defenders]] = False
         return tuple((int(self._plan.targets[j]), int(j)) for j in np.flatnonzero(free)
                      if self._plan.targets[j] >= 0)
 
@@ -211,7 +223,7 @@ class AssignmentDefender:
         self._nominal = None
         if not state.active_attackers.any():
             self._decision = self._plan = None
-            self._certified = []
+            self._certified, self._played = [], []
             self._previous = None
             return dict(zip(names, actions, strict=True))
         decision = self._decision = self._decide(state)
@@ -317,15 +329,22 @@ class AssignmentDefender:
     def _play_plan(self, state: GameState, actions: np.ndarray) -> None:
         """Every defender outside a certified game plays the intercept plan of the whole
         team (``policies.intercept.plan_intercepts``: every defender, every active
-        attacker); a certified 1 vs 1 tube game's defender plays it as far as the
-        certificate allows (``policies.steering.steer``); the other certified games keep
-        their optimal controls (open-space games are played by ``_play_open``)."""
+        attacker), except the defender of a pair game whom the plan sends after one of
+        its pair: it keeps the pair's optimal control (``policies.steering.pair_keepers``);
+        a certified 1 vs 1 tube game's defender plays it as far as the certificate allows
+        (``policies.steering.steer``); the other certified games keep their optimal
+        controls (open-space games are played by ``_play_open``)."""
         plan = self._plan = plan_intercepts(race_all(self._field, state),
                                             np.ones(len(actions), dtype=bool),
                                             state.active_attackers)
         desired = intercept_headings(plan, state.defender_positions, state.attacker_positions)
         free = np.ones(len(actions), dtype=bool)
         free[[j for game in self._certified for j in game.defenders]] = False
+        doubles = roles_of(self._decision.assignment).doubles
+        keepers = pair_keepers(doubles, plan.targets, ~free)
+        self._played = self._certified + [
+            Match((int(j),), (int(i), int(k))) for i, k, j in doubles.tolist() if j in keepers]
+        free[keepers] = False
         actions[free] = desired[free]
         games = [game for game in self._certified if game.basis is Basis.TUBE
                  and len(game.defenders) == 1 and len(game.attackers) == 1]

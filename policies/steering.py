@@ -1,9 +1,11 @@
-"""Steering within a certificate: how far a certified 1 vs 1 game's defender may take the
-heading the intercept plan proposes (the certificate filters, the plan proposes).
+"""Where the intercept plan's headings reach into the games (the plan proposes, the
+games filter): how far a certified 1 vs 1 game's defender may take the heading the plan
+proposes (``steer``), and which defenders of the program's pair games keep the pair's
+optimal control instead (``pair_keepers``).
 
-``steer`` is the one rule, used by ``policies.assignment_defender`` for one game and by
-``policies.batch_defenders`` for the certified games of K copies at once (same arrays
-row by row, so both give the same bits).
+Each is the one rule, used by ``policies.assignment_defender`` for one game and by
+``policies.batch_defenders`` for the games of K copies at once (same arrays row by row,
+so both give the same bits).
 """
 
 from __future__ import annotations
@@ -100,3 +102,31 @@ def held_one_step(vf11: ValueFunction, attackers: np.ndarray, defenders: np.ndar
     states = np.concatenate([a, np.broadcast_to(d[:, None, :], a.shape)], axis=-1)
     after = vf11.value(states.reshape(-1, 4)).reshape(len(attackers), -1)
     return after.min(axis=1) > margin
+
+
+def pair_keepers(doubles: np.ndarray, targets: np.ndarray, busy: np.ndarray) -> np.ndarray:
+    """The defenders of the program's pair games that play the pair's 2 vs 1 optimal
+    control rather than the plan's heading.
+
+    A pair game the program plays (one defender against two attackers, every value of it
+    > 0) is seldom certified: its 2 vs 1 value lies within a grid cell of 0 nearly
+    everywhere. The plan races one attacker at a time, and a pair that splits beats it:
+    the pair's value falls below 0 within a second and the game is lost (docs/
+    defenders.md, "Why hj lost to attackers that split"). So the defender of a pair game
+    keeps the 2 vs 1 optimal control while the plan sends it after one of the pair; where
+    the plan sends it after a third attacker, the team's plan rules (in 6 vs 2 that is
+    what captures more).
+
+    Args:
+        doubles: ``(D, 3)`` int rows ``(first, second, defender)`` of the program's pair
+            games (``policies.certificate.Roles.doubles``).
+        targets: ``(N,)`` the attacker the plan sends each defender after (-1 for none).
+        busy: ``(N,)`` bool, the defenders of certified games (they play those).
+
+    Returns:
+        The defenders (int array) that keep their pair's optimal control.
+    """
+    defenders = doubles[:, 2]
+    chased = targets[defenders]
+    keeps = ((chased == doubles[:, 0]) | (chased == doubles[:, 1])) & ~busy[defenders]
+    return defenders[keeps]

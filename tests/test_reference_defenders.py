@@ -20,7 +20,7 @@ from policies import (
     ShortestPathAttacker,
 )
 from policies.certificate import Basis, Match, games_of
-from policies.steering import ATTACKER_MOVES, held_one_step, steer
+from policies.steering import ATTACKER_MOVES, held_one_step, pair_keepers, steer
 from policies.strategy import Program, Spare, Strategy
 from policies.tube_states import pair_states
 from reachavoid.rollout import run_episode
@@ -59,19 +59,34 @@ def test_worked_example_is_not_certified(coarse_tubes):
     the certified policy still plays the paper's assignment but guarantees nothing."""
     vf11, vf21 = coarse_tubes
     reference = HJDefenderPolicy(vf11, vf21)
-    env, _ = first_decision(reference, "paper_2v1")
+    env, actions = first_decision(reference, "paper_2v1")
     state = env.unwrapped.game_state()
     value21 = vf21.value(np.concatenate([state.attacker_positions.reshape(-1),
                                          state.defender_positions[0]]))
     assert 0.0 < value21 <= reference.margin(vf21)
     assert reference.nominal_captures == 2 == len(reference.assignment)
     assert reference.guaranteed_captures == 0 and reference.certified_games == []
-    # nothing certified: the defender races, and the overlay says so (not the program's
-    # uncertified pair, which is not played)
+    # nothing certified, and the pair is played all the same: the plan sends the defender
+    # after one of the pair, so it keeps the pair's optimal control (a pair that splits
+    # beats the plan); the overlay draws the pair game, not a race
+    assert reference._plan.targets[0] in (0, 1)
     overlay = reference.overlay()
-    assert [(e.defender, e.kind) for e in overlay.kinded_edges] == [("defender_0",
-                                                                      EdgeKind.RACE)]
+    assert [(e.defender, e.kind) for e in overlay.kinded_edges] == [
+        ("defender_0", EdgeKind.PAIR)] * 2
     assert overlay.lines == ("guaranteed: 0 of 2, program's count: 2",)
+    paper = HJDefenderPolicy(vf11, vf21, idle="stand", margin_cells=0.0)
+    _, played = first_decision(paper, "paper_2v1")
+    np.testing.assert_array_equal(actions["defender_0"], played["defender_0"])
+
+
+def test_a_pair_game_yields_to_the_plan_for_a_third_attacker():
+    """``pair_keepers``: a pair game's defender keeps the pair's control only while the
+    plan sends it after one of its pair and no certified game holds it."""
+    doubles = np.array([[0, 1, 0], [2, 3, 1], [4, 5, 2]])
+    targets = np.array([1, 0, 4])
+    busy = np.array([False, False, True])
+    np.testing.assert_array_equal(pair_keepers(doubles, targets, busy), [0])
+    assert len(pair_keepers(np.zeros((0, 3), dtype=np.int64), targets, busy)) == 0
 
 
 def _check_certificate(policy, state, previous: list[Match]) -> int:
