@@ -14,8 +14,9 @@ owner's lock (``value.owned_temporaries``) can be taken: their process is gone, 
 machine or PID namespace it ran in. The generated kernels live in ``kernels/``
 (``codegen.kernel_dir``). Numba's own cache of compiled code (pickled, so loading it runs
 code) goes where ``$NUMBA_CACHE_DIR`` (or a ``.numba_config.yaml``) says only when that is a
-folder of this user's that nobody else can write (``jit_cache.check_numba_cache``), checked before
-any compiled function can be loaded.
+folder of this user's that nobody else can write
+(``reachavoid_env.jit_cache.check_numba_cache``), checked before any compiled function can
+be loaded.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ import platformdirs
 
 from reachavoid_env import GameMap
 from reachavoid_env.files import UnsafeFolderError, private_folder
-from solvers.hj.jit_cache import CacheLocationError, check_numba_cache, location_error
+from reachavoid_env.jit_cache import CacheLocationError, check_numba_cache, location_error
 from solvers.hj.value import ValueFunction, ValueFunctionError, abandoned, load_value_function
 
 _TEMPORARY = re.compile(r"^(?P<stem>\..+\.vf\.\d+\.[^.]+)\.(tmp|old|lock)$")
