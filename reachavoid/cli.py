@@ -307,15 +307,26 @@ def _paper_command(subparsers: Any) -> None:
 def _validate_command(subparsers: Any) -> None:
     parser = _command(subparsers, "validate", play.validate)
     parser.add_argument("files", nargs="+", metavar="FILE",
-                        help="TOML scenario files (or built-in names)")
+                        help="TOML scenario files, built-in names or map library folders "
+                             "(every map checked)")
 
 
 def _terminate(signum: int, frame: object) -> None:
     raise Terminated(signum)
 
 
+def _names_as_given() -> None:
+    """Standard output and error print a file name that is not valid in the locale's
+    encoding (the bytes ``b'\\xff'`` under UTF-8) as the bytes it was given, not a
+    ``UnicodeEncodeError``."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(AttributeError, ValueError):   # no text wrapper, or closed
+            stream.reconfigure(errors="surrogateescape")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``reachavoid`` console script; returns the exit status."""
+    _names_as_given()
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

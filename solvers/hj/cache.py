@@ -28,7 +28,8 @@ import re
 import shutil
 import time
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -67,6 +68,22 @@ def check_cache() -> bool:
     except (OSError, UnsafeFolderError) as err:
         raise location_error("cannot create", folder, err) from None
     return os.access(folder, os.W_OK | os.X_OK)
+
+
+@contextmanager
+def failures_named() -> Iterator[None]:
+    """An ``OSError`` naming no file while a game is solved and stored (numba saving the
+    kernels it compiled, a tube's arrays: a full disk) names the folder written to: the
+    cache (and ``$NUMBA_CACHE_DIR`` where set)."""
+    try:
+        yield
+    except OSError as err:
+        if err.filename is not None:
+            raise
+        numba = os.environ.get("NUMBA_CACHE_DIR")
+        where = f"{cache_dir()}" + (f" (or $NUMBA_CACHE_DIR {numba})" if numba else "")
+        raise OSError(err.errno, f"{err.strerror or err} (solving and storing a tube)",
+                      where) from None
 
 
 def cache_key(parts: dict[str, Any]) -> str:
