@@ -60,6 +60,9 @@ RAY_MISSING = "backend: 'ray' needs Ray (pip install 'reachavoid[ray]')"
 class WorkerDied(RuntimeError):
     """A worker process ended without returning its task (killed, out of memory,
     ``os._exit`` in a policy): reported in one line, exit status 1."""
+PROGRAM_HOME = Path(__file__).resolve().parents[1]
+"""The folder this program's packages are imported from (site-packages, or a source
+folder)."""
 WORKER_BYTES = 200 << 20
 """Memory one pool worker holds (interpreter, numpy, numba, env, policies: about 190 MB)."""
 
@@ -288,11 +291,13 @@ def _closed(entry: str) -> bool:
 def worker_path() -> list[str]:
     """The driver's ``sys.path`` for the workers (Ray's and the process pool's): without
     its working folder (``''`` or its path: a module planted where the command runs must
-    not shadow a library), unless ``$PYTHONPATH`` names it, and without any folder another
-    user can write (``_closed``)."""
+    not shadow a library), unless ``$PYTHONPATH`` names it or this program was imported
+    from it (run from its source folder: the driver already runs what is there), and
+    without any folder another user can write (``_closed``)."""
     here = os.path.realpath(os.getcwd())
     named = {os.path.realpath(entry)
              for entry in os.environ.get("PYTHONPATH", "").split(os.pathsep) if entry}
+    named.add(str(PROGRAM_HOME))
     return [entry for entry in dict.fromkeys(sys.path)
             if entry and (os.path.realpath(entry) != here or here in named) and _closed(entry)]
 

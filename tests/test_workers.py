@@ -50,6 +50,9 @@ def test_worker_path_leaves_out_the_working_folder_and_open_folders(tmp_path, mo
     assert sweep.worker_path() == [str(ours)]
     monkeypatch.setenv("PYTHONPATH", str(tmp_path))   # named on purpose: kept
     assert sweep.worker_path() == [str(tmp_path), str(ours)]
+    monkeypatch.delenv("PYTHONPATH")
+    monkeypatch.setattr(sweep, "PROGRAM_HOME", tmp_path)   # run from its source folder: kept
+    assert sweep.worker_path() == [str(tmp_path), str(ours)]
 
 
 class _Crashed(Exception):
