@@ -56,7 +56,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     check_ranges(parser, args, RANGES)
     try:
         args.games = games_of(args.games.split(","))
-        check_outputs([("--out", args.out), ("--report", args.report)], args.force)
+        check_outputs([("--out", args.out), ("--report", args.report)], args.force,
+                      text={"--report"})
     except (ValueError, UsageError) as err:
         parser.error(f"--{err}" if str(err).startswith("games:") else str(err))
     return args

@@ -121,11 +121,8 @@ def bench(args: argparse.Namespace) -> int:
         raise UsageError(f"--baseline: {baseline!r} is not among --defenders "
                          f"({', '.join(methods)})", field="--baseline")
     check_backend_options(args)
-    outputs = (("--csv", args.csv), ("--plot", args.plot), ("--json", args.json))
-    for flag, path in outputs:
-        if path not in (None, "-"):
-            writable_file(path, flag, args.force, text=flag != "--plot")
-    distinct_outputs(outputs)
+    check_outputs((("--csv", args.csv), ("--plot", args.plot), ("--json", args.json)),
+                  args.force, text={"--csv", "--json"})
     suite = _bench_suite(args)
     attackers = dict.fromkeys(cell.attackers for cell in suite.cells)
     chosen_specs([*(("defenders", m) for m in methods),
