@@ -46,11 +46,19 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
-from policies.learned import DEFAULT_OBSERVATION, TRAINING_ATTRIBUTE, training_record
+from policies.learned import (
+    DEFAULT_OBSERVATION,
+    TRAINING_ATTRIBUTE,
+    check_model_file,
+    read_sb3,
+    training_record,
+)
 from policies.training import (
+    Bounds,
     add_defender_arguments,
     add_reward_arguments,
     attacker_factory,
+    check_ranges,
     defender_factory,
     defender_options,
     make_attacker_env,
@@ -58,9 +66,11 @@ from policies.training import (
     reward_options,
 )
 from reachavoid.evaluation import bootstrap_interval, wilson_interval, write_csv
+from reachavoid.paths import UsageError, check_outputs, writable_folder
 from reachavoid_env import AttackerStatus, Scenario, load_scenario
-from reachavoid_env.files import atomic_write, write_json
+from reachavoid_env.files import atomic_write, forget_expected, write_json
 from reachavoid_env.integrations.vector import sb3_vec_env
+from reachavoid_env.vector import MAX_COPIES
 from reachavoid_env.video import VideoWriter
 from reachavoid_env.wrappers import SingleAttackerEnv
 
@@ -68,6 +78,12 @@ EVAL_SEED = 10_000  # evaluation episode k starts from reset(seed=EVAL_SEED + k)
 OUTCOMES = ("arrived", "captured", "timeout")
 
 Act = Callable[[np.ndarray, SingleAttackerEnv], np.ndarray]
+RANGES: dict[str, Bounds] = {
+    "timesteps": (1, 10**13), "envs": (1, MAX_COPIES), "action_repeat": (1, 1_000_000),
+    "episodes": (1, 10**7), "seed": (0, 2**32 - 1), "max_minutes": (0.0, None, True),
+    "print_seconds": (0.0, None, True), "shaping": (None, None),
+    "timeout_reward": (None, None)}
+"""Every number's range (``check_ranges``), checked before any work."""
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
@@ -102,15 +118,24 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--evaluate-only", type=Path, default=None, metavar="MODEL.zip",
                         help="skip training: evaluate (and record) this saved model")
     parser.add_argument("--no-video", action="store_true", help="skip the video")
+    parser.add_argument("--force", action="store_true",
+                        help="replace output files that exist (default: refuse, before any work)")
     args = parser.parse_args(argv)
-    for name in ("timesteps", "envs", "action_repeat", "episodes"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name.replace('_', '-')}: must be a positive integer")
-    for name in ("max_minutes", "print_seconds"):
-        if getattr(args, name) is not None and not getattr(args, name) > 0:
-            parser.error(f"--{name.replace('_', '-')}: must be a positive number")
-    if args.evaluate_only is not None and not args.evaluate_only.is_file():
-        parser.error(f"--evaluate-only: {str(args.evaluate_only)!r} is not a file")
+    check_ranges(parser, args, RANGES)
+    if args.evaluate_only is not None:
+        try:
+            check_model_file(args.evaluate_only, "--evaluate-only")
+        except ValueError as err:
+            parser.error(str(err))
+    written = [("--out", args.out / "report.json")]
+    if args.evaluate_only is None:
+        written += [("--out", args.out / "model.zip"), ("--out", args.out / "curve.csv")]
+    if not args.no_video:
+        written.append(("--out", args.out / "trained.mp4"))
+    try:
+        check_outputs(written, args.force, writable_folder(str(args.out), "--out"))
+    except UsageError as err:
+        parser.error(str(err))
     return args
 
 
@@ -284,6 +309,14 @@ def print_table(report: dict[str, Any]) -> None:
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     args = parse_args(argv)
+    try:
+        return run(args)
+    finally:
+        forget_expected()
+
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    """Train (or load) and evaluate as ``args`` (checked by ``parse_args``) say; write."""
     args.out.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(1)
     scenario = training_scenario(args)
@@ -309,7 +342,11 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         report.update(timesteps=model.num_timesteps,
                       training_seconds=progress.rows[-1]["seconds"])
     else:
-        model = PPO.load(args.evaluate_only, device="cpu")
+        try:
+            model = read_sb3(args.evaluate_only, "--evaluate-only")
+        except ValueError as err:   # not SB3's, damaged, or weights not finite
+            print(f"{Path(sys.argv[0]).name}: error: {err}", file=sys.stderr)
+            raise SystemExit(2) from None
         report.update(model=str(args.evaluate_only))
     outcomes = {name: evaluate(kwargs, act, args.episodes)
                 for name, act in (("trained", model_act(model)),

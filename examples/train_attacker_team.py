@@ -133,15 +133,19 @@ from policies.learned import (
     TRAINING_ATTRIBUTE,
     ObservationPolicy,
     Predict,
+    check_model_file,
+    read_sb3,
     training_record,
 )
 from policies.registry import ATTACKERS, PolicySpec
-from policies.self_play import PastSelves
+from policies.self_play import MAX_POOL, PastSelves
 from policies.training import (
+    Bounds,
     StartCurriculum,
     add_curriculum_arguments,
     add_defender_arguments,
     add_reward_arguments,
+    check_ranges,
     defender_factory,
     defender_options,
     make_attacker_vector_env,
@@ -152,17 +156,32 @@ from policies.training import (
     start_curriculum,
 )
 from reachavoid.evaluation import bootstrap_interval, write_csv
+from reachavoid.paths import UsageError, check_outputs, writable_folder
 from reachavoid_env import AttackerStatus, Policy, Scenario
 from reachavoid_env.checks import FieldError
-from reachavoid_env.files import atomic_write, write_json
+from reachavoid_env.files import atomic_write, forget_expected, write_json
 from reachavoid_env.integrations.supersuit import sb3_vec_env as supersuit_vec_env
 from reachavoid_env.integrations.vector import sb3_vec_env
 from reachavoid_env.maps import load_library
 from reachavoid_env.observations import ObservationConfig
 from reachavoid_env.rules import unit_vectors
+from reachavoid_env.vector import MAX_COPIES
 from reachavoid_env.video import RecordEpisode
 from reachavoid_env.wrappers import AttackerParallelEnv, PerMapPolicy
 
+RANGES: dict[str, Bounds] = {
+    "copies": (1, MAX_COPIES), "copies_per_map": (1, MAX_COPIES), "n_steps": (1, 10**7),
+    "batch_size": (2, 10**9), "action_repeat": (1, 1_000_000), "episodes": (1, 10**7),
+    "first_seed": (0, 2**32 - 1), "seed": (0, 2**32 - 1), "timesteps": (0, 10**13),
+    "imitate_steps": (0, 10**13), "imitate_epochs": (1, 10**6), "dagger_rounds": (0, 10**6),
+    "dagger_steps": (1, 10**13), "dagger_epochs": (1, 10**6), "past_selves": (0, MAX_POOL),
+    "video_every": (1, 10**6), "video_width": (16, 4096), "max_minutes": (0.0, None, True),
+    "learning_rate": (0.0, None, True), "clip_range": (0.0, None, True),
+    "ent_coef": (0.0, None), "imitate_learning_rate": (0.0, None, True),
+    "imitate_log_std": (None, None), "shaping": (None, None), "timeout_reward": (None, None),
+    "team_reward": (None, None)}
+"""Every number's range (``check_ranges``: NaN, zero or negatives where they make no
+sense, and sizes the envs refuse, are argparse's one-line error before any work)."""
 TEAMS = ("learned", *ATTACKERS)
 """``learned`` and every scripted attacker team of ``policies.registry.ATTACKERS``."""
 DEFAULT_TEAMS = ("learned", "shortest-path", "random")
@@ -255,6 +274,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--video-width", type=int, default=320,
                         help="video width in pixels (default: %(default)s)")
     parser.add_argument("--no-video", action="store_true", help="skip the video")
+    parser.add_argument("--force", action="store_true",
+                        help="replace output files that exist (default: refuse, before any work)")
     parser.add_argument("--evaluate-on", default=None, metavar="SCENARIO|LIBRARY",
                         type=scenario_argument(library=True),
                         help="evaluate on these maps (held-out ones: a map library) instead "
@@ -266,12 +287,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                         help="skip training: evaluate (and record) this saved model; without "
                              "it and without 'learned' in --teams nothing is trained")
     args = parser.parse_args(argv)
-    for name in ("copies", "copies_per_map", "n_steps", "batch_size", "action_repeat", "episodes",
-                 "imitate_epochs", "video_every", "video_width"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name.replace('_', '-')}: must be a positive integer")
-    if args.first_seed < 0:
-        parser.error("--first-seed: must be a non-negative integer")
+    check_ranges(parser, args, RANGES)
     try:
         args.curriculum = start_curriculum(args)
     except FieldError as err:
@@ -287,27 +303,19 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         parser.error("--copies-per-map: needs the vector env (drop --supersuit)")
     if args.curriculum is not None and args.supersuit:
         parser.error("--easy-starts: needs the vector env (drop --supersuit)")
-    if args.past_selves < 0:
-        parser.error("--past-selves: must be a non-negative integer")
     if args.past_selves and args.supersuit:
         parser.error("--past-selves: needs the vector env (drop --supersuit)")
-    if args.past_selves and load_library(args.scenario)[0].num_attackers < 2:
+    attackers = load_library(args.scenario)[0].num_attackers
+    if args.past_selves and attackers < 2:
         parser.error("--past-selves: needs teammates (a game of two or more attackers)")
+    if args.n_steps * args.copies * (1 if args.past_selves else attackers) < 2:
+        parser.error("--n-steps: a rollout of one agent step (n_steps x copies x learning "
+                     "attackers) has no advantage to normalise; make it at least 2")
     if args.past_selves and args.team_reward:
         parser.error("--past-selves: one attacker per copy learns, so there is no team "
                      "reward among learners (drop --team-reward)")
     if args.dagger_epochs is None:
         args.dagger_epochs = args.imitate_epochs
-    for name in ("dagger_steps", "dagger_epochs"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name.replace('_', '-')}: must be a positive integer")
-    for name in ("timesteps", "imitate_steps", "dagger_rounds"):
-        if getattr(args, name) < 0:
-            parser.error(f"--{name.replace('_', '-')}: must be a non-negative integer")
-    for name in ("max_minutes", "learning_rate", "clip_range", "imitate_learning_rate"):
-        value = getattr(args, name)
-        if value is not None and not value > 0:
-            parser.error(f"--{name.replace('_', '-')}: must be positive")
     if args.teams is None:
         args.teams = DEFAULT_TEAMS + ((args.imitate_from,) if args.imitate_from
                                       not in DEFAULT_TEAMS else ())
@@ -329,12 +337,37 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         path = getattr(args, name)
         if path is not None and not path.is_file():
             parser.error(f"--{name.replace('_', '-')}: no such file {str(path)!r}")
+        if path is not None:
+            try:
+                check_model_file(path, f"--{name.replace('_', '-')}")
+            except ValueError as err:
+                parser.error(str(err))
     if args.init is not None and (args.imitate_steps or args.net_arch is not None):
         parser.error("--init: the saved policy is the start (its network included); "
                      "drop --imitate-steps and --net-arch")
     args.plot = args.plot or args.out / "curve.png"
     args.video = args.video or args.out / "learned.mp4"
+    try:
+        check_outputs(outputs(args), args.force, writable_folder(str(args.out), "--out"))
+    except UsageError as err:
+        parser.error(str(err))
     return args
+
+
+def outputs(args: argparse.Namespace) -> list[tuple[str, Path]]:
+    """The files this run writes (flag, path): checked before any work, under the
+    command's one output rule (``reachavoid.paths.check_outputs``: new, or replaced with
+    ``--force``)."""
+    trains = args.evaluate_only is None and "learned" in args.teams
+    written = [("--out", args.out / "report.json")]
+    if trains:
+        written += [("--out", args.out / "model.zip"), ("--out", args.out / "curve.csv"),
+                    ("--plot", args.plot)]
+    if trains and args.imitate_steps:
+        written.append(("--out", args.out / "cloned.zip"))
+    if (trains or args.evaluate_only is not None) and not args.no_video:
+        written.append(("--video", args.video))
+    return written
 
 
 Maps = tuple[Scenario, ...]
@@ -361,15 +394,15 @@ class ModelError(ValueError):
 
 def load_model(path: Path, flag: str, maps: Maps, observation: ObservationConfig,
                **options: Any) -> PPO:
-    """``PPO.load(path, **options)`` of a policy for ``observation`` of ``maps``;
-    ``ModelError`` naming ``flag`` if the file is not one (another game, or not SB3's)."""
+    """``PPO.load(path, **options)`` of a policy for ``observation`` of ``maps``
+    (``read_sb3``: a model file is code, checked before it is read); ``ModelError`` naming
+    ``flag`` if the file is not one (another game, not SB3's, weights not finite)."""
     size = observation.size(maps[0].num_attackers, maps[0].num_defenders)
     try:
-        model = PPO.load(path, device="cpu", **options)
-    except Exception as err:  # SB3 raises many kinds on a foreign or damaged file
-        first_line = str(err).splitlines()[0] if str(err) else type(err).__name__
-        raise ModelError(f"{flag}: cannot load {str(path)!r} as a PPO attacker of "
-                         f"{maps[0].name} ({size} observation entries): {first_line}") from None
+        model = read_sb3(path, flag, "PPO", **options)
+    except ValueError as err:   # not SB3's, damaged, weights not finite, or open to others
+        raise ModelError(f"{err} (this run needs a PPO attacker of {maps[0].name}, "
+                         f"{size} observation entries)") from None
     shape = model.observation_space.shape
     if shape != (size,) or model.action_space.shape != (2,):
         raise ModelError(f"{flag}: {str(path)!r} observes {shape} and acts "
@@ -903,6 +936,14 @@ def record(args: argparse.Namespace, maps: Maps, model: PPO, seed: int) -> int:
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     args = parse_args(argv)
+    try:
+        return run(args)
+    finally:
+        forget_expected()
+
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    """The recipe of ``args`` (checked by ``parse_args``): train, evaluate, record, write."""
     start, cpu_start = time.perf_counter(), time.process_time()
     args.out.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(1)    # small networks: more threads only contend for the cores

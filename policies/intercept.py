@@ -28,8 +28,8 @@ from numba import njit
 
 from policies.geodesic import DEFAULT_CELLS, DistanceField, distance_field
 from reachavoid_env import GameState, Overlay, Scenario
+from reachavoid_env.jit_cache import check_numba_config
 from reachavoid_env.rules import unit_vectors
-from solvers.hj.jit_cache import check_numba_config
 
 check_numba_config()   # numba loads pickled code: only from a folder of ours
 

@@ -9,7 +9,9 @@ of a training env), so it is benchmarked, recorded and compared the same way.
 On the command line a model is the policy spec ``sb3:PATH``
 (``reachavoid play --attackers sb3:runs/attacker/model.zip``): the scheme ``sb3`` of
 ``policies.registry.SCHEMES`` resolves it with ``sb3_named_policy``. Stable-Baselines3
-(and torch) are imported only when a model is loaded.
+(and torch) are imported only when a model is named. A model file is code (loading it
+unpickles it): it is read only when nobody but this user or root can change it or its
+folders (``check_model_file``), and its weights must be finite.
 
 A policy trained with ``action_repeat = k`` (``reachavoid_env.wrappers``) chose an action
 every ``k`` env steps and held it; played here it does the same, so it sees the game at
@@ -29,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from reachavoid_env import GameState, PolicyMismatch, Scenario, checks
+from reachavoid_env.files import UnsafeFolderError, trusted_file
 from reachavoid_env.observations import GLOBAL, ObservationConfig, observe
 from reachavoid_env.rules import unit_vectors
 
@@ -132,25 +135,63 @@ class ObservationPolicy:
         return dict(zip(live, actions, strict=True))
 
 
-def load_sb3(path: str | Path, side: str = "attackers", action_repeat: int | None = None,
-             algorithm: str = "PPO") -> ObservationPolicy:
-    """The Stable-Baselines3 model saved at ``path`` (by ``algorithm``, a class of
-    ``stable_baselines3``) as a deterministic ``ObservationPolicy`` for ``side``.
-    ``action_repeat`` defaults to the one stored by the training examples
-    (``TRAINING_ATTRIBUTE``), else 1; so does ``full_speed`` (else False)."""
+def check_model_file(path: str | Path, field: str) -> Path:
+    """``path`` if it is a model file that can be read: a model file is code (loading one
+    unpickles it, which runs whatever it holds), so it must be a file that only this user
+    or root can change, in folders only their owner can write (``files.trusted_file``, the
+    rule of the caches). ``ValueError`` naming ``field`` otherwise; nothing is read."""
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"{side}: model {str(path)!r} is not a file")
-    import stable_baselines3
+        raise ValueError(f"{field}: model {str(path)!r} is not a file")
+    try:
+        trusted_file(path)
+    except (OSError, UnsafeFolderError) as err:
+        reason = f"{err.filename}: {err.strerror}" if isinstance(err, OSError) else str(err)
+        raise ValueError(f"{field}: model {str(path)!r} is not read: a model file is code, and "
+                         f"others could change this one ({reason})") from None
+    return path
 
-    model_class = getattr(stable_baselines3, algorithm, None)
+
+def _stable_baselines3(field: str, what: str) -> Any:
+    """The ``stable_baselines3`` module, or ``ValueError`` naming ``field`` when it (or one
+    of its own imports, torch) cannot be imported."""
+    try:
+        import stable_baselines3
+    except ImportError:
+        raise ValueError(f"{field}: {what} needs Stable-Baselines3 (pip install "
+                         "'reachavoid[rl]')") from None
+    return stable_baselines3
+
+
+def read_sb3(path: str | Path, field: str, algorithm: str = "PPO", **options: Any) -> Any:
+    """The Stable-Baselines3 ``algorithm`` model saved at ``path``, on the CPU (``options``
+    go to its ``load``): the file checked first (``check_model_file``), then loaded; a file
+    SB3 cannot load, or one whose weights are not all finite, is a ``ValueError`` naming
+    ``field``."""
+    path = check_model_file(path, field)
+    model_class = getattr(_stable_baselines3(field, repr(str(path))), algorithm, None)
     if model_class is None:
         raise ValueError(f"algorithm: {algorithm!r} is not a Stable-Baselines3 algorithm")
     try:
-        model = model_class.load(path, device="cpu")
+        model = model_class.load(path, device="cpu", **options)
     except Exception as err:  # SB3 raises many kinds on a foreign or damaged file
-        raise ValueError(f"{side}: cannot load {str(path)!r} as a Stable-Baselines3 "
-                         f"{algorithm} model: {err}") from None
+        first_line = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise ValueError(f"{field}: cannot load {str(path)!r} as a Stable-Baselines3 "
+                         f"{algorithm} model: {first_line}") from None
+    for name, weights in model.policy.state_dict().items():
+        if not weights.isfinite().all():
+            raise ValueError(f"{field}: model {str(path)!r} has weights that are not finite "
+                             f"({name})")
+    return model
+
+
+def load_sb3(path: str | Path, side: str = "attackers", action_repeat: int | None = None,
+             algorithm: str = "PPO") -> ObservationPolicy:
+    """The Stable-Baselines3 model saved at ``path`` (by ``algorithm``, a class of
+    ``stable_baselines3``; read with ``read_sb3``) as a deterministic ``ObservationPolicy``
+    for ``side``. ``action_repeat`` defaults to the one stored by the training examples
+    (``TRAINING_ATTRIBUTE``), else 1; so does ``full_speed`` (else False)."""
+    model = read_sb3(path, side, algorithm)
     trained = getattr(model, TRAINING_ATTRIBUTE, None) or {}
     shape = model.observation_space.shape
     if len(shape) != 1 or model.action_space.shape != (2,):
@@ -166,28 +207,18 @@ def load_sb3(path: str | Path, side: str = "attackers", action_repeat: int | Non
                              full_speed=trained.get("full_speed", False))
 
 
-def _installed(module: str) -> bool:
-    """Whether ``module`` can be imported (without importing it)."""
-    import importlib.util
-
-    try:
-        return importlib.util.find_spec(module) is not None
-    except (ImportError, ValueError):   # a parent missing, or a blocked entry (None)
-        return False
-
-
 def sb3_named_policy(side: str, spec: str) -> NamedPolicy:
     """The policy of the spec ``sb3:PATH`` (``policies.registry.SCHEMES``): built with
     ``load_sb3``'s ``action_repeat`` / ``algorithm`` options and checked against the
-    scenario; ``ValueError`` naming ``side`` if ``PATH`` is not a file."""
+    scenario; ``ValueError`` naming ``side`` if ``PATH`` is not a file others cannot change
+    (``check_model_file``) or Stable-Baselines3 does not import, before any work."""
     from policies.registry import NamedPolicy
 
     path = Path(spec[len(SB3_PREFIX):])
     if not path.is_file():
         raise ValueError(f"{side}: model {str(path)!r} (in {spec!r}) is not a file")
-    if not _installed("stable_baselines3"):
-        raise ValueError(f"{side}: {spec!r} needs Stable-Baselines3 (pip install "
-                         "'reachavoid[rl]')")
+    check_model_file(path, side)
+    _stable_baselines3(side, repr(spec))
 
     def build(scenario: Scenario, action_repeat: int | None = None,
               algorithm: str = "PPO") -> ObservationPolicy:

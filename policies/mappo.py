@@ -22,8 +22,9 @@ more players than that, or an observation without velocities or time left, is re
 The weights (``WEIGHTS``, package data) are an ``.npz`` of float32 arrays read with
 ``allow_pickle=False``: ``w0, b0, w1, b1, ...`` (weights ``(in, out)``; ``tanh`` after
 every layer, the last one's outputs the action's mean before its ``tanh``), and ``meta``
-``[FORMAT, lidar_rays, action_repeat]``. ``load_weights`` checks every array; a missing or
-damaged file is a one-line ``ValueError``. ``policies/mappo_training.py`` makes them
+``[FORMAT, lidar_rays, action_repeat]``. ``load_weights`` checks the sizes the file expands
+to (``MAX_WEIGHTS_BYTES``) before reading it, then every array; a missing, damaged or
+oversized file is a one-line ``ValueError``. ``policies/mappo_training.py`` makes them
 (``examples/train_defender_mappo.py``, ``docs/training.md``).
 """
 
@@ -49,6 +50,9 @@ FORMAT = 1
 """The weights file's format (``meta[0]``)."""
 WEIGHTS = "learned_mappo.npz"
 """The shipped weights, under ``policies/weights/``."""
+MAX_WEIGHTS_BYTES = 64 << 20
+"""The most bytes a weights file's arrays may hold, as its zip directory says, checked
+before any is read: a small file that expands far beyond an actor is refused."""
 
 
 class ActorWeights(NamedTuple):
@@ -149,10 +153,18 @@ def load_weights(path: str | Path | None = None) -> ActorWeights:
     if not source.is_file():
         raise ValueError(f"defenders: {label} is not a file")
     try:
-        with source.open("rb") as handle, np.load(handle, allow_pickle=False) as data:
-            arrays = {key: data[key] for key in data.files}
+        with source.open("rb") as handle:
+            with zipfile.ZipFile(handle) as archive:   # sizes as the zip's directory says
+                expanded = sum(info.file_size for info in archive.infolist())
+            handle.seek(0)
+            if expanded <= MAX_WEIGHTS_BYTES:
+                with np.load(handle, allow_pickle=False) as data:
+                    arrays = {key: data[key] for key in data.files}
     except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
         raise ValueError(f"defenders: {label} is not a readable .npz ({err})") from None
+    if expanded > MAX_WEIGHTS_BYTES:
+        raise ValueError(f"defenders: {label} expands to {expanded:,} bytes, more than an "
+                         f"actor's {MAX_WEIGHTS_BYTES:,}; not loaded")
     return _checked(arrays, label)
 
 

@@ -32,10 +32,10 @@ from torchrl.collectors import Collector
 from torchrl.modules import ProbabilisticActor, TanhNormal
 from torchrl.objectives import ClipPPOLoss, ValueEstimators
 
-from policies.mappo import ActorWeights, pad_observations, padded_size
-from policies.registry import PolicySpec, make_batch_policy
+from policies.mappo import ActorWeights, check_players, pad_observations, padded_size
+from policies.registry import ATTACKERS, PolicySpec, make_batch_policy
 from policies.training import make_defenders_vector_env
-from reachavoid_env import builtin_scenario
+from reachavoid_env import PolicyMismatch, builtin_names, builtin_scenario
 from reachavoid_env.integrations.torchrl import VectorGroupEnv
 from reachavoid_env.observations import ObservationConfig
 from reachavoid_env.vector_views import LearnerVectorEnv
@@ -343,9 +343,21 @@ def ppo_epochs(loss_module: ClipPPOLoss, optimiser: torch.optim.Optimizer,
 
 
 def games_of(names: Sequence[str]) -> tuple[Game, ...]:
-    """Games from ``SCENARIO/ATTACKERS`` strings (``paper_6v2/random``)."""
+    """Games from ``SCENARIO/ATTACKERS`` strings (``paper_6v2/random``); ``ValueError``
+    naming ``games`` for a scenario that is not a built-in one, attackers that are not a
+    registry attacker, or players the padded layout cannot hold (``check_players``)."""
     games = []
     for name in names:
         scenario, _, attackers = name.partition("/")
+        if scenario not in builtin_names():
+            raise ValueError(f"games: {name!r}: {scenario!r} is not a built-in scenario "
+                             f"(choose from {', '.join(builtin_names())})")
+        if (attackers or "shortest-path") not in ATTACKERS:
+            raise ValueError(f"games: {name!r}: {attackers!r} is not an attacker (choose "
+                             f"from {', '.join(ATTACKERS)})")
+        try:
+            check_players(builtin_scenario(scenario))
+        except PolicyMismatch as err:
+            raise ValueError(f"games: {name!r}: {str(err).split(': ', 1)[1]}") from None
         games.append(Game(scenario, attackers or "shortest-path"))
     return tuple(games)

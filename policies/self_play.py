@@ -24,6 +24,9 @@ from reachavoid_env.game_state import checked_copies, map_key
 from reachavoid_env.observations import Observer
 from reachavoid_env.rules import unit_vectors
 
+MAX_POOL = 10_000
+"""The most snapshots a pool holds."""
+
 
 class PastSelves:
     """Attackers played by snapshots drawn from a pool (module docstring).
@@ -41,7 +44,7 @@ class PastSelves:
                  action_repeat: int = 1, full_speed: bool = False,
                  seed: int | None = None) -> None:
         self.observation = observation
-        self.snapshots: deque[Predict] = deque(maxlen=checks.integer(pool, "pool", 1, 10_000))
+        self.snapshots: deque[Predict] = deque(maxlen=checks.integer(pool, "pool", 1, MAX_POOL))
         self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
         self.full_speed = bool(full_speed)
         self._rng = np.random.default_rng(seed)

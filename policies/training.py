@@ -83,6 +83,28 @@ def scenario_argument(library: bool = False) -> Callable[[str], str]:
     return checked
 
 
+Bounds = tuple[float | None, float | None] | tuple[float | None, float | None, bool]
+"""A flag's range for ``check_ranges``: ``(low, high)`` (``None``: open), and optionally
+whether ``low`` itself is excluded."""
+
+
+def check_ranges(parser: argparse.ArgumentParser, args: argparse.Namespace,
+                 ranges: Mapping[str, Bounds]) -> None:
+    """Each value of ``args`` named in ``ranges`` within its bounds (``Bounds``; an int flag
+    an integer, a float flag finite: no NaN), checked before any work by the one set of
+    validators (``reachavoid_env.checks``); else argparse's one-line error naming the
+    flag, exit status 2. ``None`` (a flag left unset) is not checked."""
+    for name, (low, high, *low_open) in ranges.items():
+        value, flag = getattr(args, name), f"--{name.replace('_', '-')}"
+        try:
+            if isinstance(value, int):
+                checks.integer(value, flag, low, high)
+            elif value is not None:
+                checks.real(value, flag, low, high, low_open=bool(low_open and low_open[0]))
+        except checks.FieldError as err:
+            parser.error(str(err))
+
+
 def add_defender_arguments(parser: argparse.ArgumentParser, scenario: str = "paper_6v2",
                            defenders: str = "hj", library: bool = False) -> None:
     """The training scripts' ``--scenario`` (a map library too when the script takes one:

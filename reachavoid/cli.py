@@ -52,11 +52,8 @@ from solvers.hj.cache import CacheLocationError
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM or SIGHUP, raised where the program is so that it unwinds as on Ctrl-C."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signum)
-        self.signum = signum
+    """SIGTERM or SIGHUP (its number the argument), raised where the program is so that it
+    unwinds as on Ctrl-C; the command reports the signal ``_RECEIVED``."""
 
 
 STOP_SIGNALS = {signal.SIGTERM: "terminated", signal.SIGHUP: "hung up"}
@@ -307,20 +304,38 @@ def _paper_command(subparsers: Any) -> None:
 def _validate_command(subparsers: Any) -> None:
     parser = _command(subparsers, "validate", play.validate)
     parser.add_argument("files", nargs="+", metavar="FILE",
-                        help="TOML scenario files (or built-in names)")
+                        help="TOML scenario files, built-in names or map library folders "
+                             "(every map checked)")
+
+
+_RECEIVED: list[int] = []
+"""The stop signals (``STOP_SIGNALS``) received while the command runs: what it reports,
+even where a library catches ``Terminated`` and raises a plain ``KeyboardInterrupt``."""
 
 
 def _terminate(signum: int, frame: object) -> None:
+    _RECEIVED.append(signum)
     raise Terminated(signum)
+
+
+def _names_as_given() -> None:
+    """Standard output and error print a file name that is not valid in the locale's
+    encoding (the bytes ``b'\\xff'`` under UTF-8) as the bytes it was given, not a
+    ``UnicodeEncodeError``."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(AttributeError, ValueError):   # no text wrapper, or closed
+            stream.reconfigure(errors="surrogateescape")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``reachavoid`` console script; returns the exit status."""
+    _names_as_given()
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
     except SystemExit as exit_:
         return int(exit_.code or 0)
+    _RECEIVED.clear()
     previous = {signum: signal.signal(signum, _terminate) for signum in STOP_SIGNALS}
     try:
         check_common(args)
@@ -335,19 +350,20 @@ def main(argv: Sequence[str] | None = None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_PIPE
     except WorkerDied as err:
-        print(f"reachavoid {args.command}: error: {err}", file=sys.stderr)
+        print(f"reachavoid {args.command}: error: {err}; no output was written (tubes solved "
+              "before stay in the cache)", file=sys.stderr)
         return EXIT_FAILED
     except OSError as err:
         where = f"{err.filename}: " if err.filename else ""
         print(f"reachavoid {args.command}: error: {where}{err.strerror or err}",
               file=sys.stderr)
         return EXIT_FAILED
-    except Terminated as stop:
-        print(f"reachavoid {args.command}: {STOP_SIGNALS[stop.signum]}", file=sys.stderr)
-        return 128 + stop.signum
-    except KeyboardInterrupt:
-        print(f"reachavoid {args.command}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt:   # Terminated too, or what a library made of it (Ray's wait)
+        if not _RECEIVED:
+            print(f"reachavoid {args.command}: interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        print(f"reachavoid {args.command}: {STOP_SIGNALS[_RECEIVED[0]]}", file=sys.stderr)
+        return 128 + _RECEIVED[0]
     finally:
         forget_expected()
         for signum, handler in previous.items():

@@ -8,6 +8,7 @@ import argparse
 import contextlib
 import dataclasses
 import json
+import os
 import sys
 import time
 from typing import Any
@@ -25,7 +26,7 @@ from reachavoid.arguments import (
 from reachavoid.evaluation import one_start, write_csv
 from reachavoid.paths import (
     UsageError,
-    check_replace,
+    check_outputs,
     distinct_outputs,
     reported,
     writable_file,
@@ -44,7 +45,7 @@ from reachavoid.suite import (
 )
 from reachavoid.tables import bench_tables, paper_lines
 from reachavoid_env import PolicyMismatch, checks
-from reachavoid_env.files import STDOUT, destination, write_json
+from reachavoid_env.files import STDOUT, write_json
 from reachavoid_env.maps import MAX_MAPS, MapError, MapOptions, options_from_text, write_library
 from solvers.hj.cache import cache_dir
 
@@ -66,6 +67,11 @@ def solve(args: argparse.Namespace) -> int:
     if args.out is not None:
         writable_folder(args.out, "--out")
     if args.plot is not None:
+        from solvers.hj.value import VALUE_FILES
+
+        # a value directory's own files are replaced by --out, never by another output
+        distinct_outputs([*(("--out", os.path.join(args.out, name)) for name in VALUE_FILES
+                            if args.out is not None), ("--plot", args.plot)])
         writable_file(args.plot, "--plot", args.force)
     scenario = load_one(args.scenario)
     grid1 = args.grid1 if args.grid1 is not None else DEFAULT_GRID["1v1"]
@@ -115,11 +121,8 @@ def bench(args: argparse.Namespace) -> int:
         raise UsageError(f"--baseline: {baseline!r} is not among --defenders "
                          f"({', '.join(methods)})", field="--baseline")
     check_backend_options(args)
-    outputs = (("--csv", args.csv), ("--plot", args.plot), ("--json", args.json))
-    for flag, path in outputs:
-        if path not in (None, "-"):
-            writable_file(path, flag, args.force, text=flag != "--plot")
-    distinct_outputs(outputs)
+    check_outputs((("--csv", args.csv), ("--plot", args.plot), ("--json", args.json)),
+                  args.force, text={"--csv", "--json"})
     suite = _bench_suite(args)
     attackers = dict.fromkeys(cell.attackers for cell in suite.cells)
     chosen_specs([*(("defenders", m) for m in methods),
@@ -214,8 +217,8 @@ def paper(args: argparse.Namespace) -> int:
     from reachavoid import paper as paper_table
 
     out = writable_folder(args.out, "--out")
-    for path in paper_table.outputs(out, videos=not args.no_video):
-        check_replace(destination(path), "--out", args.force, str(path))
+    check_outputs([("--out", path) for path in paper_table.outputs(out, not args.no_video)],
+                  args.force, out)
     out.mkdir(parents=True, exist_ok=True)
     rows = paper_table.reproduce(out, args.grid1, args.grid2, videos=not args.no_video,
                                  progress=args.progress)

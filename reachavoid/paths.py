@@ -6,7 +6,7 @@ a regular file; a link is followed to its target; a device or FIFO is written di
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 
 from reachavoid_env import checks
@@ -61,7 +61,10 @@ def writable_file(path: str, field: str, force: bool = False, text: bool = False
 
 def check_replace(target: Path, field: str, force: bool, path: str) -> None:
     """The overwrite rule: an existing ``target`` is replaced only with ``force``, and only
-    when it is a regular file."""
+    when it is a regular file; a link that never ends (a loop) is refused."""
+    if target.is_symlink():   # links resolved (``destination``) and still one: a loop
+        raise UsageError(f"{field}: {path!r} is a symbolic link that never ends (a loop)",
+                         field=field)
     if target.is_dir():
         raise UsageError(f"{field}: {path!r} is a folder", field=field)
     if target.exists() and not target.is_file():
@@ -86,6 +89,25 @@ def distinct_outputs(outputs: Sequence[tuple[str, str | None]]) -> None:
             raise UsageError(f"{flag}: {what} is also {seen[where]}'s output; give each "
                              "output its own file", field=flag)
         seen[where] = flag
+
+
+def check_outputs(outputs: Sequence[tuple[str, str | os.PathLike[str] | None]], force: bool,
+                  folder: Path | None = None, text: Collection[str] = ()) -> None:
+    """Every output (flag, path or None) checked before any work, under one rule: a file
+    in ``folder`` (an output folder checked by ``writable_folder``, made later where
+    missing) new or, with ``force``, replaced (``check_replace``); a file elsewhere
+    ``writable_file`` (``-``, standard output, for the flags in ``text`` only); no two on
+    one file (``distinct_outputs``)."""
+    named = [(flag, None if path is None else os.fspath(path)) for flag, path in outputs]
+    distinct_outputs(named)
+    for flag, path in named:
+        if path is None:
+            continue
+        target = destination(path)
+        if folder is not None and path != STDOUT and target.parent == destination(folder):
+            check_replace(target, flag, force, path)
+        else:
+            writable_file(path, flag, force, text=flag in text)
 
 
 def writable_folder(path: str, field: str) -> Path:

@@ -1,7 +1,7 @@
 """The ``play`` and ``validate`` commands: one scenario (or a map library) played once,
 its first frame drawn (``--preview``) or its video written, and the outcome printed in the
-words of its frames (``--json``: one object); ``validate`` loads scenario files and resets
-an env on each, as ``play`` would."""
+words of its frames (``--json``: one object); ``validate`` loads scenario files (or map
+libraries) and resets an env on each scenario, as ``play`` would."""
 
 from __future__ import annotations
 
@@ -17,8 +17,9 @@ from reachavoid.arguments import EXIT_USAGE, checked, chosen_specs, load_many
 from reachavoid.paths import UsageError, reported, writable_file
 from reachavoid.rollout import EpisodeResult, episode_title, first_frame, run_episode
 from reachavoid.solve import DEFAULT_GRID
-from reachavoid_env import Scenario, ScenarioError, checks, load_scenario
+from reachavoid_env import Scenario, ScenarioError, checks
 from reachavoid_env.files import atomic_write
+from reachavoid_env.maps import load_library
 
 GIF_MAX_FPS = 50.0
 """The highest video rates accepted (frames per second); a GIF's frame delay is counted in
@@ -172,13 +173,15 @@ def _speed_words(speed: float) -> str:
 
 
 def validate(args: argparse.Namespace) -> int:
-    """``validate``: each file loaded and an env reset on it; one line per file."""
+    """``validate``: each file (a scenario, or every map of a map library) loaded and an env
+    reset on it; one line per scenario."""
     bad = 0
     for source in args.files:
         try:
-            scenario = load_scenario(source)
-            reachavoid_env.parallel_env(scenario=scenario).reset(seed=0)
-            _playable(scenario)
+            scenarios = load_library(source)
+            for scenario in scenarios:
+                reachavoid_env.parallel_env(scenario=scenario).reset(seed=0)
+                _playable(scenario)
         except (ScenarioError, ValueError, OSError) as err:
             bad += 1
             words = getattr(err, "strerror", None) or str(err)
@@ -186,9 +189,11 @@ def validate(args: argparse.Namespace) -> int:
                 words = f"{source}: {words}"
             print(f"reachavoid validate: error: {words}", file=sys.stderr)
             continue
-        starts = "given starts" if scenario.attackers is not None else "random starts"
-        print(f"{source}: ok ({scenario.name}: {scenario.num_attackers} attackers, "
-              f"{scenario.num_defenders} defenders, {starts})")
+        for scenario in scenarios:
+            where = source if len(scenarios) == 1 else f"{source}: {scenario.name}"
+            starts = "given starts" if scenario.attackers is not None else "random starts"
+            print(f"{where}: ok ({scenario.name}: {scenario.num_attackers} attackers, "
+                  f"{scenario.num_defenders} defenders, {starts})")
     return EXIT_USAGE if bad else 0
 
 

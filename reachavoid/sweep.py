@@ -6,8 +6,8 @@ gets the episode's. So the three backends give the same results for the same see
 for bit, whatever the number of workers or the order in which episodes finish. Policies
 travel as ``policies.registry.PolicySpec`` values: each worker resolves the spec itself
 (imports a ``pkg.module:factory``, loads an entry point), so a policy of your own needs
-its module importable where the workers run (``PYTHONPATH``; a process pool also gets the
-driver's ``sys.path``, a local Ray instance its ``PYTHONPATH``).
+its module importable where the workers run (``PYTHONPATH``; the workers of a process pool
+and of a local Ray instance get ``worker_path``).
 
 Tubes: the driver builds the policies once before dispatching, which solves any missing
 tube into the cache (``$REACHAVOID_CACHE_DIR``); every worker then memory-maps it from
@@ -15,9 +15,12 @@ there. On one machine the workers share the page cache. A multi-machine Ray clus
 the cache folder on a shared filesystem (the same path on every node; it is passed to the
 workers in ``runtime_env``), or a cache filled on each node beforehand.
 
-Ray workers import from the driver's ``sys.path`` less its working folder (unless
-``$PYTHONPATH`` names it) and any folder another user can write (``worker_path``); Ray's
-own "add the driver's working folder" is pointed at an empty private folder. A worker
+Workers import from the driver's ``sys.path`` less its working folder (unless
+``$PYTHONPATH`` names it) and any folder another user can write (``worker_path``): Ray's
+through their ``PYTHONPATH`` (Ray's own "add the driver's working folder" is pointed at an
+empty private folder), the process pool's and its resource tracker's by starting with
+``$PYTHONSAFEPATH`` (``-c`` adds no working folder) and ``worker_path`` as the
+``sys.path`` handed to a spawned worker. A worker
 that dies (killed, out of memory, ``os._exit`` in a policy) ends the sweep with
 ``WorkerDied`` saying how many tasks had finished; the command's signal handlers stay in
 place while Ray runs.
@@ -27,7 +30,6 @@ from __future__ import annotations
 
 import atexit
 import itertools
-import multiprocessing
 import os
 import signal
 import stat
@@ -36,7 +38,10 @@ import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from dataclasses import dataclass
+from multiprocessing import resource_tracker
+from multiprocessing.context import SpawnContext, SpawnProcess
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -55,6 +60,9 @@ RAY_MISSING = "backend: 'ray' needs Ray (pip install 'reachavoid[ray]')"
 class WorkerDied(RuntimeError):
     """A worker process ended without returning its task (killed, out of memory,
     ``os._exit`` in a policy): reported in one line, exit status 1."""
+PROGRAM_HOME = Path(__file__).resolve().parents[1]
+"""The folder this program's packages are imported from (site-packages, or a source
+folder)."""
 WORKER_BYTES = 200 << 20
 """Memory one pool worker holds (interpreter, numpy, numba, env, policies: about 190 MB)."""
 
@@ -160,7 +168,7 @@ def check_backend(backend: str) -> None:
 
 def _died(finished: int, total: int, how: str) -> WorkerDied:
     return WorkerDied(f"a worker process died ({how}: killed, out of memory, or os._exit in "
-                      f"a policy) after {finished} of {total} task(s); nothing was written")
+                      f"a policy) after {finished} of {total} task(s)")
 
 
 def run_tasks(task: Callable[[Item], Result], items: Sequence[Item], backend: str = "serial",
@@ -185,7 +193,9 @@ def _process_pool(task: Callable[[Item], Result], items: Sequence[Item], workers
     """The items on a pool of spawned processes, at most a few tasks ahead per worker; a
     worker that dies breaks the pool (``WorkerDied``) instead of losing its task."""
     size = pool_size(workers, len(items))
-    pool = ProcessPoolExecutor(size, mp_context=multiprocessing.get_context("spawn"),
+    with _clean_start():   # the resource tracker: a process of its own, started once
+        resource_tracker.ensure_running()
+    pool = ProcessPoolExecutor(size, mp_context=_CleanSpawnContext(),
                                initializer=_start_worker,
                                initargs=(max(1, (os.cpu_count() or 1) // size),))
     waiting = iter(items)
@@ -207,6 +217,40 @@ def _process_pool(task: Callable[[Item], Result], items: Sequence[Item], workers
         _stop(pool)   # Ctrl-C or SIGTERM: no worker outlives the work
         raise
     pool.shutdown(wait=True)
+
+
+@contextmanager
+def _clean_start() -> Iterator[None]:
+    """While a process is started: its interpreter puts no working folder on its path
+    (``$PYTHONSAFEPATH``: a ``selectors.py`` planted where the command runs is not imported
+    as the interpreter starts), and a spawned worker is handed ``worker_path`` as its
+    ``sys.path``."""
+    path, safe = sys.path[:], os.environ.get("PYTHONSAFEPATH")
+    sys.path[:] = worker_path()
+    os.environ["PYTHONSAFEPATH"] = "1"
+    try:
+        yield
+    finally:
+        sys.path[:] = path
+        if safe is None:
+            del os.environ["PYTHONSAFEPATH"]
+        else:
+            os.environ["PYTHONSAFEPATH"] = safe
+
+
+class _CleanSpawnProcess(SpawnProcess):
+    """A spawned process started under ``_clean_start``."""
+
+    def start(self) -> None:
+        with _clean_start():
+            super().start()
+
+
+class _CleanSpawnContext(SpawnContext):
+    """The spawn start method, its processes started under ``_clean_start`` (the process
+    pool's workers)."""
+
+    Process = _CleanSpawnProcess
 
 
 def _stop(pool: ProcessPoolExecutor) -> None:
@@ -245,13 +289,15 @@ def _closed(entry: str) -> bool:
 
 
 def worker_path() -> list[str]:
-    """The driver's ``sys.path`` for Ray's workers: without its working folder (``''`` or
-    its path: a module planted where the command runs must not shadow a library), unless
-    ``$PYTHONPATH`` names it, and without any folder another user can write
-    (``_closed``)."""
+    """The driver's ``sys.path`` for the workers (Ray's and the process pool's): without
+    its working folder (``''`` or its path: a module planted where the command runs must
+    not shadow a library), unless ``$PYTHONPATH`` names it or this program was imported
+    from it (run from its source folder: the driver already runs what is there), and
+    without any folder another user can write (``_closed``)."""
     here = os.path.realpath(os.getcwd())
     named = {os.path.realpath(entry)
              for entry in os.environ.get("PYTHONPATH", "").split(os.pathsep) if entry}
+    named.add(str(PROGRAM_HOME))
     return [entry for entry in dict.fromkeys(sys.path)
             if entry and (os.path.realpath(entry) != here or here in named) and _closed(entry)]
 

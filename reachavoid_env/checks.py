@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from typing import Any
 
 
@@ -31,6 +32,19 @@ class FieldError(ValueError):
         if self.field is None or not message.startswith(self.field):
             return message
         return field + message[len(self.field):]
+
+
+def available_memory() -> int:
+    """Bytes the kernel reports as available (``MemAvailable``), or total RAM if unknown:
+    what the memory checks before any work compare their needs with."""
+    try:
+        with open("/proc/meminfo") as handle:
+            for line in handle:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
 def _text(bound: float) -> str:

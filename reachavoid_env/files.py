@@ -1,5 +1,6 @@
 """Writing files so that nothing half-written is ever left at the destination, and folders
-that only their owner can write (README "Files and failures").
+that only their owner can write, and files read as code checked the same way (README
+"Files and failures").
 
 A write lands on what its path names: through symbolic links on their target, a character
 device or FIFO written directly (``/dev/null``, ``/dev/stdout``, a named pipe), ``-`` for
@@ -30,7 +31,8 @@ STDOUT = "-"
 
 
 class UnsafeFolderError(ValueError):
-    """A folder that others could write to, a link, or one not ours: nothing is read from it."""
+    """A folder (or a file read as code) that others could write to, a link, or one not
+    ours: nothing is read from it."""
 
 
 _EXPECTED_NEW: set[Path] = set()
@@ -180,6 +182,38 @@ def _trusted(status: os.stat_result) -> bool:
             and (not status.st_mode & 0o022 or bool(status.st_mode & stat.S_ISVTX)))
 
 
+def _check_above(part: Path) -> None:
+    """Refuse ``part``, a folder above what is checked, unless it is a folder ``_trusted``."""
+    status = os.stat(part)
+    if not stat.S_ISDIR(status.st_mode):
+        raise NotADirectoryError(20, "Not a directory", str(part))
+    if not _trusted(status):
+        raise UnsafeFolderError(f"{part}: others can write to this folder (owner uid "
+                                f"{status.st_uid}, mode {stat.S_IMODE(status.st_mode):o})")
+
+
+def trusted_file(path: str | os.PathLike[str]) -> Path:
+    """``path``'s file (links resolved) if nobody but this user or root can change it: a
+    regular file owned by one of them that its group and others cannot write, in folders
+    only their owner (this user or root) can write, or sticky ones such as ``/tmp``. The
+    rule of ``private_folder``'s folders, for a file that is read as code (a pickled model):
+    checked before anything is read from it. ``UnsafeFolderError`` naming the file or
+    folder and the reason; ``OSError`` when it cannot be looked at."""
+    target = Path(os.path.realpath(path))
+    for part in reversed(target.parents):
+        _check_above(part)
+    status = os.stat(target)
+    if not stat.S_ISREG(status.st_mode):
+        raise UnsafeFolderError(f"{target}: not a regular file")
+    if status.st_uid not in (os.geteuid(), 0):
+        raise UnsafeFolderError(f"{target}: owned by uid {status.st_uid}, not by this user "
+                                f"({os.geteuid()}) or root")
+    if status.st_mode & 0o022:
+        raise UnsafeFolderError(f"{target}: mode {stat.S_IMODE(status.st_mode):o} lets "
+                                "others change it")
+    return target
+
+
 def private_folder(path: str | os.PathLike[str]) -> Path:
     """``path`` as a folder only this user can write, created (mode 0700) where missing.
 
@@ -201,12 +235,7 @@ def private_folder(path: str | os.PathLike[str]) -> Path:
             except FileExistsError:   # another process made it meanwhile: checked below
                 pass
         if part != folder and not created:
-            status = os.stat(part)
-            if not stat.S_ISDIR(status.st_mode):
-                raise NotADirectoryError(20, "Not a directory", str(part))
-            if not _trusted(status):
-                raise UnsafeFolderError(f"{part}: others can write to this folder (owner uid "
-                                        f"{status.st_uid}, mode {stat.S_IMODE(status.st_mode):o})")
+            _check_above(part)
             continue
         status = os.lstat(part)
         if stat.S_ISLNK(status.st_mode):

@@ -9,6 +9,9 @@ import math
 import numpy as np
 from numba import njit
 
+from reachavoid_env.jit_cache import check_numba_config
+
+check_numba_config()   # numba loads pickled code: only from a folder of ours
 
 @njit(cache=True)
 def cast(origins: np.ndarray, directions: np.ndarray, segments: np.ndarray,

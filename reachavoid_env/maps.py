@@ -134,6 +134,13 @@ class MapOptions:
         object.__setattr__(self, "clearance", _real(self.clearance, "clearance", 0.0, small / 2))
         object.__setattr__(self, "target_size",
                            _range(self.target_size, "target_size", 0.0, small, open_low=True))
+        large = max(d[1] - d[0], d[3] - d[2])
+        beside = self.target_size[0] + 2 * self.clearance + self.obstacle_size[0]
+        if self.target_size[0] >= small or (low and beside > large):
+            raise MapError(f"target_size: a target of side {self.target_size[0]:g} leaves no "
+                           f"room in the domain {d} for the players and {low} obstacle(s) "
+                           f"(side + 2 x clearance + the smallest obstacle must be at most "
+                           f"{large:g}, the side below {small:g})", field="target_size")
         if self.target_region is not None:
             r = tuple(_real(v, f"target_region[{i}]", -MAX_COORDINATE, MAX_COORDINATE)
                       for i, v in enumerate(_sequence(self.target_region, "target_region", 4)))

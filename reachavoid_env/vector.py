@@ -79,6 +79,20 @@ a few hundred bodies, so larger batches use several spaces."""
 _SHARED = ("dt", "attacker_speed", "defender_speed", "capture_radius", "player_radius")
 
 
+def _check_memory(copies: int, players: int, size: int) -> None:
+    """``FieldError`` naming ``num_envs`` when ``copies`` copies of ``players`` players,
+    observing ``size`` numbers each, would not fit in the available memory: about three
+    float32 observation tables and four float64 player-by-player arrays per copy (what a
+    reset and a step hold at once), checked before any copy is made."""
+    need = copies * players * (3 * 4 * size + 4 * 8 * players)
+    have = checks.available_memory()
+    if need > have:
+        raise checks.FieldError(
+            f"num_envs: {copies} copies of {players} players need about {need / 2**30:.1f} "
+            f"GiB (observations and a step's arrays) but {have / 2**30:.1f} GiB is "
+            "available; use fewer copies", "num_envs")
+
+
 class ReachAvoidVectorEnv:
     """``num_envs`` copies of the reach-avoid game, stepped together (module docstring).
 
@@ -113,6 +127,7 @@ class ReachAvoidVectorEnv:
         self._m, self._n = m, n = base.num_attackers, base.num_defenders
         self.possible_agents = base.attacker_names + base.defender_names
         size = self.observation.size(m, n)
+        _check_memory(self.num_envs, m + n, size)
         self.single_observation_space = gymnasium.spaces.Box(-1.0, 1.0, (size,), np.float32)
         self.single_action_space = gymnasium.spaces.Box(-1.0, 1.0, (2,), np.float32)
         self._speeds = np.concatenate([np.full(m, base.attacker_speed),

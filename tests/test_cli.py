@@ -267,6 +267,18 @@ def test_validate_good_and_bad_files(tmp_path, capsys):
     assert "no such file" in lines[2]
 
 
+def test_validate_checks_every_map_of_a_library_folder(tmp_path, capsys):
+    library = tmp_path / "library"
+    library.mkdir()
+    for name in ("paper_2v1", "paper_6v2"):
+        save_scenario(builtin_scenario(name), library / f"{name}.toml")
+    assert main(["validate", str(library)]) == 0
+    out, err = capsys.readouterr()
+    assert err == "" and out.splitlines() == [
+        f"{library}: paper_2v1: ok (paper_2v1: 2 attackers, 1 defenders, given starts)",
+        f"{library}: paper_6v2: ok (paper_6v2: 6 attackers, 2 defenders, given starts)"]
+
+
 def test_preview_writes_the_first_frame_without_playing(tmp_path, capsys):
     preview, video = tmp_path / "first.png", tmp_path / "episode.gif"
     assert main(["play", "--scenario", "paper_6v2", *SIMPLE, "--width", "320",

@@ -274,3 +274,48 @@ def test_a_failed_write_to_a_device_names_it(capsys):
         pytest.skip("no /dev/full here")
     err = fails_cleanly(capsys, [*BENCH, "--csv", "/dev/full"], "No space left", status=1)
     assert "/dev/full" in err
+
+
+@pytest.mark.parametrize("name", ["value.npy", "meta.json"])
+def test_solve_refuses_a_plot_on_its_own_value_files(tmp_path, capsys, name):
+    out = tmp_path / "D"
+    out.mkdir()
+    fails_cleanly(capsys, ["solve", "--game", "1v1", "--grid", "9", "--out", str(out),
+                           "--plot", str(out / name), "--force"], "--plot:")
+    assert list(out.iterdir()) == []
+
+
+@pytest.mark.parametrize("args", [[*BENCH, "--csv"], ["solve", "--grid", "9", "--plot"]])
+def test_an_output_that_is_a_link_loop_is_refused_before_work(tmp_path, capsys, args):
+    loop = tmp_path / "loop"
+    loop.symlink_to(loop)
+    fails_cleanly(capsys, [*args, str(loop)], "a loop")
+    assert [p.name for p in tmp_path.iterdir()] == ["loop"] and loop.is_symlink()
+
+
+def test_an_output_name_not_valid_in_the_locale_is_printed_as_given(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "reachavoid", *BENCH, "--csv", b"bad\xff.csv"],
+                          capture_output=True, cwd=tmp_path, timeout=300,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT), LC_ALL="C.UTF-8",
+                                   PYTHONIOENCODING="utf-8"))
+    assert done.returncode == 0, done.stderr
+    assert b"per-episode rows: bad\xff.csv\n" in done.stdout
+    assert os.listdir(os.fsencode(tmp_path)) == [b"bad\xff.csv"]
+
+
+def test_a_full_disk_while_kernels_compile_names_the_cache(tmp_path):
+    cache = tmp_path / "disk" / "cache"
+    run = (f"PYTHONPATH={ROOT} REACHAVOID_CACHE_DIR={cache} {sys.executable} -m reachavoid "
+           "solve --scenario paper_1v1 --game 1v1 --grid 9")
+    result = in_namespace(f"""
+        mount --make-rprivate /
+        mkdir -p {tmp_path / 'disk'} && mount -t tmpfs -o size=4m tmpfs {tmp_path / 'disk'}
+        {run} > /dev/null
+        rm -rf {cache}/kernels/__pycache__ {cache}/*.vf
+        dd if=/dev/zero of={tmp_path / 'disk' / 'fill'} bs=4k 2> /dev/null || true
+        {run} && exit 3
+        exit 0
+    """, tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.count("\n") == 1, result.stderr
+    assert f"{cache}: No space left on device" in result.stderr

@@ -1,6 +1,7 @@
 """Where solved tubes and compiled kernels are kept (``solvers/hj/cache.py``,
-``codegen.kernel_dir``, ``jit_cache.py``): folders of this user's only, checked before any
-work; entries of any kind repaired; an edited ``meta.json`` solved again, never a crash.
+``codegen.kernel_dir``, ``reachavoid_env/jit_cache.py``): folders of this user's only,
+checked before any work; entries of any kind repaired; an edited ``meta.json`` solved
+again, never a crash.
 
 Cases that need root (a chown to another user, a read-only mount) run on nodes of their
 own or in a private mount namespace, and are skipped where the machine refuses.
@@ -193,6 +194,20 @@ def test_a_numba_config_file_cannot_point_the_cache_elsewhere(tmp_path):
                             env=dict(ENV, PYTHONPATH=str(ROOT)))
     assert result.returncode != 0 and "CacheLocationError" in result.stderr
     assert list(shared.iterdir()) == []
+
+
+def test_the_env_as_a_library_refuses_a_numba_cache_others_can_write(tmp_path):
+    shared = tmp_path / "numba"
+    shared.mkdir()
+    shared.chmod(0o777)
+    play = ("import reachavoid_env\n"
+            "env = reachavoid_env.parallel_env(scenario='paper_2v1')\n"
+            "env.reset(seed=0)\n")
+    result = subprocess.run([sys.executable, "-c", play], capture_output=True, text=True,
+                            timeout=300, cwd=tmp_path,
+                            env=dict(ENV, NUMBA_CACHE_DIR=str(shared), PYTHONPATH=str(ROOT)))
+    assert result.returncode != 0 and "CacheLocationError" in result.stderr, result.stderr
+    assert "$NUMBA_CACHE_DIR" in result.stderr and list(shared.iterdir()) == []
 
 
 def test_cache_reuses_and_recomputes_corrupt_entries(cache_in_tmp):

@@ -128,6 +128,48 @@ def test_missing_damaged_and_foreign_weights_are_refused(tmp_path):
         load_weights(tmp_path / "nan.npz")
 
 
+def test_weights_that_expand_hugely_are_refused_before_loading(tmp_path):
+    from policies.mappo import MAX_WEIGHTS_BYTES
+
+    bomb = tmp_path / "bomb.npz"
+    np.savez_compressed(bomb, meta=np.array([1, 16, 10]),
+                        w0=np.zeros(MAX_WEIGHTS_BYTES // 4 + 1, np.float32))
+    assert bomb.stat().st_size < MAX_WEIGHTS_BYTES // 100
+    with pytest.raises(ValueError, match="bomb.npz' expands to .* not loaded"):
+        load_weights(bomb)
+
+
+def test_the_recipe_checks_every_flag_and_output_before_any_work(tmp_path, capsys):
+    pytest.importorskip("torchrl")
+    from checks import example
+
+    recipe = example("train_defender_mappo")
+    mine = tmp_path / "mine.npz"
+    mine.write_bytes(b"my weights")
+    out = ["--out", str(tmp_path / "w.npz")]
+    for argv in ([*out, "--copies", "0"], [*out, "--games", "bogus"],
+                 [*out, "--games", "paper_2v1/bogus"], [*out, "--lr", "nan"],
+                 [*out, "--steps", "0"], [*out, "--minibatch", "0"], [*out, "--hidden", "0"],
+                 [*out, "--iterations", "-1"], [*out, "--entropy", "-1"],
+                 ["--out", str(mine)], ["--out", str(tmp_path / "no-such-folder" / "w.npz")],
+                 [*out, "--report", str(mine)], [*out, "--report", str(tmp_path / "w.npz")]):
+        with pytest.raises(SystemExit) as stopped:
+            recipe.main(argv)
+        assert stopped.value.code == 2, argv
+    errors = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
+    assert len(errors) == 13
+    for message in ("--copies: must be an integer in [1, ", "--games: 'bogus': 'bogus' is not",
+                    "--games: 'paper_2v1/bogus': 'bogus' is not an attacker",
+                    "--lr: must be > 0, got nan", "--steps: must be", "--minibatch: must be",
+                    "--hidden: must be", "--iterations: must be", "--entropy: must be >= 0",
+                    "mine.npz' exists; pass --force", "does not exist", "--report: ",
+                    "give each output its own file"):
+        assert any(message in line for line in errors), message
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine.npz"]
+    assert mine.read_bytes() == b"my weights"
+    assert recipe.parse_args(["--out", str(mine), "--force"]).force
+
+
 def test_the_exported_actor_acts_as_the_trained_one_in_mean():
     torch = pytest.importorskip("torch")
     from policies.mappo_training import TrainConfig, build_modules, export

@@ -111,6 +111,17 @@ def test_each_option_is_checked_by_name(options, field):
         MapOptions(**options)
 
 
+def test_a_target_that_fills_the_domain_is_blamed_before_any_draw(tmp_path, capsys):
+    from checks import fails_cleanly
+
+    for size in ((2.0, 2.0), (1.9, 2.0)):
+        with pytest.raises(MapError, match="^target_size: a target of side"):
+            MapOptions(target_size=size)
+    fails_cleanly(capsys, ["maps", "--target-size", "2,2", "--out", str(tmp_path / "lib")],
+                  "--target-size: a target of side 2 leaves no room")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_options_from_text():
     options = options_from_text({"obstacles": "1,3", "shapes": "circle", "attackers": "4",
                                  "clearance": "0.2", "density": None})

@@ -75,6 +75,45 @@ def test_scripted_teams_alone_train_nothing(tmp_path):
     assert sorted(path.name for path in tmp_path.iterdir()) == ["report.json"]
 
 
+def test_the_recipe_replaces_a_users_file_only_with_force(tmp_path, capsys):
+    """The recipe's outputs follow the command's rule: checked before any work, an existing
+    file replaced only with ``--force``, a missing folder refused."""
+    recipe = example("train_attacker_team")
+    for name in ("model.zip", "report.json"):
+        (tmp_path / name).write_text("mine")
+    quick = ["--defenders", "greedy", "--episodes", "2", "--out", str(tmp_path)]
+    for argv in ([*TINY, *quick], [*quick, "--teams", "shortest-path"],
+                 [*TINY, "--out", str(tmp_path / "new"),
+                  "--plot", str(tmp_path / "no-such-folder" / "c.png")]):
+        with pytest.raises(SystemExit) as stopped:
+            recipe.main(argv)
+        assert stopped.value.code == 2
+    errors = capsys.readouterr().err
+    assert "report.json' exists; pass --force" in errors and "does not exist" in errors
+    assert {p.name: p.read_text() for p in tmp_path.iterdir()} == {"model.zip": "mine",
+                                                                   "report.json": "mine"}
+    recipe.main([*quick, "--teams", "shortest-path", "--force"])
+    assert (tmp_path / "model.zip").read_text() == "mine"
+    assert json.loads((tmp_path / "report.json").read_text())["evaluation"]
+
+
+def test_init_and_evaluate_only_refuse_a_model_others_can_change(tmp_path, capsys):
+    """A model file is code: one in a folder others can write is not read."""
+    recipe = example("train_attacker_team")
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    (shared / "model.zip").write_bytes(b"PK")
+    shared.chmod(0o777)
+    for flag in ("--init", "--evaluate-only"):
+        with pytest.raises(SystemExit) as stopped:
+            recipe.main(["--defenders", "greedy", flag, str(shared / "model.zip"),
+                         "--out", str(tmp_path / "out")])
+        assert stopped.value.code == 2
+        last = capsys.readouterr().err.splitlines()[-1]   # argparse's usage, then one line
+        assert f"error: {flag}: model" in last and "a model file is code" in last
+    assert not (tmp_path / "out").exists()
+
+
 def test_first_seed_shifts_the_evaluation_starts(tmp_path):
     """``--first-seed 1 --episodes 2`` plays the starts 1 and 2: the last two of
     ``--episodes 3``, episode by episode."""
@@ -114,12 +153,16 @@ def test_bad_arguments_exit_2(tmp_path, capsys):
                  ["--easy-starts", "0.3", "--supersuit"], ["--past-selves", "-1"],
                  ["--past-selves", "2", "--supersuit"],
                  ["--past-selves", "2", "--team-reward", "0.5"],
-                 ["--past-selves", "2", "--scenario", "paper_1v1"]):
+                 ["--past-selves", "2", "--scenario", "paper_1v1"],
+                 ["--past-selves", "100000"], ["--copies", "100000"],
+                 ["--n-steps", "1", "--batch-size", "1"], ["--learning-rate", "nan"],
+                 ["--ent-coef", "-1"], ["--shaping", "inf"],
+                 ["--n-steps", "1", "--copies", "1", "--scenario", "paper_1v1"]):
         with pytest.raises(SystemExit) as stopped:
             recipe.main([*argv, "--out", str(tmp_path)])
         assert stopped.value.code == 2
     errors = capsys.readouterr().err
-    assert "--past-selves: must be a non-negative integer" in errors
+    assert "--past-selves: must be an integer in [0, 10000], got -1" in errors
     assert "--past-selves: needs the vector env" in errors
     assert "--past-selves: one attacker per copy learns" in errors
     assert "--past-selves: needs teammates" in errors
@@ -127,6 +170,12 @@ def test_bad_arguments_exit_2(tmp_path, capsys):
     assert "--easy-starts: must be > 0, got 0.0" in errors
     assert "--easy-fraction: must be in (0, 1], got 2.0" in errors
     assert "--easy-starts: needs the vector env" in errors
+    for message in ("--past-selves: must be an integer in [0, 10000], got 100000",
+                    "--copies: must be an integer in [1, 65536], got 100000",
+                    "--batch-size: must be an integer in [2, ", "--learning-rate: must be > 0",
+                    "--ent-coef: must be >= 0", "--shaping: must be a finite number",
+                    "--n-steps: a rollout of one agent step"):
+        assert message in errors, message
     assert list(tmp_path.iterdir()) == []
 
 

@@ -177,6 +177,31 @@ def test_train_attacker_example_runs_against_hj_defenders(tmp_path):
         assert sum(rates) == pytest.approx(1.0)
 
 
+def test_train_attacker_example_replaces_a_users_model_only_with_force(tmp_path, capsys):
+    """Its outputs follow the command's rule, checked before any work; ``--evaluate-only``
+    reads no model others can change (a model file is code)."""
+    pytest.importorskip("stable_baselines3")
+    train = example("train_attacker_sb3")
+    (tmp_path / "model.zip").write_text("mine")
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    (shared / "model.zip").write_bytes(b"PK")
+    shared.chmod(0o777)
+    quick = ["--defenders", "idle", "--episodes", "1", "--no-video"]
+    for argv in ([*quick, "--out", str(tmp_path)],
+                 [*quick, "--out", str(tmp_path / "new"), "--evaluate-only",
+                  str(shared / "model.zip")], [*quick, "--out", str(tmp_path), "--seed", "-1"]):
+        with pytest.raises(SystemExit) as stopped:
+            train.main(argv)
+        assert stopped.value.code == 2
+    errors = capsys.readouterr().err
+    assert "model.zip' exists; pass --force" in errors and "a model file is code" in errors
+    assert "--seed: must be an integer in [0, " in errors
+    assert (tmp_path / "model.zip").read_text() == "mine"
+    assert not (tmp_path / "new").exists()
+    assert train.parse_args([*quick, "--out", str(tmp_path), "--force"]).force
+
+
 def test_train_attacker_example_beats_random(tmp_path):
     """PPO smoke run (a few thousand steps) through the example, as written. The defenders
     stand still, so that so short a run learns something a test can check."""

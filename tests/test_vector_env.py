@@ -139,3 +139,17 @@ def test_bad_actions_name_the_agent():
         vec.step({n: a for n, a in good.items() if n != "defender_0"})
     with pytest.raises(ValueError, match="num_envs"):
         vector_env("paper_2v1", num_envs=0)
+
+
+def test_copies_that_would_not_fit_in_memory_are_refused_up_front(monkeypatch):
+    """64 vs 64 at 4096 copies with 1 GiB available: one line naming ``num_envs`` before
+    any copy is made, not numpy's ``MemoryError`` after a long reset."""
+    from reachavoid_env import checks
+
+    monkeypatch.setattr(checks, "available_memory", lambda: 1 << 30)
+    big = builtin_scenario("paper_2v1").with_players(64, 64)
+    with pytest.raises(checks.FieldError, match=r"^num_envs: 4096 copies of 128 players need "
+                                                r"about .* GiB .* use fewer copies") as refused:
+        vector_env(big, num_envs=4096)
+    assert refused.value.field == "num_envs"
+    vector_env("paper_2v1", num_envs=16).reset(seed=0)   # a usual size fits

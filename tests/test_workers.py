@@ -11,7 +11,7 @@ import types
 from pathlib import Path
 
 import pytest
-from checks import fails_cleanly
+from checks import BENCH, ENV, fails_cleanly
 
 from reachavoid import sweep
 
@@ -49,6 +49,9 @@ def test_worker_path_leaves_out_the_working_folder_and_open_folders(tmp_path, mo
                                       str(tmp_path / "missing"), str(ours)])
     assert sweep.worker_path() == [str(ours)]
     monkeypatch.setenv("PYTHONPATH", str(tmp_path))   # named on purpose: kept
+    assert sweep.worker_path() == [str(tmp_path), str(ours)]
+    monkeypatch.delenv("PYTHONPATH")
+    monkeypatch.setattr(sweep, "PROGRAM_HOME", tmp_path)   # run from its source folder: kept
     assert sweep.worker_path() == [str(tmp_path), str(ours)]
 
 
@@ -135,6 +138,78 @@ def test_a_process_pool_worker_that_dies_ends_the_command(tmp_path):
     assert done.returncode == 1 and done.stderr.count("\n") == 1, done.stderr
     assert "worker process died" in done.stderr
     assert not (tmp_path / "rows.csv").exists()
+
+
+PLANTED = '''
+import os
+import pathlib
+
+pathlib.Path(__file__).with_name(f"ran-{os.getpid()}").touch()
+raise SystemExit("planted")
+'''
+LAUNCHER = '''
+import sys
+
+from reachavoid.cli import main
+
+if __name__ == "__main__":   # as a console script: spawned workers import it as __mp_main__
+    sys.exit(main())
+'''
+
+
+def test_process_pool_workers_import_nothing_planted_in_the_working_folder(tmp_path):
+    """From a sticky folder others can write, holding another user's ``selectors.py``
+    (imported by every Python process that uses sockets): neither the pool's workers nor
+    its resource tracker import it."""
+    work, bin_ = tmp_path / "work", tmp_path / "bin"
+    work.mkdir(), bin_.mkdir()
+    (work / "selectors.py").write_text(PLANTED)
+    if os.geteuid() == 0:
+        os.chown(work / "selectors.py", 65534, 65534)
+    work.chmod(0o1777)
+    (bin_ / "reachavoid").write_text(LAUNCHER)
+    done = subprocess.run(
+        [sys.executable, str(bin_ / "reachavoid"), *BENCH, "--backend", "process",
+         "--workers", "2"], capture_output=True, text=True, cwd=work, timeout=300,
+        env=dict(ENV, PYTHONPATH=str(ROOT)))
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in work.iterdir()) == ["selectors.py"]
+
+
+def _killed(task, items, backend, workers, address):
+    yield from ()
+    raise sweep.WorkerDied("a worker process died (the process pool broke: killed, out of "
+                           "memory, or os._exit in a policy) after 1 of 2 task(s)")
+
+
+def test_a_dead_worker_does_not_claim_the_cache_was_left_untouched(monkeypatch, capsys):
+    """``solve --defenders`` stores each map's tubes as it goes: after a worker's death the
+    line says what was kept, not "nothing was written"."""
+    import reachavoid.solve
+
+    monkeypatch.setattr(reachavoid.solve, "run_tasks", _killed)
+    err = fails_cleanly(capsys, ["solve", "--scenario", "paper_2v1", "--defenders", "greedy",
+                                 "--backend", "process"], "worker process died", status=1)
+    assert "nothing was written" not in err and "stay in the cache" in err
+
+
+def test_sigterm_while_ray_waits_is_one_line_and_143(tmp_path, monkeypatch, capsys):
+    """Ray turns the command's ``Terminated``, raised in its wait, into a plain
+    ``KeyboardInterrupt``: the command still says "terminated", status 143."""
+    monkeypatch.delenv("PYTHONPATH", raising=False)
+    ray = _fake_ray({})
+
+    def wait(pending, num_returns):
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            signal.sigtimedwait([], 0.1)   # the handler runs here
+        except BaseException:
+            raise KeyboardInterrupt from None   # as Ray's wait reports any signal
+        return pending[:1], pending[1:]
+
+    ray.wait = wait
+    monkeypatch.setitem(sys.modules, "ray", ray)
+    fails_cleanly(capsys, [*BENCH, "--backend", "ray"], "terminated", status=143)
 
 
 def test_ray_missing_is_one_line_before_any_work(tmp_path, monkeypatch, capsys):

@@ -14,8 +14,9 @@ owner's lock (``value.owned_temporaries``) can be taken: their process is gone, 
 machine or PID namespace it ran in. The generated kernels live in ``kernels/``
 (``codegen.kernel_dir``). Numba's own cache of compiled code (pickled, so loading it runs
 code) goes where ``$NUMBA_CACHE_DIR`` (or a ``.numba_config.yaml``) says only when that is a
-folder of this user's that nobody else can write (``jit_cache.check_numba_cache``), checked before
-any compiled function can be loaded.
+folder of this user's that nobody else can write
+(``reachavoid_env.jit_cache.check_numba_cache``), checked before any compiled function can
+be loaded.
 """
 
 from __future__ import annotations
@@ -27,7 +28,8 @@ import re
 import shutil
 import time
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -35,7 +37,7 @@ import platformdirs
 
 from reachavoid_env import GameMap
 from reachavoid_env.files import UnsafeFolderError, private_folder
-from solvers.hj.jit_cache import CacheLocationError, check_numba_cache, location_error
+from reachavoid_env.jit_cache import CacheLocationError, check_numba_cache, location_error
 from solvers.hj.value import ValueFunction, ValueFunctionError, abandoned, load_value_function
 
 _TEMPORARY = re.compile(r"^(?P<stem>\..+\.vf\.\d+\.[^.]+)\.(tmp|old|lock)$")
@@ -66,6 +68,22 @@ def check_cache() -> bool:
     except (OSError, UnsafeFolderError) as err:
         raise location_error("cannot create", folder, err) from None
     return os.access(folder, os.W_OK | os.X_OK)
+
+
+@contextmanager
+def failures_named() -> Iterator[None]:
+    """An ``OSError`` naming no file while a game is solved and stored (numba saving the
+    kernels it compiled, a tube's arrays: a full disk) names the folder written to: the
+    cache (and ``$NUMBA_CACHE_DIR`` where set)."""
+    try:
+        yield
+    except OSError as err:
+        if err.filename is not None:
+            raise
+        numba = os.environ.get("NUMBA_CACHE_DIR")
+        where = f"{cache_dir()}" + (f" (or $NUMBA_CACHE_DIR {numba})" if numba else "")
+        raise OSError(err.errno, f"{err.strerror or err} (solving and storing a tube)",
+                      where) from None
 
 
 def cache_key(parts: dict[str, Any]) -> str:

@@ -32,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from solvers.hj.jit_cache import check_numba_config
+from reachavoid_env.jit_cache import check_numba_config
 
 check_numba_config()   # numba loads pickled code: only from a folder of ours
 

@@ -14,7 +14,6 @@ over one unit of game time, on the nodes next to the zero level set, falls below
 from __future__ import annotations
 
 import math
-import os
 import time
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -22,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from tqdm.auto import tqdm
 
+from reachavoid_env.checks import available_memory
 from solvers.hj.game import Game
 from solvers.hj.grid import Grid
 from solvers.hj.layout import Layout, stored_groups
@@ -76,18 +76,6 @@ def memory_needed(game: Game, grid: Grid, settings: SolverSettings) -> int:
     pair_tables = 4 * m * sum(row_counts) * (2 + len(game.tables()))
     layout = 8 * (8 * rows + 2 * stored)  # built from every row's node indices
     return arrays * 4 * stored * m + pair_tables + layout + (200 << 20)
-
-
-def available_memory() -> int:
-    """Bytes the kernel reports as available (``MemAvailable``), or total RAM if unknown."""
-    try:
-        with open("/proc/meminfo") as handle:
-            for line in handle:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
 def check_memory(game: Game, grid: Grid, settings: SolverSettings, label: str) -> None:

@@ -9,7 +9,7 @@ decides the values.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -97,8 +97,16 @@ def solve_declared(game: Game, game_map: GameMap, grid: Grid,
                              symmetries=symmetries,
                              solver=_solver_meta(settings, result, warm))
 
-    if not cache:
-        return run()
+    with value_cache.failures_named():
+        if not cache:
+            return run()
+        return _cached(game, game_map, grid, settings, lower, run)
+
+
+def _cached(game: Game, game_map: GameMap, grid: Grid, settings: SolverSettings,
+            lower: Mapping[str, ValueFunction], run: Callable[[], ValueFunction]
+            ) -> ValueFunction:
+    """``run``'s value function, looked up in (or stored to) the cache."""
     parts = _key_parts(game, game_map, grid, settings, lower)
     description = game.describe()
     expected = {"game": game.name, "players": description["players"],

@@ -60,7 +60,7 @@ import numpy as np
 from numba import njit, prange
 
 from reachavoid_env.game_map import flood_fill
-from solvers.hj.jit_cache import check_numba_config
+from reachavoid_env.jit_cache import check_numba_config
 from solvers.hj.schemes import GODUNOV
 
 if TYPE_CHECKING:

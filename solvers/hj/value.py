@@ -33,7 +33,8 @@ from solvers.hj.layout import Layout, layout_of
 from solvers.hj.settings import SOLVER_VERSION
 
 _GRADIENT_FLOOR = 1e-9
-_FILES = ("meta.json", "value.npy")
+VALUE_FILES = ("meta.json", "value.npy")
+"""The files of a value directory (``save``), which only this program writes."""
 _CHUNK = 1 << 24
 _META_BYTES = 1 << 24
 
@@ -316,7 +317,7 @@ def is_value_directory(path: Path) -> bool:
     if not path.is_dir():
         return False
     names = {p.name for p in path.iterdir()}
-    if not names <= set(_FILES) or "meta.json" not in names:
+    if not names <= set(VALUE_FILES) or "meta.json" not in names:
         return False
     try:
         meta = _read_meta(path / "meta.json")
@@ -340,7 +341,7 @@ def refuse_foreign(path: Path) -> None:
 def _move_into_place(temporary: Path, path: Path, meta: dict[str, Any], retired: Path) -> None:
     if path.is_dir() and not path.is_symlink() and not any(path.iterdir()):
         # an empty folder (perhaps the working directory) is filled, meta.json last
-        for name in reversed(_FILES):
+        for name in reversed(VALUE_FILES):
             os.replace(temporary / name, path / name)
         return
     if not path.exists():

@@ -4,8 +4,10 @@ runs as it loads, and the error every cache location problem is reported with.
 numba's cache holds pickled code, so loading it runs code: it goes where
 ``$NUMBA_CACHE_DIR`` (or a ``.numba_config.yaml`` in the working folder) says only when
 that passes ``private_folder`` (a folder of this user's, mode 0700, not a link, under
-folders only their owner can write). A leaf module (no solver imports), so that the
-kernels can import it before anything else.
+folders only their owner can write). One rule wherever numba caches anything of ours:
+the env's lidar kernels, the solvers' kernels and the policies' lookups all run it as
+they load. A leaf of the ground floor (it imports ``files`` alone), so that every layer
+can import it before anything else.
 """
 
 from __future__ import annotations
