@@ -2,23 +2,28 @@
 
 Cells: random starts of the paper map with M attackers and N defenders
 (``builtin_scenario("paper_2v1").with_players(M, N)``: 2v1, 6v2, 8v4) and of the
-equal-speed scenario (``paper_6v4_equal``, 6v4), against shortest-path, ``hj`` and random
-attackers. Every method plays the same seeds in every cell (``reachavoid.sweep.play_seed``
+equal-speed scenario (``paper_6v4_equal``, 6v4), against shortest-path, ``hj``,
+``hj-pairs`` (those that lose alone split as a pair), ``straight`` and random attackers,
+or any attacker spec (``sb3:MODEL.zip``, a trained team), named ``LABEL=SPEC`` in the
+tables. Every method plays the same seeds in every cell (``reachavoid.sweep.play_seed``
 on a process pool). Each finished episode is appended at once to ``--results`` (JSON
 lines), so a run can be stopped and resumed or extended (more seeds, methods or cells):
 episodes already stored are not played again.
 
 Reported per cell and method: the capture rate (mean over episodes of the fraction of
 attackers captured, 95% t interval over episodes), the all-captured rate (95% Wilson
-interval), the mean arrivals, and the paired difference of the capture rate against
-``hj`` (per-seed differences on the seeds both played, 95% t interval)::
+interval), the arrival rate (the attackers' objective: an attacker held off until the
+episode ends is neither captured nor arrived), and the paired differences of the capture
+and arrival rates against ``hj`` (per-seed differences on the seeds both played, 95% t
+interval)::
 
     python benchmarks/defenders.py --grid1 45 --grid2 30 --seeds 200 --results d.jsonl
     python benchmarks/defenders.py --results d.jsonl --report      # tables only
 
 ``--json PATH`` also writes the tables' figures as a result record
 (``benchmarks/result_file.py``), keyed ``capture_percent.CONFIG.ATTACKERS.METHOD``,
-``minus_hj_points...`` and ``bound_percent.CONFIG.ATTACKERS``.
+``arrival_percent...``, ``minus_hj_points...`` (capture), ``arrival_minus_hj_points...``
+and ``bound_percent.CONFIG.ATTACKERS``.
 """
 
 from __future__ import annotations
@@ -48,7 +53,7 @@ CONFIGS = {"2v1": ("paper_2v1", 2, 1), "6v2": ("paper_2v1", 6, 2),
            "8v4": ("paper_2v1", 8, 4), "6v4eq": ("paper_6v4_equal", 6, 4)}
 """Cell name: (built-in scenario, attackers, defenders)."""
 ATTACKERS = ("shortest-path", "hj", "random")
-METHODS = ("hj", "hj-pairs", "paper", "intercept", "greedy", "matching")
+METHODS = ("hj", "hj-pairs", "paper", "intercept", "greedy", "matching", "learned-mappo")
 REFERENCE = "hj"
 
 
@@ -63,16 +68,24 @@ class Task(NamedTuple):
     grid2: int
 
 
+def attacker_label(attackers: str) -> tuple[str, str]:
+    """``(label, spec)`` of an ``--attackers`` entry: ``LABEL=SPEC`` (a trained team,
+    ``best-response=sb3:runs/x/model.zip``), else the spec is its own label."""
+    label, sep, spec = attackers.partition("=")
+    return (label, spec) if sep and ":" not in label else (attackers, attackers)
+
+
 def play(task: Task) -> dict[str, Any]:
     """Play ``task`` (in a worker) and return its row."""
     name, m, n = CONFIGS[task.config]
     scenario = reachavoid_env.builtin_scenario(name).with_players(m, n)
     method, *settings = task.method.split("+")
     options = {key: _option(value) for key, value in (x.split("=", 1) for x in settings)}
+    attackers = attacker_label(task.attackers)[1]
     grids = {key: value for key, value in (("grid1", task.grid1), ("grid2", task.grid2))
              if any(PolicySpec(side, source).choice.takes(key)
-                    for side, source in (("defenders", method), ("attackers", task.attackers)))}
-    sweep = sweep_of(scenario, method, task.attackers, [task.seed], **grids, **options)
+                    for side, source in (("defenders", method), ("attackers", attackers)))}
+    sweep = sweep_of(scenario, method, attackers, [task.seed], **grids, **options)
     result = play_seed(sweep, task.seed)
     return task._asdict() | {"attackers_total": m, "interceptable": interceptable(scenario,
                                                                                 task.seed),
@@ -144,7 +157,8 @@ def report(rows: list[dict[str, Any]], grid: tuple[int, int] | None = None,
     cells: dict[tuple, dict[str, dict[int, dict]]] = defaultdict(lambda: defaultdict(dict))
     for row in rows:
         if grid is None or (row["grid1"], row["grid2"]) == grid:
-            cell = (row["config"], row["attackers"], row["grid1"], row["grid2"])
+            cell = (row["config"], attacker_label(row["attackers"])[0], row["grid1"],
+                    row["grid2"])
             cells[cell][row["method"]][row["seed"]] = row
     lines = []
     for (config, attackers, g1, g2), methods in sorted(cells.items()):
@@ -156,8 +170,9 @@ def report(rows: list[dict[str, Any]], grid: tuple[int, int] | None = None,
             if bound is not None:
                 figures[f"bound_percent.{cell}"] = 100 * bound
         lines += [
-                  "| method | episodes | capture rate | all captured | arrivals | "
-                  f"minus {REFERENCE}, paired (seeds) |", "|---|---|---|---|---|---|"]
+                  "| method | episodes | capture rate | all captured | arrival rate | "
+                  f"capture minus {REFERENCE}, paired (seeds) | arrival minus {REFERENCE}, "
+                  "paired |", "|---|---|---|---|---|---|---|"]
         reference = methods.get(REFERENCE, {})
         for method in [m for m in METHODS if m in methods] + sorted(set(methods) - set(METHODS)):
             episodes = methods[method]
@@ -166,23 +181,27 @@ def report(rows: list[dict[str, Any]], grid: tuple[int, int] | None = None,
             everyone = sum(r["captured"] == r["attackers_total"] for r in episodes.values())
             rate, low, high = mean_interval(fractions)
             all_low, all_high = wilson_interval(everyone, len(episodes))
-            arrivals = np.mean([r["arrived"] for r in episodes.values()])
-            paired = "-"
+            arrival, *_ = mean_interval(np.array([r["arrived"] / r["attackers_total"]
+                                                  for r in episodes.values()]))
+            paired = {"captured": "-", "arrived": "-"}
             common = sorted(set(episodes) & set(reference))
-            if method != REFERENCE and len(common) > 1:
-                diffs = np.array([episodes[s]["captured"] - reference[s]["captured"]
+            for outcome, key in (("captured", "minus_hj_points"),
+                                 ("arrived", "arrival_minus_hj_points")):
+                if method == REFERENCE or len(common) < 2:
+                    continue
+                diffs = np.array([episodes[s][outcome] - reference[s][outcome]
                                   for s in common]) / episodes[common[0]]["attackers_total"]
                 d, d_low, d_high = mean_interval(diffs)
-                paired = (f"{100 * d:+.1f} [{100 * d_low:+.1f}, {100 * d_high:+.1f}] "
-                          f"({len(common)})")
-                figures[f"minus_hj_points.{cell}.{method}"] = [100 * d, 100 * d_low,
-                                                               100 * d_high]
+                paired[outcome] = (f"{100 * d:+.1f} [{100 * d_low:+.1f}, {100 * d_high:+.1f}]"
+                                   f" ({len(common)})")
+                figures[f"{key}.{cell}.{method}"] = [100 * d, 100 * d_low, 100 * d_high]
             figures[f"capture_percent.{cell}.{method}"] = 100 * rate
+            figures[f"arrival_percent.{cell}.{method}"] = 100 * arrival
             share = everyone / len(episodes)
             lines.append(f"| {method} | {len(episodes)} | {100 * rate:.1f}% "
                          f"[{100 * low:.1f}, {100 * high:.1f}] | {100 * share:.1f}% "
-                         f"[{100 * all_low:.1f}, {100 * all_high:.1f}] | {arrivals:.2f} | "
-                         f"{paired} |")
+                         f"[{100 * all_low:.1f}, {100 * all_high:.1f}] | {100 * arrival:.1f}% | "
+                         f"{paired['captured']} | {paired['arrived']} |")
     return "\n".join(lines)
 
 
@@ -238,8 +257,12 @@ def main() -> None:
         write_result(args.json, "defenders", figures, {
             "capture_percent": f"mean share of attackers captured, percent, tubes "
                                f"{args.grid1}^4 / {args.grid2}^6",
-            "minus_hj_points": "paired per-seed difference against hj, percentage points: "
-                               "[difference, 95% low, 95% high]",
+            "arrival_percent": "mean share of attackers that arrive, percent",
+            "minus_hj_points": "paired per-seed difference of the capture rate against hj, "
+                               "percentage points: [difference, 95% low, 95% high]",
+            "arrival_minus_hj_points": "paired per-seed difference of the arrival rate "
+                                       "against hj, percentage points: [difference, 95% "
+                                       "low, 95% high]",
             "bound_percent": "attackers interceptable at the start along their shortest "
                              "paths (no defender policy captures more), percent"})
 

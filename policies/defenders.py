@@ -79,8 +79,10 @@ class HJDefenderPolicy(AssignmentDefender):
     ``idle`` says what the defenders outside the certified games do
     (``policies.strategy.Spare``): ``"intercept"`` (default) play the team's intercept plan
     (``policies.intercept``; a certified 1 vs 1 game's defender too, as far as its
-    certificate allows); ``"shadow"`` plays the assignment's games and shadows, with the
-    1 vs 1 optimal control, the unassigned attacker it is best placed against;
+    certificate allows; the defender of a pair game keeps the pair's 2 vs 1 optimal
+    control while the plan sends it after one of the pair,
+    ``policies.steering.pair_keepers``); ``"shadow"`` plays the assignment's games and
+    shadows, with the 1 vs 1 optimal control, the unassigned attacker it is best placed against;
     ``"stand"`` plays the assignment's games and stands still unassigned, as in the
     paper's simulations. ``paper`` builds the paper's method exactly (``"stand"``,
     ``margin_cells=0``).

@@ -92,9 +92,10 @@ class Spare(str, enum.Enum):
     """What the defenders outside the games played do."""
 
     INTERCEPT = "intercept"
-    """Race the team's intercept plan (``policies.intercept``); only the certified games
-    are played, a certified 1 vs 1 game's defender steering towards the plan as far as
-    its certificate allows."""
+    """Race the team's intercept plan (``policies.intercept``); the certified games are
+    played, a certified 1 vs 1 game's defender steering towards the plan as far as its
+    certificate allows, and so are the program's pair games whose defender the plan sends
+    after one of the pair (``policies.steering.pair_keepers``)."""
     SHADOW = "shadow"
     """Play the assignment's games; an unassigned defender shadows, with the 1 vs 1
     optimal control, the unassigned attacker it is best placed against (largest 1 vs 1
