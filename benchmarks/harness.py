@@ -42,7 +42,7 @@ import sys
 import tarfile
 import tempfile
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -55,6 +55,12 @@ ROOT = BENCHMARKS.parent
 
 CPU: Callable[[], float] = time.process_time
 WALL: Callable[[], float] = time.perf_counter
+
+
+def spread(values: Sequence[float]) -> list[float]:
+    """``[median, lowest, highest]``: a figure with its range over the rounds (the form of a
+    result file's value with its interval)."""
+    return [statistics.median(values), min(values), max(values)]
 
 
 @dataclass(frozen=True)
@@ -81,8 +87,8 @@ class Timing:
         return max(self.rates)
 
     def spread(self) -> list[float]:
-        """``[median, lowest, highest]`` rate: a figure with its range over the rounds."""
-        return [self.median, min(self.rates), max(self.rates)]
+        """``[median, lowest, highest]`` rate over the rounds."""
+        return spread(self.rates)
 
     def ms(self, percentile: float = 50.0) -> float:
         """Milliseconds per unit at ``percentile`` over the rounds (a latency)."""
