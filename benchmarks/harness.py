@@ -65,10 +65,13 @@ def spread(values: Sequence[float]) -> list[float]:
 
 @dataclass(frozen=True)
 class Timing:
-    """Every timed round: how much it did (``counts``) in how many ``seconds``."""
+    """Every timed round: how much it did (``counts``) in how many ``seconds`` of the
+    timing's clock, and of the wall clock (``wall_seconds``, the same where that is the
+    clock; the rates and ``ms`` read ``seconds``)."""
 
     counts: tuple[float, ...]
     seconds: tuple[float, ...]
+    wall_seconds: tuple[float, ...]
 
     @property
     def rates(self) -> list[float]:
@@ -90,9 +93,11 @@ class Timing:
         """``[median, lowest, highest]`` rate over the rounds."""
         return spread(self.rates)
 
-    def ms(self, percentile: float = 50.0) -> float:
-        """Milliseconds per unit at ``percentile`` over the rounds (a latency)."""
-        return float(np.percentile([1e3 * s / c for c, s in zip(self.counts, self.seconds,
+    def ms(self, percentile: float = 50.0, wall: bool = False) -> float:
+        """Milliseconds per unit at ``percentile`` over the rounds (a latency), of the
+        timing's clock or (``wall``) the wall clock."""
+        seconds = self.wall_seconds if wall else self.seconds
+        return float(np.percentile([1e3 * s / c for c, s in zip(self.counts, seconds,
                                                                 strict=True)], percentile))
 
     def line(self, label: str, unit: str = "/s") -> str:
@@ -102,24 +107,26 @@ class Timing:
                 f"{len(self.counts)} rounds)")
 
     def __add__(self, other: Timing) -> Timing:
-        return Timing(self.counts + other.counts, self.seconds + other.seconds)
+        return Timing(self.counts + other.counts, self.seconds + other.seconds,
+                      self.wall_seconds + other.wall_seconds)
 
 
 def timed(work: Callable[[], float], rounds: int = 1, *, clock: Callable[[], float] = CPU,
           warmup: int = 0, untimed: Callable[[], float] | None = None) -> Timing:
     """``rounds`` timed calls of ``work`` (which returns the units it did) after ``warmup``
     untimed ones. ``untimed``, read after each round, gives the seconds of that round not to
-    count (work timed inside it, e.g. a scripted side's own decisions)."""
+    count on ``clock`` (work timed inside it, e.g. a scripted side's own decisions)."""
     for _ in range(warmup):
         work()
-    counts, seconds = [], []
+    counts, seconds, wall = [], [], []
     for _ in range(rounds):
-        start = clock()
+        start, wall_start = clock(), WALL()
         count = work()
-        spent = clock() - start
+        spent, wall_spent = clock() - start, WALL() - wall_start
         counts.append(float(count))
         seconds.append(spent - (untimed() if untimed is not None else 0.0))
-    return Timing(tuple(counts), tuple(seconds))
+        wall.append(wall_spent)
+    return Timing(tuple(counts), tuple(seconds), tuple(wall))
 
 
 def alternate(works: Mapping[str, Callable[[], float]], rounds: int, *,
@@ -129,7 +136,7 @@ def alternate(works: Mapping[str, Callable[[], float]], rounds: int, *,
     after ``warmup`` untimed rounds of each; by label."""
     for work in works.values():
         timed(work, 0, warmup=warmup)
-    runs = {label: Timing((), ()) for label in works}
+    runs = {label: Timing((), (), ()) for label in works}
     for _ in range(rounds):
         for label, work in works.items():
             runs[label] += timed(work, clock=clock, untimed=untimed)
