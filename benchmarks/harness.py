@@ -111,11 +111,13 @@ class Timing:
                       self.wall_seconds + other.wall_seconds)
 
 
-def timed(work: Callable[[], float], rounds: int = 1, *, clock: Callable[[], float] = CPU,
-          warmup: int = 0, untimed: Callable[[], float] | None = None) -> Timing:
-    """``rounds`` timed calls of ``work`` (which returns the units it did) after ``warmup``
-    untimed ones. ``untimed``, read after each round, gives the seconds of that round not to
-    count on ``clock`` (work timed inside it, e.g. a scripted side's own decisions)."""
+def timed(work: Callable[[], float | None], rounds: int = 1, *,
+          clock: Callable[[], float] = CPU, warmup: int = 0,
+          untimed: Callable[[], float] | None = None) -> Timing:
+    """``rounds`` timed calls of ``work`` (which returns the units it did, None for one)
+    after ``warmup`` untimed ones. ``untimed``, read after each round, gives the seconds of
+    that round not to count on ``clock`` (work timed inside it, e.g. a scripted side's own
+    decisions)."""
     for _ in range(warmup):
         work()
     counts, seconds, wall = [], [], []
@@ -123,13 +125,13 @@ def timed(work: Callable[[], float], rounds: int = 1, *, clock: Callable[[], flo
         start, wall_start = clock(), WALL()
         count = work()
         spent, wall_spent = clock() - start, WALL() - wall_start
-        counts.append(float(count))
+        counts.append(1.0 if count is None else float(count))
         seconds.append(spent - (untimed() if untimed is not None else 0.0))
         wall.append(wall_spent)
     return Timing(tuple(counts), tuple(seconds), tuple(wall))
 
 
-def alternate(works: Mapping[str, Callable[[], float]], rounds: int, *,
+def alternate(works: Mapping[str, Callable[[], float | None]], rounds: int, *,
               clock: Callable[[], float] = CPU, warmup: int = 0,
               untimed: Callable[[], float] | None = None) -> dict[str, Timing]:
     """Each of ``works`` timed ``rounds`` times side by side (one round of each in turn),

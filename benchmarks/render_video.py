@@ -8,10 +8,11 @@ lowest and highest over the runs as a result record (``benchmarks/result_file.py
 from __future__ import annotations
 
 import argparse
+import functools
 import tempfile
-import time
 from pathlib import Path
 
+from harness import WALL, timed
 from result_file import write_result
 
 import reachavoid_env
@@ -44,13 +45,13 @@ def measure(count: int) -> dict[str, float]:
     env, states, overlays = played_frames(count)
     renderer = Renderer(env.scenario.map, env.scenario.capture_radius)
     draw = readout = 0.0
-    # Each frame is dropped after readout, as when streaming to a video.
+
+    def read_out() -> None:
+        renderer.rgb_array()   # dropped, as when streaming to a video
+
     for state, overlay in zip(states, overlays, strict=True):
-        start = time.perf_counter()
-        renderer.draw(state, overlay)
-        middle = time.perf_counter()
-        renderer.rgb_array()
-        draw, readout = draw + middle - start, readout + time.perf_counter() - middle
+        draw += timed(functools.partial(renderer.draw, state, overlay), clock=WALL).seconds[0]
+        readout += timed(read_out, clock=WALL).seconds[0]
     renderer.reset()
     frames = []
     for state, overlay in zip(states, overlays, strict=True):
@@ -63,14 +64,17 @@ def measure(count: int) -> dict[str, float]:
     with tempfile.TemporaryDirectory() as folder:
         for suffix in (".mp4", ".gif"):
             path = Path(folder) / f"bench{suffix}"
-            start = time.perf_counter()
-            with VideoWriter(path, fps=50) as writer:
-                for frame in frames:
-                    writer.append(frame)
-            seconds = time.perf_counter() - start
-            print(f"{suffix[1:]} encode: {count / seconds:.0f} frames/s "
+
+            def encode(path: Path = path) -> int:
+                with VideoWriter(path, fps=50) as writer:
+                    for frame in frames:
+                        writer.append(frame)
+                return len(frames)
+
+            rate = timed(encode, clock=WALL).median
+            print(f"{suffix[1:]} encode: {rate:.0f} frames/s "
                   f"({path.stat().st_size / count / 1e3:.1f} kB/frame)")
-            figures[f"{suffix[1:]}_frames_per_s"] = count / seconds
+            figures[f"{suffix[1:]}_frames_per_s"] = rate
         for video in (None, Path(folder) / "episode.mp4"):
             env = reachavoid_env.parallel_env(scenario="paper_6v2", max_cycles=count,
                                               render_mode="rgb_array")
