@@ -21,8 +21,10 @@ import os
 import platform
 import time
 from dataclasses import asdict
+from typing import Any
 
 import numpy as np
+from harness import WALL, timed
 from result_file import write_result
 
 from policies.tubes import tube_2v1
@@ -33,6 +35,14 @@ from solvers.hj import PAPER_GRIDS, load_value_function
 
 def outcome(results) -> list[dict]:
     return [{k: v for k, v in asdict(r).items() if k != "seconds"} for r in results]
+
+
+def play(sweep: Any, backend: str, workers: int) -> tuple[list, float]:
+    """The sweep's results on ``backend`` and its wall seconds (``harness.timed``)."""
+    results: list = []
+    seconds = timed(lambda: results.extend(run_sweep(sweep, backend, workers=workers)),
+                    clock=WALL).seconds[0]
+    return results, seconds
 
 
 def main() -> None:
@@ -56,9 +66,7 @@ def main() -> None:
     vf11, vf21 = tube_2v1(scenario, args.grid1, args.grid2, progress=False)
     reference = None
     for backend in args.backends:
-        started = time.perf_counter()
-        results = run_sweep(sweep, backend, workers=args.workers)
-        seconds = time.perf_counter() - started
+        results, seconds = play(sweep, backend, args.workers)
         reference = reference or outcome(results)
         same = "same as serial" if outcome(results) == reference else "DIFFERENT"
         print(f"{backend:<8} {args.episodes} episodes of {args.config} in {seconds:7.1f} s: "
