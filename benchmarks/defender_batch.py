@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from harness import CPU, timed
+from harness import CPU, once, timed
 
 import reachavoid_env
 from policies.batch_defenders import BatchGreedyDefenders, BatchHJDefenders
@@ -53,17 +53,14 @@ def run(policy: Any, scenario: reachavoid_env.Scenario, copies: int,
     policy.reset_copies(np.arange(copies), [env.scenario for env in envs])
     games = copies
     defenders = 0.0
-    chosen: list[np.ndarray] = []
-
-    def decide(states: BatchState) -> None:
-        chosen[:] = [policy.act_batch(states)]
 
     def play() -> int:
         nonlocal games, defenders
         for step in actions:
             states = BatchState.of([env.game_state() for env in envs])
-            defenders += timed(functools.partial(decide, states), clock=CPU).seconds[0]
-            games = step_copies(envs, step, chosen[0], policy, games)
+            chosen, seconds = once(functools.partial(policy.act_batch, states), clock=CPU)
+            defenders += seconds
+            games = step_copies(envs, step, chosen, policy, games)
         return len(actions)
 
     return {"all": timed(play, clock=CPU).seconds[0], "defenders": defenders, "games": games}

@@ -45,13 +45,15 @@ import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 BENCHMARKS = Path(__file__).resolve().parent
 ROOT = BENCHMARKS.parent
 """This checkout: its ``benchmarks/`` runs every job, whichever tree the job times."""
+
+T = TypeVar("T")
 
 CPU: Callable[[], float] = time.process_time
 WALL: Callable[[], float] = time.perf_counter
@@ -129,6 +131,14 @@ def timed(work: Callable[[], float | None], rounds: int = 1, *,
         seconds.append(spent - (untimed() if untimed is not None else 0.0))
         wall.append(wall_spent)
     return Timing(tuple(counts), tuple(seconds), tuple(wall))
+
+
+def once(call: Callable[[], T], clock: Callable[[], float] = WALL) -> tuple[T, float]:
+    """``call()``'s result and its seconds on ``clock`` (one round of ``timed``): a solve,
+    a process, a sweep timed once."""
+    kept: list[T] = []
+    seconds = timed(lambda: kept.append(call()), clock=clock).seconds[0]
+    return kept[0], seconds
 
 
 def alternate(works: Mapping[str, Callable[[], float | None]], rounds: int, *,

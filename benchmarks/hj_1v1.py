@@ -33,7 +33,7 @@ import tracemalloc
 from pathlib import Path
 
 import numpy as np
-from harness import ROOT, Job, checkout
+from harness import ROOT, Job, checkout, once
 
 SPEEDS, RADIUS = (1.0, 1.5), 0.1
 
@@ -49,14 +49,12 @@ def worker_numba(grid: int, out: str) -> dict:
     from solvers.hj import solve_1v1
 
     game_map = builtin_map("paper")
-    start = time.perf_counter()
-    solve_1v1(game_map, SPEEDS, RADIUS, 9, cache=False, progress=False)
-    compile_seconds = time.perf_counter() - start
+    _, compile_seconds = once(lambda: solve_1v1(game_map, SPEEDS, RADIUS, 9, cache=False,
+                                                 progress=False))
     rss_before = _peak_rss_mb()
     tracemalloc.start()
-    start = time.perf_counter()
-    vf = solve_1v1(game_map, SPEEDS, RADIUS, grid, cache=False, progress=False)
-    seconds = time.perf_counter() - start
+    vf, seconds = once(lambda: solve_1v1(game_map, SPEEDS, RADIUS, grid, cache=False,
+                                         progress=False))
     _, traced_peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
     np.save(out, np.asarray(vf.values))
@@ -108,14 +106,10 @@ def worker_hj_reachability(grid: int, horizon: float, out: str) -> dict:
         "low", value_postprocessor=lambda t, v: jnp.maximum(jnp.minimum(v, l_values), g_values))
     initial = jnp.maximum(l_values, g_values)
     dynamics = Pursuit()
-    start = time.perf_counter()
-    warm = hj.step(settings, dynamics, hj_grid, 0.0, initial, -1e-3, progress_bar=False)
-    jax.block_until_ready(warm)
-    compile_seconds = time.perf_counter() - start
-    start = time.perf_counter()
-    values = hj.step(settings, dynamics, hj_grid, 0.0, initial, -horizon, progress_bar=False)
-    values = np.asarray(jax.block_until_ready(values))
-    seconds = time.perf_counter() - start
+    _, compile_seconds = once(lambda: jax.block_until_ready(hj.step(
+        settings, dynamics, hj_grid, 0.0, initial, -1e-3, progress_bar=False)))
+    values, seconds = once(lambda: np.asarray(jax.block_until_ready(hj.step(
+        settings, dynamics, hj_grid, 0.0, initial, -horizon, progress_bar=False))))
     np.save(out, values.astype(np.float32))
     return {"solver": f"hj_reachability {hj.__version__} (jax {jax.__version__}, CPU)",
             "compile_or_load_s": compile_seconds, "seconds": seconds, "game_time": horizon,

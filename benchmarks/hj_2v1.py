@@ -31,7 +31,7 @@ import sys
 import tempfile
 import time
 
-from harness import ROOT, Job, checkout
+from harness import ROOT, Job, checkout, once
 
 EXAMPLE = [-0.5, 0.0, 0.0, 0.8, 0.3, -0.3]
 
@@ -48,14 +48,12 @@ def worker(grid: int, sweeps: int | None, out: str) -> dict:
 
     game_map = builtin_map("paper")
     vf11 = solve_1v1(game_map, grid_points=45, progress=False)
-    start = time.perf_counter()
-    solve_2v1(game_map, vf11, grid_points=8, cache=False, progress=False)
-    compile_seconds = time.perf_counter() - start
+    _, compile_seconds = once(lambda: solve_2v1(game_map, vf11, grid_points=8, cache=False,
+                                                 progress=False))
     settings = SolverSettings() if sweeps is None else SolverSettings(max_iterations=sweeps)
-    start = time.perf_counter()
-    vf = solve_2v1(game_map, vf11, grid_points=grid, progress=sys.stderr.isatty(),
-                   settings=settings, cache=sweeps is None)
-    wall = time.perf_counter() - start
+    vf, wall = once(lambda: solve_2v1(game_map, vf11, grid_points=grid,
+                                      progress=sys.stderr.isatty(), settings=settings,
+                                      cache=sweeps is None))
     solver = vf.solver
     np.save(out, np.asarray(vf.values))
     stored_points = (grid**2 * (grid**2 + 1) // 2) * grid**2

@@ -19,7 +19,7 @@ import functools
 import platform
 
 import numpy as np
-from harness import WALL, timed
+from harness import once
 from result_file import write_result
 
 import reachavoid_env
@@ -32,15 +32,9 @@ from policies import (
 from policies.tubes import tube_1v2
 
 
-def decide(defenders, state, actions: dict) -> int:
-    """One decision of ``defenders``, into ``actions``: one unit of work."""
-    actions.update(defenders.act(state))
-    return 1
-
-
 def decision_times(env, defenders, episodes: int) -> tuple[np.ndarray, int]:
     """Wall times (s) of every ``defenders.act`` call over ``episodes`` episodes (each call
-    timed by ``harness.timed``)."""
+    timed by ``harness.once``)."""
     attackers = ShortestPathAttacker()
     times = []
     for seed in range(episodes):
@@ -50,9 +44,8 @@ def decision_times(env, defenders, episodes: int) -> tuple[np.ndarray, int]:
         defenders.reset(scenario)
         while env.agents:
             state = env.unwrapped.game_state()
-            actions: dict = {}
-            times.append(timed(functools.partial(decide, defenders, state, actions),
-                               clock=WALL).seconds[0])
+            actions, seconds = once(functools.partial(defenders.act, state))
+            times.append(seconds)
             actions.update(attackers.act(state))
             live = set(env.agents)
             env.step({agent: a for agent, a in actions.items() if agent in live})

@@ -12,7 +12,7 @@ import functools
 import tempfile
 from pathlib import Path
 
-from harness import WALL, timed
+from harness import WALL, once, timed
 from result_file import write_result
 
 import reachavoid_env
@@ -45,13 +45,10 @@ def measure(count: int) -> dict[str, float]:
     env, states, overlays = played_frames(count)
     renderer = Renderer(env.scenario.map, env.scenario.capture_radius)
     draw = readout = 0.0
-
-    def read_out() -> None:
-        renderer.rgb_array()   # dropped, as when streaming to a video
-
+    # Each frame is dropped after readout, as when streaming to a video.
     for state, overlay in zip(states, overlays, strict=True):
-        draw += timed(functools.partial(renderer.draw, state, overlay), clock=WALL).seconds[0]
-        readout += timed(read_out, clock=WALL).seconds[0]
+        draw += once(functools.partial(renderer.draw, state, overlay))[1]
+        readout += once(renderer.rgb_array)[1]
     renderer.reset()
     frames = []
     for state, overlay in zip(states, overlays, strict=True):

@@ -31,7 +31,7 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-from harness import WALL, checkout, timed
+from harness import checkout, once
 from result_file import write_result
 
 _LINE = re.compile(r"import time:\s+(\d+) \|\s+(\d+) \|( +)(\S+)")
@@ -55,11 +55,10 @@ def run(tree: Path, arguments: list[str]) -> tuple[float, str, str]:
     """Wall time (s), stdout and stderr of one fresh ``reachavoid`` process."""
     env = dict(os.environ, PYTHONPATH=str(tree.resolve()), SDL_VIDEODRIVER="dummy",
                SDL_AUDIODRIVER="dummy")
-    done: list[subprocess.CompletedProcess[str]] = []
-    timing = timed(lambda: done.append(subprocess.run(
+    done, seconds = once(lambda: subprocess.run(
         [sys.executable, "-X", "importtime", "-m", "reachavoid.cli", *arguments], env=env,
-        cwd=tree, capture_output=True, text=True, check=True)) or 1, clock=WALL)
-    return timing.seconds[0], done[0].stdout, done[0].stderr
+        cwd=tree, capture_output=True, text=True, check=True))
+    return seconds, done.stdout, done.stderr
 
 
 def measure(tree: Path, play: list[str]) -> dict[str, float]:
