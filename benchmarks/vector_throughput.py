@@ -39,7 +39,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from harness import WALL, Job, checkout, timed
+from harness import WALL, Job, checkout, once, timed
 from single_view import EPISODE_STEPS, GRIDS, SCENARIO, parallel_rate, single_view_rate
 
 import reachavoid_env
@@ -114,12 +114,10 @@ def _timed(owner: type, name: str, spent: list[float]) -> Callable[[], None]:
     inner = getattr(owner, name)
 
     def counted(*args: object, **kwargs: object) -> object:
-        start = WALL()
-        try:
-            return inner(*args, **kwargs)
-        finally:
-            spent[0] += WALL() - start
-            spent[1] += 1
+        result, seconds = once(lambda: inner(*args, **kwargs))
+        spent[0] += seconds
+        spent[1] += 1
+        return result
 
     setattr(owner, name, counted)
     return lambda: setattr(owner, name, inner)
@@ -152,7 +150,7 @@ def floors(copies: int, steps: int, warmup: int) -> dict[str, float]:
         return steps
 
     try:
-        total = timed(lambda: play(env.step, actions), clock=WALL).seconds[0]
+        total = once(lambda: play(env.step, actions))[1]
     finally:
         restore()
     view, view_actions = _view("hj", copies, warmup)
@@ -163,7 +161,7 @@ def floors(copies: int, steps: int, warmup: int) -> dict[str, float]:
                     (policies.batch_defenders, "batch_decision_controls"),
                     (ValueFunction, "value")))]
     try:
-        hj_step = timed(lambda: play(view.step, view_actions), clock=WALL).seconds[0] / steps
+        hj_step = once(lambda: play(view.step, view_actions))[1] / steps
     finally:
         for restore in restores:
             restore()
