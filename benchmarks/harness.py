@@ -1,13 +1,13 @@
 """The speed benchmarks' one timing loop and one way to compare with another checkout.
 
-**Timing** (``timed``, ``alternate``): a unit of work is a function that does one round
+**Timing** (``timed``, ``alternate``, ``once``): a unit of work is a function that does one round
 and returns how much it did (steps, frames, decisions); the harness times each round on a
 clock (``CPU``, this process's CPU time, by default: on a shared machine the steadier
 figure; ``WALL`` where the work waits on other processes) and keeps every round's count
 and seconds (``Timing``): rates per second with their median, spread ``[median, lowest,
 highest]`` and best, and per-unit milliseconds at any percentile. ``alternate`` times
 several works side by side, one round of each in turn, so the machine's drift hits all
-alike.
+alike; ``once`` times one call (a solve, a process, a decision) and keeps its result.
 
 **Other checkouts** (``checkout``, ``Job``, ``side_by_side``): ``checkout(REV)`` gives the
 tree of another commit, unpacked (``git archive``) into a temporary folder that is
@@ -26,8 +26,8 @@ A function a job runs in an older tree must use only names that tree has.
 
 The speed benchmarks run on this harness; the studies (``paper_table.py``,
 ``defenders.py``, ``guarantee*.py``, ``attacker_*.py``, ``tube_library.py``,
-``hj_schemes.py``, ``bench_record.py``, ``recipe_record.py``) measure play, not speed, and
-keep their own loops (``docs/benchmarking.md``).
+``hj_schemes.py``, ``bench_record.py``, ``recipe_record.py``, ``readme_frame.py``)
+measure play, not speed, and keep their own loops (``docs/benchmarking.md``).
 """
 
 from __future__ import annotations
