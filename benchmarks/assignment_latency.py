@@ -27,10 +27,10 @@ from __future__ import annotations
 
 import argparse
 import platform
-import time
 from collections.abc import Callable
 
 import numpy as np
+from harness import Timing, timed
 from result_file import write_result
 
 from solvers.assignment import AssignmentSolver, max_matching, solve_assignment
@@ -39,11 +39,13 @@ SIZES = ((2, 1), (6, 2), (8, 4), (16, 8))
 TEAM_SIZES = ((6, 4), (8, 4), (16, 8))
 
 
-def timed(call: Callable[..., object], *args: object) -> tuple[float, float]:
-    """(wall, cpu) seconds of one call."""
-    wall, cpu = time.perf_counter(), time.process_time()
-    call(*args)
-    return time.perf_counter() - wall, time.process_time() - cpu
+def one_call(call: Callable[..., object], *args: object) -> Timing:
+    """One call timed (``harness.timed``: CPU and wall seconds)."""
+    def work() -> int:
+        call(*args)
+        return 1
+
+    return timed(work)
 
 
 def instances(rng: np.random.Generator, m: int, n: int, count: int, p1: float, p2: float,
@@ -80,18 +82,19 @@ def sequence(rng: np.random.Generator, m: int, n: int, steps: int, p1: float, p2
         yield one, two, three
 
 
-def summary(samples: list[tuple[float, float]]) -> str:
-    wall, cpu = (np.asarray(s) * 1e3 for s in zip(*samples, strict=True))
-    return (f"{np.median(wall):.3f} / {np.percentile(wall, 99):.2f} / {wall.max():.2f} "
-            f"({np.median(cpu):.3f} / {np.percentile(cpu, 99):.2f})")
+def summary(samples: list[Timing]) -> str:
+    """Wall p50 / p99 / max (CPU p50 / p99) of the calls, milliseconds."""
+    calls = sum(samples, Timing((), (), ()))
+    return (f"{calls.ms(50, wall=True):.3f} / {calls.ms(99, wall=True):.2f} / "
+            f"{calls.ms(100, wall=True):.2f} ({calls.ms(50):.3f} / {calls.ms(99):.2f})")
 
 
-def figures_of(name: str, size: str, samples: list[tuple[float, float]]) -> dict[str, float]:
-    """Wall p50 and CPU p50 / p99 of ``samples`` (seconds) as result-record keys, in ms."""
-    wall, cpu = (np.asarray(s) * 1e3 for s in zip(*samples, strict=True))
-    return {f"{name}_p50_ms.{size}": float(np.median(wall)),
-            f"{name}_cpu_p50_ms.{size}": float(np.median(cpu)),
-            f"{name}_cpu_p99_ms.{size}": float(np.percentile(cpu, 99))}
+def figures_of(name: str, size: str, samples: list[Timing]) -> dict[str, float]:
+    """Wall p50 and CPU p50 / p99 of the calls as result-record keys, in ms."""
+    calls = sum(samples, Timing((), (), ()))
+    return {f"{name}_p50_ms.{size}": calls.ms(50, wall=True),
+            f"{name}_cpu_p50_ms.{size}": calls.ms(50),
+            f"{name}_cpu_p99_ms.{size}": calls.ms(99)}
 
 
 def main() -> None:
@@ -119,14 +122,14 @@ def main() -> None:
     print("|---|---|---|---|---|---|")
     for m, n in SIZES:
         solve_assignment(np.zeros((m, n), bool), np.zeros((m, m, n), bool))  # warm-up
-        mip_cold = [timed(solve_assignment, one, two)
+        mip_cold = [one_call(solve_assignment, one, two)
                     for one, two, _ in instances(rng, m, n, args.instances, args.p1, args.p2)]
-        match_cold = [timed(max_matching, one)
+        match_cold = [one_call(max_matching, one)
                       for one, _, _ in instances(rng, m, n, args.instances, args.p1, args.p2)]
         steps = list(sequence(rng, m, n, args.instances, args.p1, args.p2, args.change))
         mip, matching = AssignmentSolver("mip"), AssignmentSolver("matching")
-        mip_cached = [timed(mip.solve, one, two) for one, two, _ in steps]
-        match_cached = [timed(matching.solve, one) for one, _, _ in steps]
+        mip_cached = [one_call(mip.solve, one, two) for one, two, _ in steps]
+        match_cached = [one_call(matching.solve, one) for one, _, _ in steps]
         print(f"| {m}v{n} | {summary(mip_cold)} | {summary(mip_cached)} | "
               f"{summary(match_cold)} | {summary(match_cached)} | "
               f"{mip.solves}/{mip.solves + mip.reuses} |")
@@ -137,14 +140,14 @@ def main() -> None:
     print("|---|---|---|---|---|")
     for m, n in TEAM_SIZES:
         tables = list(instances(rng, m, n, args.instances, args.team_p1, args.p2, args.p3))
-        cold = [timed(solve_assignment, one, two, None, None, three)
+        cold = [one_call(solve_assignment, one, two, None, None, three)
                 for one, two, three in tables]
         teams = sum(len(solve_assignment(one, two, beats_1v2=three).shared)
                     for one, two, three in tables)
         steps = list(sequence(rng, m, n, args.instances, args.team_p1, args.p2, args.change,
                               args.p3))
         mip = AssignmentSolver("mip")
-        cached = [timed(mip.solve, one, two, None, three) for one, two, three in steps]
+        cached = [one_call(mip.solve, one, two, None, three) for one, two, three in steps]
         print(f"| {m}v{n} | {summary(cold)} | {summary(cached)} | "
               f"{teams / len(tables):.2f} per instance | "
               f"{mip.solves}/{mip.solves + mip.reuses} |")

@@ -2,14 +2,15 @@
 fresh processes, alternating between the checkouts (A, B, A, B, ... ``--rounds`` each),
 each process timing greedy and hj runs alternately; then one table of medians.
 
-    git worktree add /tmp/base main
-    taskset -c 0 .venv/bin/python benchmarks/compare_throughput.py /tmp/base . \\
+    taskset -c 0 .venv/bin/python benchmarks/compare_throughput.py main . \\
         --rounds 3 --json benchmarks/results/training_throughput.json \\
         -- --scenarios paper_8v4 --every 1 --steps 3000 --repeats 5
 
-Every process runs this checkout's ``training_throughput.py`` (the same harness) with
-``PYTHONPATH`` set to the checkout it times, so only the library code differs. Arguments
-after ``--`` go to ``training_throughput.py``. The table gives, per env, the median
+A checkout is a folder (a ``git worktree``) or a revision of this repository, unpacked
+for the run (``harness.checkout``). Every process runs this checkout's
+``training_throughput.measure`` with the checkout it times first on the path
+(``harness.Job``), so only the library code differs. Arguments after ``--`` go to
+``training_throughput.py``. The table gives, per env, the median
 steps/s of greedy (both checkouts' runs) and of hj in each checkout, and the median and
 range of the per-pair hj / greedy ratios (each hj run against the greedy run just before
 it, in the same process), and the median share of an hj step spent in the defenders'
@@ -20,25 +21,12 @@ it, in the same process), and the median share of an hj step spent in the defend
 from __future__ import annotations
 
 import argparse
-import json
-import os
+import contextlib
 import statistics
-import subprocess
 import sys
-import tempfile
-from pathlib import Path
 
+from harness import Job, checkout, side_by_side
 from result_file import write_result
-
-HARNESS = Path(__file__).with_name("training_throughput.py")
-
-
-def run_checkout(checkout: Path, options: list[str], out: Path) -> dict[str, list]:
-    """One fresh process of the harness timing ``checkout``; its rows (``--json``)."""
-    env = dict(os.environ, PYTHONPATH=str(checkout.resolve()))
-    subprocess.run([sys.executable, str(HARNESS), *options, "--json", str(out)], env=env,
-                   check=True, stdout=subprocess.DEVNULL)
-    return json.loads(out.read_text())
 
 
 def share(timed: list[list[float]]) -> float:
@@ -65,8 +53,8 @@ def row_key(kind: str) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("before", type=Path, help="checkout of the code before")
-    parser.add_argument("after", type=Path, help="checkout of the code after")
+    parser.add_argument("before", help="checkout of the code before (a folder or a revision)")
+    parser.add_argument("after", help="checkout of the code after (a folder or a revision)")
     parser.add_argument("--rounds", type=int, default=3, help="processes per checkout")
     parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     ours, options = sys.argv[1:], []
@@ -75,13 +63,12 @@ def main() -> None:
         ours, options = ours[:cut], ours[cut + 1:]
     args = parser.parse_args(ours)
     runs: dict[str, dict[str, list]] = {"before": {}, "after": {}}
-    with tempfile.TemporaryDirectory() as scratch:
-        for round_ in range(args.rounds):
-            for side, checkout in (("before", args.before), ("after", args.after)):
-                load = os.getloadavg()[0]
-                rows = run_checkout(checkout, options, Path(scratch) / f"{side}.json")
-                print(f"round {round_ + 1}, {side} ({checkout}): done, load average at "
-                      f"start {load:.2f}", flush=True)
+    with contextlib.ExitStack() as stack:
+        jobs = {side: Job(stack.enter_context(checkout(rev)), "training_throughput:measure",
+                          (options,)) for side, rev in (("before", args.before),
+                                                        ("after", args.after))}
+        for side, done in side_by_side(jobs, args.rounds).items():
+            for rows in done:
                 for label, timed in rows.items():
                     runs[side].setdefault(label, []).extend(timed)
     print("\n| env | greedy | hj before | hj after | hj / greedy before | "

@@ -27,11 +27,12 @@ too; ``defenders`` is what the batching changes. One core:
 from __future__ import annotations
 
 import argparse
-import time
+import functools
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from harness import CPU, once, timed
 
 import reachavoid_env
 from policies.batch_defenders import BatchGreedyDefenders, BatchHJDefenders
@@ -39,14 +40,12 @@ from policies.defenders import HJDefenderPolicy
 from reachavoid_env import BatchState, PerCopy
 from solvers.hj.settings import TRAINING_GRIDS
 
-CLOCK = time.process_time
-
 
 def run(policy: Any, scenario: reachavoid_env.Scenario, copies: int,
         actions: np.ndarray) -> dict[str, float]:
     """Play ``len(actions)`` steps of ``copies`` games with ``policy`` (a ``BatchPolicy``);
     ``actions (steps, copies, M, 2)``: the attackers'. Returns CPU seconds in all and in
-    the defenders."""
+    the defenders (``harness.timed``) and the games played."""
     envs = [reachavoid_env.parallel_env(scenario=scenario, starts="random")
             for _ in range(copies)]
     for k, env in enumerate(envs):
@@ -54,24 +53,35 @@ def run(policy: Any, scenario: reachavoid_env.Scenario, copies: int,
     policy.reset_copies(np.arange(copies), [env.scenario for env in envs])
     games = copies
     defenders = 0.0
-    start = CLOCK()
-    for step in actions:
-        states = BatchState.of([env.game_state() for env in envs])
-        before = CLOCK()
-        chosen = policy.act_batch(states)
-        defenders += CLOCK() - before
-        ended = []
-        for k, env in enumerate(envs):
-            moves = {f"attacker_{i}": a for i, a in enumerate(step[k])}
-            moves |= {f"defender_{j}": a for j, a in enumerate(chosen[k])}
-            env.step({name: a for name, a in moves.items() if name in env.agents})
-            if not env.agents:
-                env.reset(seed=games)
-                games += 1
-                ended.append(k)
-        if ended:
-            policy.reset_copies(np.array(ended), [envs[k].scenario for k in ended])
-    return {"all": CLOCK() - start, "defenders": defenders, "games": games}
+
+    def play() -> int:
+        nonlocal games, defenders
+        for step in actions:
+            states = BatchState.of([env.game_state() for env in envs])
+            chosen, seconds = once(functools.partial(policy.act_batch, states), clock=CPU)
+            defenders += seconds
+            games = step_copies(envs, step, chosen, policy, games)
+        return len(actions)
+
+    return {"all": timed(play, clock=CPU).seconds[0], "defenders": defenders, "games": games}
+
+
+def step_copies(envs: list, step: np.ndarray, chosen: np.ndarray, policy: Any,
+                games: int) -> int:
+    """Step every copy with the attackers' ``step`` and the defenders' ``chosen`` actions,
+    a copy whose game ended starting the next game; the games started so far."""
+    ended = []
+    for k, env in enumerate(envs):
+        moves = {f"attacker_{i}": a for i, a in enumerate(step[k])}
+        moves |= {f"defender_{j}": a for j, a in enumerate(chosen[k])}
+        env.step({name: a for name, a in moves.items() if name in env.agents})
+        if not env.agents:
+            env.reset(seed=games)
+            games += 1
+            ended.append(k)
+    if ended:
+        policy.reset_copies(np.array(ended), [envs[k].scenario for k in ended])
+    return games
 
 
 def main(argv: list[str] | None = None) -> None:

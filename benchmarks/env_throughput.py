@@ -12,15 +12,15 @@ Measures, in one run:
 - MP4 encoding frames per second through ``reachavoid_env.video.VideoWriter``.
 
 Each figure is the best and the median of ``--repeats`` timed runs (the machine is shared;
-the best is the least disturbed). ``--profile`` prints where an env step spends its time.
-``--against DIR [DIR ...]`` compares the step-only rate of this tree with the checkouts in
-``DIR`` (other revisions, e.g. ``git worktree add /tmp/base HEAD~1``) side by side: each
-of ``--repeats`` rounds runs one fresh process per tree (``cd`` into it, ``PYTHONPATH``
-set to it, this script's harness) and one for MPE, so every tree's ratio to MPE is taken
-within its round.
+the best is the least disturbed; ``harness.timed``). ``--profile`` prints where an env step
+spends its time. ``--against REV [REV ...]`` compares the step-only rate of this tree with
+other checkouts (folders, e.g. a ``git worktree``, or revisions: ``harness.checkout``)
+side by side: each of ``--repeats`` rounds runs one fresh process per tree (that tree first
+on the path, this script's ``step_rate``: ``harness.side_by_side``) and one for MPE, so
+every tree's ratio to MPE is taken within its round.
 
     SDL_VIDEODRIVER=dummy .venv/bin/python benchmarks/env_throughput.py [--steps 5000]
-    taskset -c 0 .venv/bin/python benchmarks/env_throughput.py --against /tmp/base \\
+    taskset -c 0 .venv/bin/python benchmarks/env_throughput.py --against HEAD~1 \\
         --repeats 7 --json benchmarks/results/env_side_by_side.json
 
 ``--json PATH`` writes the figures as a result record (``benchmarks/result_file.py``):
@@ -33,20 +33,20 @@ the others by their short commit) and for MPE, ``steps_per_cpu_s.*`` and the per
 from __future__ import annotations
 
 import argparse
+import contextlib
 import cProfile
 import inspect
 import os
 import platform
 import pstats
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from harness import CPU, ROOT, WALL, Job, Timing, checkout, commit_of, side_by_side, spread, timed
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 
@@ -91,11 +91,9 @@ def random_actions(env, steps: int, seed: int) -> list[dict[str, np.ndarray]]:
     return draws
 
 
-def run_steps(env, actions: list[dict[str, np.ndarray]] | None, steps: int,
-              clock: Callable[[], float] = time.perf_counter) -> float:
-    """Seconds of ``clock`` for ``steps`` parallel steps (resetting when an episode ends)."""
+def run_steps(env, actions: list[dict[str, np.ndarray]] | None, steps: int) -> int:
+    """``steps`` parallel steps from a reset (resetting when an episode ends): the steps."""
     env.reset(seed=0)
-    start = clock()
     for k in range(steps):
         if not env.agents:
             env.reset()
@@ -106,46 +104,50 @@ def run_steps(env, actions: list[dict[str, np.ndarray]] | None, steps: int,
             drawn = actions[k]
             step_actions = {agent: drawn[agent] for agent in live}
         env.step(step_actions)
-    return clock() - start
+    return steps
 
 
-def rate(label: str, work: Callable[[], float], count: int, repeats: int) -> dict[str, float]:
-    """Best and median of ``count / seconds`` over ``repeats`` runs."""
-    rates = [count / work() for _ in range(repeats)]
-    result = {"best": max(rates), "median": statistics.median(rates)}
-    print(f"{label:<50} best {result['best']:>9,.0f}/s   median {result['median']:>9,.0f}/s",
+def rate(label: str, work: Callable[[], float], repeats: int,
+         untimed: Callable[[], float] | None = None) -> Timing:
+    """``repeats`` wall-clock runs of ``work`` (``harness.timed``), best and median printed."""
+    timing = timed(work, repeats, clock=WALL, untimed=untimed)
+    print(f"{label:<50} best {timing.best:>9,.0f}/s   median {timing.median:>9,.0f}/s",
           flush=True)
-    return result
+    return timing
 
 
-def render_fps(frames: int) -> tuple[Callable[[], float], list[np.ndarray]]:
+def render_frames(frames: int) -> tuple[Callable[[], int], Callable[[], float],
+                                        list[np.ndarray]]:
+    """Work drawing ``frames`` frames of an episode, the seconds of its steps (untimed), and
+    the frames drawn."""
     env = make_reachavoid(render_mode="rgb_array")
     env.reset(seed=0)
     rng = np.random.default_rng(1)
     kept: list[np.ndarray] = []
+    stepping = [0.0]
 
-    def work() -> float:
+    def work() -> int:
         env.reset(seed=0)
         kept.clear()
-        seconds = 0.0
+        stepping[0] = 0.0
         for _ in range(frames):
+            start = WALL()
             env.step({agent: rng.uniform(-1, 1, 2).astype(np.float32) for agent in env.agents})
-            start = time.perf_counter()
+            stepping[0] += WALL() - start
             kept.append(env.render())
-            seconds += time.perf_counter() - start
-        return seconds
+        return frames
 
-    return work, kept
+    return work, lambda: stepping[0], kept
 
 
-def encode_fps(frames: list[np.ndarray], fps: int) -> Callable[[], float]:
-    def work() -> float:
+def encode_frames(frames: list[np.ndarray], fps: int) -> Callable[[], int]:
+    """Work encoding ``frames`` to an MP4 file."""
+    def work() -> int:
         with tempfile.TemporaryDirectory() as folder:
-            start = time.perf_counter()
             with VideoWriter(Path(folder) / "bench.mp4", fps) as writer:
                 for frame in frames:
                     writer.append(frame)
-            return time.perf_counter() - start
+        return len(frames)
 
     return work
 
@@ -161,60 +163,30 @@ def profile(steps: int) -> None:
     pstats.Stats(profiler).sort_stats("tottime").print_stats(20)
 
 
-def step_rate(make: Callable[[], object], steps: int) -> float:
-    """Step-only steps per CPU second of the env ``make`` builds (process time, which other
-    jobs on a shared machine disturb less than wall time), best of three runs in this
-    process."""
-    env = make()
+def step_rate(game: str, steps: int, observation: str) -> float:
+    """Step-only steps per CPU second of ``game`` (``reachavoid``: paper_8v4 with
+    ``observation``; ``mpe``: simple_tag 8+4), best of three runs in this process (process
+    time, which other jobs on a shared machine disturb less than wall time)."""
+    global OBSERVATION
+    OBSERVATION = observation
+    env = make_reachavoid() if game == "reachavoid" else make_mpe()
     actions = random_actions(env, steps, seed=0)
-    return max(steps / run_steps(env, actions, steps, time.process_time) for _ in range(3))
+    return timed(lambda: run_steps(env, actions, steps), 3, clock=CPU).best
 
 
-def short_commit(tree: Path) -> str:
-    """The commit checked out in ``tree``, short (``+dirty`` with uncommitted changes)."""
-    try:
-        head = subprocess.run(["git", "-C", str(tree), "rev-parse", "--short", "HEAD"],
-                              check=True, capture_output=True, text=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(tree), "status", "--porcelain",
-                                "--untracked-files=no"], check=True, capture_output=True,
-                               text=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return tree.name
-    return head + ("+dirty" if dirty else "")
-
-
-def child_rate(tree: Path, option: str, steps: int) -> float:
-    """One fresh process of this script in ``tree`` (its ``reachavoid_env``) printing the
-    step-only rate ``option`` measures."""
-    env = dict(os.environ, PYTHONPATH=str(tree))
-    done = subprocess.run([sys.executable, str(Path(__file__).resolve()), option, str(steps),
-                           "--observation", OBSERVATION],
-                          env=env, cwd=tree, capture_output=True, text=True)
-    if done.returncode != 0:
-        sys.exit(f"{option} in {tree} failed:\n{done.stderr}")
-    return float(done.stdout)
-
-
-def spread(values: list[float]) -> list[float]:
-    """``[median, lowest, highest]``: a figure with its range over the rounds."""
-    return [statistics.median(values), min(values), max(values)]
-
-
-def against(others: list[Path], steps: int, mpe_steps: int, rounds: int) -> dict:
+def against(others: list[str], steps: int, mpe_steps: int, rounds: int) -> dict:
     """Step-only rates of this tree, of ``others`` and of MPE in alternating fresh
     processes, ``rounds`` rounds; each tree's ratio to the MPE run of the same round. The
     figures of the result record."""
-    here = Path(__file__).resolve().parents[1]
-    trees = {"this_tree": here} | {short_commit(other): other.resolve() for other in others}
-    rates: dict[str, list[float]] = {name: [] for name in trees}
-    mpe: list[float] = []
-    for round_ in range(rounds):
-        for name, tree in trees.items():
-            rates[name].append(child_rate(tree, "--only-steps", steps))
-        mpe.append(child_rate(here, "--only-mpe", mpe_steps))
-        print(f"round {round_ + 1}: " + ", ".join(f"{name} {values[-1]:,.0f}/s"
-                                                 for name, values in rates.items())
-              + f", MPE {mpe[-1]:,.0f}/s; load average {os.getloadavg()[0]:.2f}", flush=True)
+    with contextlib.ExitStack() as stack:
+        trees = {"this_tree": ROOT} | {commit_of(other) or Path(other).name:
+                                       stack.enter_context(checkout(other))
+                                       for other in others}
+        jobs = {name: Job(tree, "env_throughput:step_rate", ("reachavoid", steps, OBSERVATION))
+                for name, tree in trees.items()}
+        jobs["mpe"] = Job(ROOT, "env_throughput:step_rate", ("mpe", mpe_steps, OBSERVATION))
+        rates = side_by_side(jobs, rounds)
+    mpe = rates.pop("mpe")
     figures: dict = {"steps_per_cpu_s.mpe_simple_tag": spread(mpe)}
     ours = statistics.median(rates["this_tree"])
     print(f"\n{'tree':<16} {'median':>9} {'best':>9}  ratio to MPE, median (range)  "
@@ -240,27 +212,20 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=300, help="frames to render and encode")
     parser.add_argument("--repeats", type=int, default=5, help="timed runs per figure")
     parser.add_argument("--profile", action="store_true", help="cProfile an env run too")
-    parser.add_argument("--against", type=Path, metavar="DIR", nargs="+",
-                        help="compare the step rate with other checkouts, side by side")
+    parser.add_argument("--against", metavar="REV", nargs="+",
+                        help="compare the step rate with other checkouts (folders or "
+                             "revisions), side by side")
     parser.add_argument("--observation", choices=("v0", "v1"), default=OBSERVATION,
                         help="v0's global vector (default; every revision has it) or v1's "
                              "egocentric observation")
-    parser.add_argument("--only-steps", type=int, metavar="N", help=argparse.SUPPRESS)
-    parser.add_argument("--only-mpe", type=int, metavar="N", help=argparse.SUPPRESS)
     parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
     args = parser.parse_args()
     OBSERVATION = args.observation
-    if args.only_steps:
-        print(step_rate(make_reachavoid, args.only_steps))
-        return
-    if args.only_mpe:
-        print(step_rate(make_mpe, args.only_mpe))
-        return
 
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}; load average "
           f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    # imported here: ``--only-steps`` runs this file under another tree's PYTHONPATH
+    # imported here: ``step_rate`` runs in other trees, which may lack what it imports
     from result_file import write_result
 
     if args.against is not None:
@@ -280,28 +245,26 @@ def main() -> None:
     mpe_actions = random_actions(mpe, args.mpe_steps, seed=0)
     r = args.repeats
     ours_step = rate("reach-avoid paper_8v4, step only",
-                     lambda: run_steps(ours, ours_actions, args.steps), args.steps, r)
-    rate("reach-avoid paper_8v4, with sampling",
-         lambda: run_steps(ours, None, args.steps), args.steps, r)
+                     lambda: run_steps(ours, ours_actions, args.steps), r)
+    rate("reach-avoid paper_8v4, with sampling", lambda: run_steps(ours, None, args.steps), r)
     mpe_step = rate("MPE simple_tag 8 good/4 adv/2 obst, step only",
-                    lambda: run_steps(mpe, mpe_actions, args.mpe_steps), args.mpe_steps, r)
+                    lambda: run_steps(mpe, mpe_actions, args.mpe_steps), r)
     rate("MPE simple_tag 8 good/4 adv/2 obst, with sampling",
-         lambda: run_steps(mpe, None, args.mpe_steps), args.mpe_steps, r)
-    print(f"ratio (step only): best {ours_step['best'] / mpe_step['best']:.1f}x, "
-          f"median {ours_step['median'] / mpe_step['median']:.1f}x  (goal: 20x)")
+         lambda: run_steps(mpe, None, args.mpe_steps), r)
+    print(f"ratio (step only): best {ours_step.best / mpe_step.best:.1f}x, "
+          f"median {ours_step.median / mpe_step.median:.1f}x  (goal: 20x)")
     if args.json:
         write_result(args.json, "env_throughput", {
-            "steps_per_s.reachavoid_8v4": ours_step["best"],
-            "steps_per_s.mpe_simple_tag": mpe_step["best"],
-            "ratio": ours_step["best"] / mpe_step["best"]}, {
+            "steps_per_s.reachavoid_8v4": ours_step.best,
+            "steps_per_s.mpe_simple_tag": mpe_step.best,
+            "ratio": ours_step.best / mpe_step.best}, {
             "steps_per_s": "best of --repeats runs, 12 agents, actions drawn beforehand",
             "ratio": "reach-avoid over MPE simple_tag"})
-    work, frames = render_fps(args.frames)
-    rate("render rgb_array paper_8v4 (frames)", work, args.frames, r)
+    work, stepping, frames = render_frames(args.frames)
+    rate("render rgb_array paper_8v4 (frames)", work, r, untimed=stepping)
     print(f"  frame size {frames[0].shape[1]}x{frames[0].shape[0]}")
     rate("MP4 encode via VideoWriter (frames)",
-         encode_fps(frames, reachavoid_env.ReachAvoidEnv.metadata["render_fps"]), len(frames),
-         min(r, 3))
+         encode_frames(frames, reachavoid_env.ReachAvoidEnv.metadata["render_fps"]), min(r, 3))
     if args.profile:
         profile(args.steps)
 

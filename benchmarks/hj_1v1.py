@@ -8,11 +8,12 @@ it (first order, Lax-Friedrichs, forward Euler, zero-gradient boundary) to the s
 time, with the agreement of the two winning sets.
 
     python benchmarks/hj_1v1.py [--grid 45] [--threads 2] [--no-hj-reachability]
-                                [--base /tmp/hj-base] [--repeat 3]
+                                [--base f5f4333] [--repeat 3]
 
-``--base DIR`` also runs our solver from another checkout (e.g. the commit before a
-change, ``git worktree add /tmp/hj-base f5f4333``), alternating with this one ``--repeat``
-times in the same run.
+``--base DIR`` also runs our solver from another checkout (a folder, e.g. a ``git
+worktree``, or a revision such as the commit before a change: ``harness.checkout``),
+alternating with this one ``--repeat`` times in the same run. Every solve is a
+``harness.Job`` (a fresh process with its checkout first on the path).
 
 On a machine with more cores, pin the run to two of them (``taskset -c 0,1 ...``) to
 compare with the 2-core figures: jax uses every core it sees.
@@ -21,16 +22,18 @@ compare with the 2-core figures: jax uses every core it sees.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import platform
 import resource
-import subprocess
-import sys
+import tempfile
 import time
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
+from harness import ROOT, Job, checkout, once
 
 SPEEDS, RADIUS = (1.0, 1.5), 0.1
 
@@ -46,14 +49,12 @@ def worker_numba(grid: int, out: str) -> dict:
     from solvers.hj import solve_1v1
 
     game_map = builtin_map("paper")
-    start = time.perf_counter()
-    solve_1v1(game_map, SPEEDS, RADIUS, 9, cache=False, progress=False)
-    compile_seconds = time.perf_counter() - start
+    _, compile_seconds = once(lambda: solve_1v1(game_map, SPEEDS, RADIUS, 9, cache=False,
+                                                 progress=False))
     rss_before = _peak_rss_mb()
     tracemalloc.start()
-    start = time.perf_counter()
-    vf = solve_1v1(game_map, SPEEDS, RADIUS, grid, cache=False, progress=False)
-    seconds = time.perf_counter() - start
+    vf, seconds = once(lambda: solve_1v1(game_map, SPEEDS, RADIUS, grid, cache=False,
+                                         progress=False))
     _, traced_peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
     np.save(out, np.asarray(vf.values))
@@ -105,29 +106,20 @@ def worker_hj_reachability(grid: int, horizon: float, out: str) -> dict:
         "low", value_postprocessor=lambda t, v: jnp.maximum(jnp.minimum(v, l_values), g_values))
     initial = jnp.maximum(l_values, g_values)
     dynamics = Pursuit()
-    start = time.perf_counter()
-    warm = hj.step(settings, dynamics, hj_grid, 0.0, initial, -1e-3, progress_bar=False)
-    jax.block_until_ready(warm)
-    compile_seconds = time.perf_counter() - start
-    start = time.perf_counter()
-    values = hj.step(settings, dynamics, hj_grid, 0.0, initial, -horizon, progress_bar=False)
-    values = np.asarray(jax.block_until_ready(values))
-    seconds = time.perf_counter() - start
+    _, compile_seconds = once(lambda: jax.block_until_ready(hj.step(
+        settings, dynamics, hj_grid, 0.0, initial, -1e-3, progress_bar=False)))
+    values, seconds = once(lambda: np.asarray(jax.block_until_ready(hj.step(
+        settings, dynamics, hj_grid, 0.0, initial, -horizon, progress_bar=False))))
     np.save(out, values.astype(np.float32))
     return {"solver": f"hj_reachability {hj.__version__} (jax {jax.__version__}, CPU)",
             "compile_or_load_s": compile_seconds, "seconds": seconds, "game_time": horizon,
             "iterations": None, "peak_rss_mb": _peak_rss_mb()}
 
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def _run_worker(args: list[str], threads: int, checkout: str = ROOT) -> dict:
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads),
-               PYTHONPATH=checkout)
-    result = subprocess.run([sys.executable, __file__, *args], env=env, check=True,
-                            capture_output=True, text=True, cwd=checkout)
-    return json.loads(result.stdout.strip().splitlines()[-1]) | {"checkout": checkout}
+def _run_worker(function: str, args: tuple, threads: int, tree: Path = ROOT) -> dict:
+    """``function`` of this script as a ``harness.Job`` in ``tree`` on ``threads`` threads."""
+    env = {"NUMBA_NUM_THREADS": str(threads), "OMP_NUM_THREADS": str(threads)}
+    return Job(tree, f"hj_1v1:{function}", args, env=env).run() | {"checkout": str(tree)}
 
 
 def main() -> None:
@@ -138,37 +130,27 @@ def main() -> None:
     parser.add_argument("--base", help="another checkout to run side by side")
     parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
-    parser.add_argument("--worker", choices=["numba", "hj_reachability"], help=argparse.SUPPRESS)
-    parser.add_argument("--horizon", type=float, default=0.0, help=argparse.SUPPRESS)
-    parser.add_argument("--out", default="", help=argparse.SUPPRESS)
     args = parser.parse_args()
-    if args.worker == "numba":
-        print(json.dumps(worker_numba(args.grid, args.out)))
-        return
-    if args.worker == "hj_reachability":
-        print(json.dumps(worker_hj_reachability(args.grid, args.horizon, args.out)))
-        return
-
-    import tempfile
-
     print(f"# hj_1v1: paper map, {args.grid}^4, vA={SPEEDS[0]}, vD={SPEEDS[1]}, R={RADIUS}, "
           f"{args.threads} threads, {platform.processor() or platform.machine()}, "
           f"{os.cpu_count()} CPUs visible, {time.strftime('%Y-%m-%d')}, load "
           f"{os.getloadavg()[0]:.1f}")
-    with tempfile.TemporaryDirectory() as scratch:
+    with contextlib.ExitStack() as stack:
+        scratch = stack.enter_context(tempfile.TemporaryDirectory())
         ours_file = os.path.join(scratch, "ours.npy")
         base_file = os.path.join(scratch, "base.npy")
+        trees = {"": ROOT} | ({"_before": stack.enter_context(checkout(args.base))}
+                              if args.base else {})
         runs: dict[str, list[dict]] = {"": [], "_before": []}
         for _ in range(args.repeat):
-            for checkout in [ROOT] + ([os.path.abspath(args.base)] if args.base else []):
-                result = _run_worker(["--worker", "numba", "--grid", str(args.grid), "--out",
-                                      ours_file if checkout == ROOT else base_file],
-                                     args.threads, checkout)
+            for side, tree in trees.items():
+                result = _run_worker("worker_numba", (args.grid, base_file if side else
+                                                      ours_file), args.threads, tree)
                 print(json.dumps(result | {"load_after": round(os.getloadavg()[0], 1)}),
                       flush=True)
-                if checkout == ROOT:
+                if not side:
                     ours = result
-                runs["" if checkout == ROOT else "_before"].append(result)
+                runs[side].append(result)
         if args.json:
             from result_file import write_result  # here: workers run under another path
 
@@ -195,9 +177,8 @@ def main() -> None:
         if args.no_hj_reachability:
             return
         theirs_file = os.path.join(scratch, "theirs.npy")
-        theirs = _run_worker(["--worker", "hj_reachability", "--grid", str(args.grid),
-                              "--horizon", str(ours["game_time"]), "--out", theirs_file],
-                             args.threads)
+        theirs = _run_worker("worker_hj_reachability",
+                             (args.grid, ours["game_time"], theirs_file), args.threads)
         a, b = np.load(ours_file), np.load(theirs_file)
         theirs["winning_set_agreement"] = float(np.mean((a <= 0) == (b <= 0)))
         print(json.dumps(theirs))

@@ -8,33 +8,37 @@ own memory estimate, and the paper's example (defender (0.3, -0.3) vs attackers
 available memory, and whether the solver refuses (checked by calling it).
 
     python benchmarks/hj_2v1.py [--grids 20 25 30] [--threads 2] [--store] [--probe 36 40 45]
-                                [--base /tmp/hj-base] [--sweeps N]
+                                [--base f5f4333] [--sweeps N]
 
 ``--store`` solves into the real cache (``solvers.hj.cache.cache_dir``)
 and leaves the tubes there for the policies; without it a temporary cache is used. The 1 vs
 1 value is the 45^4 solve (the paper's), from the same cache. ``--base DIR``: also run every
-grid with the solver of another checkout (e.g. ``git worktree add /tmp/hj-base f5f4333``),
-alternating with ours, in the same run, and compare the signs. ``--sweeps N``: stop after
+grid with the solver of another checkout (a folder, e.g. a ``git worktree``, or a revision
+such as ``f5f4333``: ``harness.checkout``), alternating with ours, in the same run, and
+compare the signs. Every solve is a ``harness.Job`` (a fresh process with its checkout
+first on the path). ``--sweeps N``: stop after
 N sweeps (for grids too slow to converge here: time per sweep and peak RSS).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import resource
-import subprocess
 import sys
 import tempfile
 import time
+
+from harness import ROOT, Job, checkout, once
 
 EXAMPLE = [-0.5, 0.0, 0.0, 0.8, 0.3, -0.3]
 
 
 def worker(grid: int, sweeps: int | None, out: str) -> dict:
     """Runs with either checkout's ``solvers`` (the same public API); saves the stored
-    value rows to ``out``."""
+    value rows to ``out``; what the solve took, by name."""
     import numba
     import numpy as np
 
@@ -44,14 +48,12 @@ def worker(grid: int, sweeps: int | None, out: str) -> dict:
 
     game_map = builtin_map("paper")
     vf11 = solve_1v1(game_map, grid_points=45, progress=False)
-    start = time.perf_counter()
-    solve_2v1(game_map, vf11, grid_points=8, cache=False, progress=False)
-    compile_seconds = time.perf_counter() - start
+    _, compile_seconds = once(lambda: solve_2v1(game_map, vf11, grid_points=8, cache=False,
+                                                 progress=False))
     settings = SolverSettings() if sweeps is None else SolverSettings(max_iterations=sweeps)
-    start = time.perf_counter()
-    vf = solve_2v1(game_map, vf11, grid_points=grid, progress=sys.stderr.isatty(),
-                   settings=settings, cache=sweeps is None)
-    wall = time.perf_counter() - start
+    vf, wall = once(lambda: solve_2v1(game_map, vf11, grid_points=grid,
+                                      progress=sys.stderr.isatty(), settings=settings,
+                                      cache=sweeps is None))
     solver = vf.solver
     np.save(out, np.asarray(vf.values))
     stored_points = (grid**2 * (grid**2 + 1) // 2) * grid**2
@@ -127,38 +129,30 @@ def main() -> None:
     parser.add_argument("--base", help="another checkout to run side by side")
     parser.add_argument("--sweeps", type=int)
     parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
-    parser.add_argument("--worker", type=int, help=argparse.SUPPRESS)
-    parser.add_argument("--out", default="", help=argparse.SUPPRESS)
     args = parser.parse_args()
-    if args.worker is not None:
-        print(json.dumps(worker(args.worker, args.sweeps, args.out)))
-        return
     print(f"# hj_2v1: paper map, vA=1, vD=1.5, R=0.1, 1v1 at 45^4, {args.threads} threads, "
           f"{os.cpu_count()} CPUs visible, {time.strftime('%Y-%m-%d %H:%M')}, load "
           f"{os.getloadavg()[0]:.1f}", flush=True)
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    sys.path.insert(0, root)  # this checkout's solvers, whatever is installed
-    checkouts = [root] + ([os.path.abspath(args.base)] if args.base else [])
-    with tempfile.TemporaryDirectory() as scratch:
+    sys.path.insert(0, str(ROOT))  # this checkout's solvers, whatever is installed
+    with contextlib.ExitStack() as stack:
+        scratch = stack.enter_context(tempfile.TemporaryDirectory())
+        checkouts = [ROOT] + ([stack.enter_context(checkout(args.base))] if args.base else [])
         results = []
         for grid in args.grids:
-            for checkout in checkouts:
-                env = dict(os.environ, NUMBA_NUM_THREADS=str(args.threads), PYTHONPATH=checkout)
-                if not args.store or checkout != root:
+            for side, tree in enumerate(checkouts):
+                env = {"NUMBA_NUM_THREADS": str(args.threads)}
+                if not args.store or side:
                     env["REACHAVOID_CACHE_DIR"] = os.path.join(scratch, str(len(results)))
-                out = os.path.join(scratch, f"{grid}-{checkouts.index(checkout)}.npy")
-                command = [sys.executable, __file__, "--worker", str(grid), "--out", out]
-                command += ["--sweeps", str(args.sweeps)] if args.sweeps else []
-                run = subprocess.run(command, env=env, cwd=checkout, check=True,
-                                     stdout=subprocess.PIPE, text=True)
-                result = json.loads(run.stdout.strip().splitlines()[-1])
-                result["estimate_gb"] = _estimate(grid) / 2**30 if checkout == root else None
+                out = os.path.join(scratch, f"{grid}-{side}.npy")
+                result = Job(tree, "hj_2v1:worker", (grid, args.sweeps, out), env=env).run()
+                result["estimate_gb"] = _estimate(grid) / 2**30 if not side else None
                 result["load_after"] = round(os.getloadavg()[0], 1)
+                result["side"] = "_before" if side else ""
                 results.append(result)
                 print(json.dumps(result), flush=True)
             if args.base:
                 _compare_signs(*(os.path.join(scratch, f"{grid}-{k}.npy") for k in (0, 1)))
-        ours = [r for r in results if r["solver"] == root]
+        ours = [r for r in results if not r["side"]]
         if len(ours) >= 2:
             first, last = ours[0], ours[-1]
             ratio = args.grids[-1] / args.grids[0]
@@ -173,8 +167,7 @@ def main() -> None:
 
         figures: dict[str, float] = {}
         for result in results:
-            grid, side = result["grid"].split("^")[0], "" if result["solver"] == root else \
-                "_before"
+            grid, side = result["grid"].split("^")[0], result["side"]
             for key, name in (("iterations", "sweeps"), ("peak_rss_gb", "peak_rss_gb"),
                               ("solve_s", "solve_s"), ("example_value", "example_value")):
                 figures[f"{name}{side}.{grid}"] = result[key]

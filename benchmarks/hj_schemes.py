@@ -2,9 +2,10 @@
 
 The 1 vs 1 game on an obstacle-free map (disc target of radius 0.3 at the origin of
 [-2, 2]^2, vA = 1, vD = 1.5, capture radius 0.1): the certificates of
-``tests/test_hj_1v1.py`` say who must win from 20,000 random states, the attacker where it
-reaches the target along a straight line before the defender can come within the capture
-radius of its path, the defender where the Apollonius disc misses the target. Here with a
+``solvers.open_space.disc_target_margins`` (those of ``tests/test_hj_1v1.py``) say who
+must win from 20,000 random states, the attacker where it reaches the target along a
+straight line before the defender can come within the capture radius of its path, the
+defender where the Apollonius disc misses the target. Here with a
 fixed margin (``--margin`` seconds of slack, map units of clearance), the same states at
 every grid, so the errors are comparable:
 
@@ -24,17 +25,14 @@ import argparse
 import json
 import math
 import os
-import sys
 import time
 
 import numpy as np
 from result_file import write_result
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-from reachavoid_env import Circle, GameMap  # noqa: E402
-from solvers.hj import SolverSettings, solve_1v1  # noqa: E402
-from tests.theory import disc_target_margins  # noqa: E402
+from reachavoid_env import Circle, GameMap
+from solvers.hj import SolverSettings, solve_1v1
+from solvers.open_space import disc_target_margins
 
 VA, VD, R, TARGET = 1.0, 1.5, 0.1, 0.3
 

@@ -6,32 +6,30 @@ The team recipe's PPO loop steps ``make_attackers_vector_env`` (every attacker l
 its map at every reset. This times that view's step on a library (default: ``reachavoid
 maps --count 24 --seed 0``, made first) with full-speed random actions, drawn beforehand,
 for each ``--copies-per-map`` (``ReachAvoidVectorEnv``'s: 1 is each copy's own draw), and,
-with ``--baseline CHECKOUT`` (a ``git worktree`` of an earlier commit), the same view of
-that checkout with each copy's own draw, in every repeat. Each configuration runs in a
-fresh process (so one's caches do not serve another), first ``--warmup`` view steps (a
-training run's copies are at every stage of their episodes), then ``--steps`` timed ones.
+with ``--baseline CHECKOUT`` (a folder, e.g. a ``git worktree`` of an earlier commit, or a
+revision: ``harness.checkout``), the same view of that checkout with each copy's own draw,
+in every repeat. Each configuration runs in a fresh process (a ``harness.Job``, so one's
+caches do not serve another), first ``--warmup`` view steps (a training run's copies are
+at every stage of their episodes), then ``--steps`` timed ones (``harness.timed``).
 Figures: agent steps (one per attacker slot and view step, PPO's count) per CPU second,
 the median of ``--repeats``; and the mean number of maps the copies are on::
 
     taskset -c 0 .venv/bin/python benchmarks/maps_training_throughput.py \\
-        --library runs/maps_train --baseline /tmp/base --json out.json
+        --library runs/maps_train --baseline 3f9b2d0 --json out.json
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import os
+import contextlib
 import statistics
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
+from harness import ROOT, Job, checkout, side_by_side, timed
 from result_file import write_result
-
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def one_run(library: str, copies: int, copies_per_map: int, warmup: int, steps: int) -> dict:
@@ -51,24 +49,21 @@ def one_run(library: str, copies: int, copies_per_map: int, warmup: int, steps: 
     for t in range(warmup):
         view.step(actions[t])
     maps_live = []
-    start = time.process_time()
-    for t in range(warmup, warmup + steps):
-        view.step(actions[t])
-        maps_live.append(len(np.unique(view.vec._map_of)))
-    cpu = time.process_time() - start
-    return {"agent_steps_per_cpu_s": steps * copies * m / cpu,
+
+    def play() -> int:
+        for t in range(warmup, warmup + steps):
+            view.step(actions[t])
+            maps_live.append(len(np.unique(view.vec._map_of)))
+        return steps * copies * m
+
+    return {"agent_steps_per_cpu_s": timed(play).median,
             "maps_live": float(np.mean(maps_live))}
 
 
-def run_in_process(checkout: Path, args: argparse.Namespace, copies_per_map: int) -> dict:
-    """``one_run`` in a fresh process with ``checkout`` first on the path."""
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(checkout), str(ROOT / "benchmarks")]))
-    code = (f"import json, maps_training_throughput as b; print(json.dumps(b.one_run("
-            f"{str(args.library)!r}, {args.copies}, {copies_per_map}, {args.warmup}, "
-            f"{args.steps})))")
-    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=checkout, check=True,
-                         capture_output=True, text=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+def job(tree: Path, args: argparse.Namespace, copies_per_map: int) -> Job:
+    """``one_run`` in a fresh process with ``tree`` first on the path."""
+    return Job(tree, "maps_training_throughput:one_run",
+               (str(args.library), args.copies, copies_per_map, args.warmup, args.steps))
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -81,23 +76,20 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--warmup", type=int, default=100, help="view steps before timing")
     parser.add_argument("--steps", type=int, default=200, help="timed view steps")
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--baseline", type=Path, metavar="CHECKOUT",
-                        help="also time this checkout's view (each copy's own draw)")
+    parser.add_argument("--baseline", metavar="CHECKOUT",
+                        help="also time this checkout's view (each copy's own draw): a "
+                             "folder or a revision")
     parser.add_argument("--json", type=Path, help="write the figures here")
     args = parser.parse_args(argv)
     if not (args.library / "index.toml").exists():
         subprocess.run([sys.executable, "-m", "reachavoid", "maps", "--count", "24",
                         "--seed", "0", "--out", str(args.library)], check=True)
     args.library = args.library.resolve()
-    runs: dict[str, list[dict]] = {}
-    for repeat in range(args.repeats):
-        if args.baseline is not None:
-            runs.setdefault("baseline", []).append(run_in_process(args.baseline, args, 1))
-        for g in args.copies_per_map:
-            runs.setdefault(f"copies_per_map_{g}", []).append(run_in_process(ROOT, args, g))
-        print(f"repeat {repeat + 1}/{args.repeats}: " + ", ".join(
-            f"{name} {rows[-1]['agent_steps_per_cpu_s']:.0f}" for name, rows in runs.items()),
-            file=sys.stderr, flush=True)
+    with contextlib.ExitStack() as stack:
+        jobs = {"baseline": job(stack.enter_context(checkout(args.baseline)), args, 1)
+                } if args.baseline else {}
+        jobs |= {f"copies_per_map_{g}": job(ROOT, args, g) for g in args.copies_per_map}
+        runs = side_by_side(jobs, args.repeats)
     figures = {}
     for name, rows in runs.items():
         figures[f"agent_steps_per_cpu_s.{name}"] = round(statistics.median(

@@ -12,9 +12,10 @@ Each figure is the best of ``--repeats`` runs (the machine is shared).
 from __future__ import annotations
 
 import argparse
-import time
+from collections.abc import Callable
 
 import numpy as np
+from harness import WALL, timed
 from result_file import write_result
 
 from reachavoid_env.shapes import MAX_POLYGON_VERTICES, Polygon, _edges_meet
@@ -35,13 +36,12 @@ def pairwise(v: np.ndarray) -> bool:
                for i in range(n) for j in range(i + 1, n))
 
 
-def best(run, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        started = time.perf_counter()
+def best(run: Callable[[], object], repeats: int) -> float:
+    """The fewest wall seconds of ``repeats`` runs (``harness.timed``)."""
+    def work() -> None:
         run()
-        times.append(time.perf_counter() - started)
-    return min(times)
+
+    return min(timed(work, repeats, clock=WALL).seconds)
 
 
 def main() -> None:

@@ -30,13 +30,13 @@ import os
 import statistics
 import sys
 import tempfile
-import time
 from pathlib import Path
 from types import ModuleType
 from typing import Any, NamedTuple
 
 import numpy as np
 import torch
+from harness import timed
 
 from policies.training import defender_factory, defender_options
 
@@ -103,11 +103,14 @@ def warm_up(name: str, module: ModuleType, args: argparse.Namespace) -> None:
 
 
 def timed_train(name: str, module: ModuleType, args: argparse.Namespace) -> Run:
-    """The recipe's ``train`` on ``args``, timed."""
+    """The recipe's ``train`` on ``args``, timed (``harness.timed``: CPU and wall)."""
     inputs = recipe_inputs(name, module, args)
-    wall, cpu = time.perf_counter(), time.process_time()
-    model = module.train(args, inputs)[0]
-    return Run(model.num_timesteps, time.perf_counter() - wall, time.process_time() - cpu)
+
+    def work() -> int:
+        return module.train(args, inputs)[0].num_timesteps
+
+    timing = timed(work)
+    return Run(int(timing.counts[0]), timing.wall_seconds[0], timing.seconds[0])
 
 
 def measure(recipes: list[str], repeats: int, timesteps: dict[str, int],

@@ -8,10 +8,11 @@ lowest and highest over the runs as a result record (``benchmarks/result_file.py
 from __future__ import annotations
 
 import argparse
+import functools
 import tempfile
-import time
 from pathlib import Path
 
+from harness import WALL, once, timed
 from result_file import write_result
 
 import reachavoid_env
@@ -46,11 +47,8 @@ def measure(count: int) -> dict[str, float]:
     draw = readout = 0.0
     # Each frame is dropped after readout, as when streaming to a video.
     for state, overlay in zip(states, overlays, strict=True):
-        start = time.perf_counter()
-        renderer.draw(state, overlay)
-        middle = time.perf_counter()
-        renderer.rgb_array()
-        draw, readout = draw + middle - start, readout + time.perf_counter() - middle
+        draw += once(functools.partial(renderer.draw, state, overlay))[1]
+        readout += once(renderer.rgb_array)[1]
     renderer.reset()
     frames = []
     for state, overlay in zip(states, overlays, strict=True):
@@ -63,14 +61,17 @@ def measure(count: int) -> dict[str, float]:
     with tempfile.TemporaryDirectory() as folder:
         for suffix in (".mp4", ".gif"):
             path = Path(folder) / f"bench{suffix}"
-            start = time.perf_counter()
-            with VideoWriter(path, fps=50) as writer:
-                for frame in frames:
-                    writer.append(frame)
-            seconds = time.perf_counter() - start
-            print(f"{suffix[1:]} encode: {count / seconds:.0f} frames/s "
+
+            def encode(path: Path = path) -> int:
+                with VideoWriter(path, fps=50) as writer:
+                    for frame in frames:
+                        writer.append(frame)
+                return len(frames)
+
+            rate = timed(encode, clock=WALL).median
+            print(f"{suffix[1:]} encode: {rate:.0f} frames/s "
                   f"({path.stat().st_size / count / 1e3:.1f} kB/frame)")
-            figures[f"{suffix[1:]}_frames_per_s"] = count / seconds
+            figures[f"{suffix[1:]}_frames_per_s"] = rate
         for video in (None, Path(folder) / "episode.mp4"):
             env = reachavoid_env.parallel_env(scenario="paper_6v2", max_cycles=count,
                                               render_mode="rgb_array")

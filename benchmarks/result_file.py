@@ -20,9 +20,9 @@ import datetime
 import os
 import platform
 import shlex
-import subprocess
 import sys
-from pathlib import Path
+
+from harness import ROOT, commit_of
 
 from reachavoid_env.files import write_json
 
@@ -45,16 +45,7 @@ def machine() -> str:
 
 def commit() -> str:
     """The checkout's short commit hash (``+dirty`` with uncommitted changes), or why not."""
-    root = Path(__file__).resolve().parent.parent
-    try:
-        head = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"],
-                              capture_output=True, text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain",
-                                "--untracked-files=no"],
-                               capture_output=True, text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown (not a git checkout)"
-    return head + ("+dirty" if dirty else "")
+    return commit_of(ROOT) or "unknown (not a git checkout)"
 
 
 def write_result(path: str | os.PathLike[str], benchmark: str,

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import json
 import sys
-import time
+
+from harness import WALL, timed
 
 SCENARIO = "paper_8v4"
 EPISODE_STEPS = 1000
@@ -37,13 +38,18 @@ def parallel_rate(env: object, steps: int, warmup: int = 0) -> float:
         env.action_space(name).seed(i)
     drawn = [{name: env.action_space(name).sample() for name in env.possible_agents}
              for _ in range(8)]
-    for i in range(warmup + steps):
-        if i == warmup:
-            start = time.perf_counter()
-        if not env.agents:
-            env.reset()
-        env.step({name: drawn[i % 8][name] for name in env.agents})
-    return steps / (time.perf_counter() - start)
+    done = [0]
+
+    def play(count: int) -> int:
+        for _ in range(count):
+            if not env.agents:
+                env.reset()
+            env.step({name: drawn[done[0] % 8][name] for name in env.agents})
+            done[0] += 1
+        return count
+
+    play(warmup)
+    return timed(lambda: play(steps), clock=WALL).median
 
 
 if __name__ == "__main__":

@@ -19,10 +19,11 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import time
 from dataclasses import asdict
+from typing import Any
 
 import numpy as np
+from harness import once
 from result_file import write_result
 
 from policies.tubes import tube_2v1
@@ -33,6 +34,12 @@ from solvers.hj import PAPER_GRIDS, load_value_function
 
 def outcome(results) -> list[dict]:
     return [{k: v for k, v in asdict(r).items() if k != "seconds"} for r in results]
+
+
+def touched(vf: Any) -> Any:
+    """``vf`` after reading its first value (a memory-mapped file's first page in)."""
+    float(np.asarray(vf.values[(0,) * vf.values.ndim]))
+    return vf
 
 
 def main() -> None:
@@ -56,9 +63,8 @@ def main() -> None:
     vf11, vf21 = tube_2v1(scenario, args.grid1, args.grid2, progress=False)
     reference = None
     for backend in args.backends:
-        started = time.perf_counter()
-        results = run_sweep(sweep, backend, workers=args.workers)
-        seconds = time.perf_counter() - started
+        results, seconds = once(lambda backend=backend: run_sweep(sweep, backend,
+                                                                  workers=args.workers))
         reference = reference or outcome(results)
         same = "same as serial" if outcome(results) == reference else "DIFFERENT"
         print(f"{backend:<8} {args.episodes} episodes of {args.config} in {seconds:7.1f} s: "
@@ -73,24 +79,18 @@ def main() -> None:
             "wall_s": "wall seconds of the sweep"})
 
     path = os.path.dirname(vf21.values.filename)
-    started = time.perf_counter()
-    opened = load_value_function(path)
-    float(np.asarray(opened.values[(0,) * opened.values.ndim]))
+    opened, seconds = once(lambda: touched(load_value_function(path)))
     print(f"open the cached 2 vs 1 tube ({opened.values.nbytes / 2**20:,.0f} MiB, "
-          f"memory-mapped): {time.perf_counter() - started:.3f} s")
+          f"memory-mapped): {seconds:.3f} s")
     if "ray" in args.backends:
         import ray
 
         ray.init(num_cpus=1, include_dashboard=False, log_to_driver=False)
         values = np.asarray(vf21.values)
-        started = time.perf_counter()
-        ref = ray.put(values)
-        put = time.perf_counter() - started
-        started = time.perf_counter()
-        fetched = ray.get(ref)
-        float(fetched.reshape(-1)[-1])
+        ref, put = once(lambda: ray.put(values))
+        _, get = once(lambda: float(ray.get(ref).reshape(-1)[-1]))
         print(f"Ray object store, 2 vs 1 tube ({values.nbytes / 2**20:,.0f} MiB): put "
-              f"{put:.2f} s, get on the same node {time.perf_counter() - started:.3f} s "
+              f"{put:.2f} s, get on the same node {get:.3f} s "
               f"(another node also copies it over the network)")
         ray.shutdown()
 

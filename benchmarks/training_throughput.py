@@ -37,12 +37,12 @@ import json
 import os
 import platform
 import statistics
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from harness import CPU, WALL, once, timed
 
 from policies.registry import DEFENDERS
 from policies.training import attacker_factory, defender_factory
@@ -51,7 +51,7 @@ from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 from solvers.hj.settings import TRAINING_GRIDS
 
 EPISODE_STEPS = 1000
-CLOCK = time.process_time
+CLOCK = CPU
 """CPU time of this process (``--clock wall`` for wall time): on a shared machine the CPU
 time of a one-core run is the steadier figure, and every row is timed alike."""
 
@@ -67,9 +67,8 @@ class Timed:
         self.policy.reset(scenario)
 
     def act(self, state: Any) -> dict[str, np.ndarray]:
-        start = CLOCK()
-        actions = self.policy.act(state)
-        self.seconds += CLOCK() - start
+        actions, seconds = once(lambda: self.policy.act(state), clock=CLOCK)
+        self.seconds += seconds
         return actions
 
 
@@ -77,29 +76,28 @@ def random_actions(steps: int, players: int, seed: int) -> np.ndarray:
     return np.random.default_rng(seed).uniform(-1, 1, (steps, players, 2)).astype(np.float32)
 
 
-def run_game(env: ReachAvoidEnv, actions: np.ndarray, learners: Timed | None,
-             ) -> tuple[float, float]:
-    """Seconds for ``len(actions)`` steps and the mean attackers in play per step."""
+def run_game(env: ReachAvoidEnv, actions: np.ndarray, learners: Timed | None) -> float:
+    """``len(actions)`` steps (a new episode where one ended); the mean attackers in play
+    per step."""
     index = {name: k for k, name in enumerate(env.possible_agents)}
     env.reset(seed=0)
     in_play = 0
-    start = CLOCK()
     for drawn in actions:
         if not env.agents:
             env.reset()
         env.step({name: drawn[index[name]] for name in env.agents})
         in_play += sum(name.startswith("attacker") for name in env.agents)
-    return CLOCK() - start, in_play / len(actions)
+    return in_play / len(actions)
 
 
-def run_attackers(env: AttackerParallelEnv, actions: np.ndarray, learners: Timed | None,
-                  ) -> tuple[float, float]:
+def run_attackers(env: AttackerParallelEnv, actions: np.ndarray, learners: Timed | None
+                  ) -> float:
+    """As ``run_game``, the attackers random or moved by ``learners``."""
     index = {name: k for k, name in enumerate(env.possible_agents)}
     env.reset(seed=0)
     if learners is not None:
         learners.reset(env.game.scenario)
     in_play = 0
-    start = CLOCK()
     for drawn in actions:
         if not env.agents:
             env.reset()
@@ -110,20 +108,19 @@ def run_attackers(env: AttackerParallelEnv, actions: np.ndarray, learners: Timed
         else:
             env.step(learners.act(env.game_state()))
         in_play += len(env.agents)
-    return CLOCK() - start, in_play / len(actions)
+    return in_play / len(actions)
 
 
-def run_single(env: SingleAttackerEnv, actions: np.ndarray, learners: Timed | None,
-               ) -> tuple[float, float]:
+def run_single(env: SingleAttackerEnv, actions: np.ndarray, learners: Timed | None) -> float:
+    """As ``run_game``, ``attacker_0`` random, its teammates the env's."""
     env.reset(seed=0)
     in_play = 0
-    start = CLOCK()
     for drawn in actions:
         _, _, terminated, truncated, _ = env.step(drawn[0])
         if terminated or truncated:
             env.reset()
         in_play += int(env.game_state().active_attackers.sum())
-    return CLOCK() - start, in_play / len(actions)
+    return in_play / len(actions)
 
 
 class Rows:
@@ -132,18 +129,19 @@ class Rows:
     def __init__(self) -> None:
         self.runs: dict[str, list[tuple[float, float, float]]] = {}
 
-    def time(self, label: str, run: Callable[..., tuple[float, float]], env: Any,
+    def time(self, label: str, run: Callable[..., float], env: Any,
              actions: np.ndarray, defenders: Timed | None,
              learners: Timed | None = None) -> None:
-        """One timed run of ``env``, added to ``label``'s row."""
-        for timed in (defenders, learners):
-            if timed is not None:
-                timed.seconds = 0.0
-        seconds, attackers = run(env, actions, learners)
-        if learners is not None:
-            seconds -= learners.seconds
-        share = defenders.seconds / seconds if defenders is not None else 0.0
-        self.runs.setdefault(label, []).append((len(actions) / seconds, share, attackers))
+        """One timed run of ``env`` (the learners' own decisions not counted), added to
+        ``label``'s row."""
+        for policy in (defenders, learners):
+            if policy is not None:
+                policy.seconds = 0.0
+        attackers = []
+        timing = timed(lambda: attackers.append(run(env, actions, learners)) or len(actions),
+                       clock=CLOCK, untimed=lambda: learners.seconds if learners else 0.0)
+        share = defenders.seconds / timing.seconds[0] if defenders is not None else 0.0
+        self.runs.setdefault(label, []).append((timing.rates[0], share, attackers[0]))
 
     def rates(self, label: str) -> list[float]:
         return [rate for rate, _, _ in self.runs[label]]
@@ -165,7 +163,10 @@ def ratio_line(kind: str, hj: list[float], greedy: list[float]) -> str:
             f"{len(ratios)} pairs, range {min(ratios):.0%}-{max(ratios):.0%})")
 
 
-def main() -> None:
+def measure(argv: list[str] | None = None) -> dict[str, list[tuple[float, float, float]]]:
+    """Every row the options ``argv`` ask for, timed and printed; each row's runs (rate,
+    the defenders' share, attackers in play), what ``--json`` writes
+    (``compare_throughput.py`` runs this in each checkout)."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--scenarios", nargs="+", default=["paper_1v1", "paper_2v1",
                                                              "paper_8v4"])
@@ -182,9 +183,9 @@ def main() -> None:
     parser.add_argument("--clock", choices=["cpu", "wall"], default="cpu",
                         help="time CPU seconds of this process or wall seconds")
     parser.add_argument("--json", help="write every run's steps/s to this file")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     global CLOCK
-    CLOCK = time.process_time if args.clock == "cpu" else time.perf_counter
+    CLOCK = CPU if args.clock == "cpu" else WALL
 
     cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else "?"
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores "
@@ -195,6 +196,7 @@ def main() -> None:
         time_scenario(name, args, rows)
     if args.json:
         Path(args.json).write_text(json.dumps(rows.runs, indent=1) + "\n")
+    return rows.runs
 
 
 def time_scenario(name: str, args: argparse.Namespace, rows: Rows) -> None:
@@ -250,4 +252,4 @@ def _label(defenders: str, every: int) -> str:
 
 
 if __name__ == "__main__":
-    main()
+    measure()

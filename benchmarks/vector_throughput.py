@@ -9,15 +9,17 @@ episode in the single envs), for both observations (v1's egocentric default, v0'
 vector). Each figure is the median of ``--repeats`` timed runs. Pin it to one core:
 
     taskset -c 0 .venv/bin/python benchmarks/vector_throughput.py --views --floors \
-        --baseline /tmp/base --json out.json
+        --baseline 803c18f --json out.json
 
 ``--views``: the views are timed in their steady state, after ``--view-warmup`` vector
 steps (a training run's copies are at every stage of their episodes, and an episode's
 first steps, every attacker in play, are its dearest), for ``--view-steps`` vector steps;
 the single-env view runs ``--single-view-steps`` game steps after the same warm-up in
 game steps. ``--baseline CHECKOUT`` also times the single-env view with ``hj`` of another
-checkout (a ``git worktree`` of an earlier commit), in a fresh process with that checkout
-first on the path, in every repeat: the vector view against the single env as it was.
+checkout (a folder, e.g. a ``git worktree`` of an earlier commit, or a revision:
+``harness.checkout``), in a fresh process with that checkout first on the path
+(``harness.Job`` of ``single_view.single_view_rate``), in every repeat: the vector view
+against the single env as it was. Every rate is timed by ``harness.timed`` (wall clock).
 
 ``--floors`` splits the K-copy step where the issue's goals meet what cannot be made
 cheaper without changing the game or the method: the vector env's time inside the pymunk
@@ -31,16 +33,13 @@ changed), with the number of programs solved per vector step, and inside its tub
 from __future__ import annotations
 
 import argparse
-import json
-import os
+import contextlib
 import statistics
-import subprocess
-import sys
-import time
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from harness import WALL, Job, checkout, once, timed
 from single_view import EPISODE_STEPS, GRIDS, SCENARIO, parallel_rate, single_view_rate
 
 import reachavoid_env
@@ -58,10 +57,13 @@ def vector_rate(copies: int, steps: int, observation: ObservationConfig) -> floa
     rng = np.random.default_rng(0)
     actions = [{name: rng.uniform(-1, 1, (copies, 2)) for name in env.possible_agents}
                for _ in range(8)]
-    start = time.perf_counter()
-    for i in range(steps):
-        env.step(actions[i % 8])
-    return copies * steps / (time.perf_counter() - start)
+
+    def play() -> int:
+        for i in range(steps):
+            env.step(actions[i % 8])
+        return copies * steps
+
+    return timed(play, clock=WALL).median
 
 
 def single_rate(steps: int, observation: ObservationConfig) -> float:
@@ -97,19 +99,13 @@ def view_rate(defenders: str, copies: int, steps: int, warmup: int) -> float:
     """Game steps per second of the attacker-only vector view (random attacker actions),
     timed over ``steps`` vector steps after ``warmup`` untimed ones."""
     view, actions = _view(defenders, copies, warmup)
-    start = time.perf_counter()
-    for i in range(steps):
-        view.step(actions[i % 8])
-    return copies * steps / (time.perf_counter() - start)
 
+    def play() -> int:
+        for i in range(steps):
+            view.step(actions[i % 8])
+        return copies * steps
 
-def baseline_view_rate(checkout: Path, steps: int, warmup: int) -> float:
-    """``single_view_rate`` of another checkout, in a fresh process with it on the path."""
-    env = dict(os.environ, PYTHONPATH=str(checkout.resolve()))
-    done = subprocess.run([sys.executable, str(Path(__file__).with_name("single_view.py")),
-                           str(steps), str(warmup)],
-                          env=env, check=True, capture_output=True, text=True)
-    return float(json.loads(done.stdout.splitlines()[-1]))
+    return timed(play, clock=WALL).median
 
 
 def _timed(owner: type, name: str, spent: list[float]) -> Callable[[], None]:
@@ -117,15 +113,13 @@ def _timed(owner: type, name: str, spent: list[float]) -> Callable[[], None]:
     ``spent[1]``; returns the function that puts the original back."""
     inner = getattr(owner, name)
 
-    def timed(*args: object, **kwargs: object) -> object:
-        start = time.perf_counter()
-        try:
-            return inner(*args, **kwargs)
-        finally:
-            spent[0] += time.perf_counter() - start
-            spent[1] += 1
+    def counted(*args: object, **kwargs: object) -> object:
+        result, seconds = once(lambda: inner(*args, **kwargs))
+        spent[0] += seconds
+        spent[1] += 1
+        return result
 
-    setattr(owner, name, timed)
+    setattr(owner, name, counted)
     return lambda: setattr(owner, name, inner)
 
 
@@ -149,11 +143,14 @@ def floors(copies: int, steps: int, warmup: int) -> dict[str, float]:
         env.step(actions[i % 8])
     world = [0.0, 0]
     restore = _timed(World, "step", world)
-    try:
-        start = time.perf_counter()
+
+    def play(stepped: Callable[[int], object], moves: list) -> int:
         for i in range(steps):
-            env.step(actions[i % 8])
-        total = time.perf_counter() - start
+            stepped(moves[i % 8])
+        return steps
+
+    try:
+        total = once(lambda: play(env.step, actions))[1]
     finally:
         restore()
     view, view_actions = _view("hj", copies, warmup)
@@ -164,10 +161,7 @@ def floors(copies: int, steps: int, warmup: int) -> dict[str, float]:
                     (policies.batch_defenders, "batch_decision_controls"),
                     (ValueFunction, "value")))]
     try:
-        start = time.perf_counter()
-        for i in range(steps):
-            view.step(view_actions[i % 8])
-        hj_step = (time.perf_counter() - start) / steps
+        hj_step = once(lambda: play(view.step, view_actions))[1] / steps
     finally:
         for restore in restores:
             restore()
@@ -181,17 +175,20 @@ def floors(copies: int, steps: int, warmup: int) -> dict[str, float]:
             "greedy_view_step_ms": 1e3 * copies / greedy_rate}
 
 
-def measure(args: argparse.Namespace) -> dict[str, float]:
+def measure(args: argparse.Namespace, baseline: Path | None) -> dict[str, float]:
+    """Every row the options ask for, ``--repeats`` times (rows alternating); the figures
+    of the result record (medians over the repeats). ``baseline``: the tree of
+    ``--baseline``."""
     rows: dict[str, list[float]] = {}
     k = args.view_copies
     for _ in range(args.repeats):
         if args.views:
             rows.setdefault("attackers view hj, single env", []).append(
                 single_view_rate(args.single_view_steps, args.view_warmup))
-            if args.baseline:
+            if baseline is not None:
                 rows.setdefault("attackers view hj, single env, baseline", []).append(
-                    baseline_view_rate(args.baseline, args.single_view_steps,
-                                       args.view_warmup))
+                    Job(baseline, "single_view:single_view_rate",
+                        (args.single_view_steps, args.view_warmup)).run())
             for defenders in ("hj", "greedy"):
                 rows.setdefault(f"attackers view {defenders} K={k}", []).append(
                     view_rate(defenders, k, args.view_steps, args.view_warmup))
@@ -257,14 +254,17 @@ def main() -> None:
                              "steps for the single-env view (default: %(default)s)")
     parser.add_argument("--single-view-steps", type=int, default=3000,
                         help="game steps per timed run of the single-env view")
-    parser.add_argument("--baseline", type=Path, metavar="CHECKOUT",
-                        help="also time the single-env hj view of this checkout (--views)")
+    parser.add_argument("--baseline", metavar="CHECKOUT",
+                        help="also time the single-env hj view of this checkout, a folder or "
+                             "a revision (--views)")
     parser.add_argument("--floors", action="store_true",
                         help="time the pymunk world, the CP-SAT programs and the tube lookups "
                              "in a step")
     parser.add_argument("--json", type=Path, help="write the figures here")
     args = parser.parse_args()
-    figures = measure(args)
+    with contextlib.ExitStack() as stack:
+        baseline = stack.enter_context(checkout(args.baseline)) if args.baseline else None
+        figures = measure(args, baseline)
     for key, value in figures.items():
         print(f"{key:<52} {value:>12,.2f}")
     if args.json:

@@ -101,14 +101,14 @@ def segment_gaps(shape: Shape, start: np.ndarray, end: np.ndarray) -> np.ndarray
     meets = np.isfinite(shape.segment_entry_time(start, end))
     if isinstance(shape, Circle):
         centre = np.broadcast_to(np.asarray(shape.center, dtype=np.float64), start.shape)
-        gaps = _segment_distance(centre, start, end) - shape.radius
+        gaps = segment_distance(centre, start, end) - shape.radius
     else:
         ring = shape.outline()
         corners, after = ring[None], np.roll(ring, -1, axis=0)[None]
         gaps = np.minimum(
-            _segment_distance(corners, start[:, None], end[:, None]).min(axis=1),
-            np.minimum(_segment_distance(start[:, None], corners, after),
-                       _segment_distance(end[:, None], corners, after)).min(axis=1))
+            segment_distance(corners, start[:, None], end[:, None]).min(axis=1),
+            np.minimum(segment_distance(start[:, None], corners, after),
+                       segment_distance(end[:, None], corners, after)).min(axis=1))
     return np.where(meets, 0.0, gaps)
 
 
@@ -172,7 +172,7 @@ def _slack_block(game_map, a, d, speeds, capture_radius, z, candidates, floor, c
     if vd >= va:
         reach = np.linalg.norm(d[:, None, :] - z[None], axis=2)
     else:
-        reach = _segment_distance(d[:, None, :], a[:, None, :], z[None])
+        reach = segment_distance(d[:, None, :], a[:, None, :], z[None])
     slack = (reach - capture_radius) / vd - run
     best = np.argsort(-slack, axis=1)[:, :candidates]
     value = np.take_along_axis(slack, best, axis=1)
@@ -187,7 +187,9 @@ def _slack_block(game_map, a, d, speeds, capture_radius, z, candidates, floor, c
     return found, point
 
 
-def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance from points ``p`` to the segments ``a``-``b`` (broadcast, points on the
+    last axis)."""
     ab = b - a
     t = np.clip(np.sum((p - a) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-300), 0.0, 1.0)
     return np.linalg.norm(p - (a + t[..., None] * ab), axis=-1)
@@ -206,6 +208,32 @@ def apollonius_disc(attackers: np.ndarray, defenders: np.ndarray,
     centres = (a - k2 * d) / (1 - k2)
     radii = (va / vd) * np.linalg.norm(a - d, axis=1) / (1 - k2)
     return centres, radii
+
+
+def disc_target_margins(attackers: np.ndarray, defenders: np.ndarray, target_radius: float,
+                        speeds: tuple[float, float], capture_radius: float
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """Both conditions on an obstacle-free map with a disc target at the origin, as margins,
+    for attackers and defenders ``(K, 2)`` (``vD > vA``): the theory the HJ solves and the
+    schemes are checked against.
+
+    - ``slack`` (seconds): the best, over 128 target points, of the defender's time to come
+      within the capture radius of the attacker's straight path minus the attacker's time
+      along it; > 0: the attacker wins;
+    - ``miss`` (map units): how far the Apollonius disc (capture radius 0) misses the
+      target; > 0: the defender wins.
+    """
+    va, vd = speeds
+    a = np.asarray(attackers, dtype=np.float64)
+    d = np.asarray(defenders, dtype=np.float64)
+    angles = np.linspace(0.0, 2 * np.pi, 128, endpoint=False)
+    slack = np.full(len(a), -np.inf)
+    for z in target_radius * np.stack([np.cos(angles), np.sin(angles)], axis=1):
+        z = np.broadcast_to(z, a.shape)
+        slack = np.maximum(slack, (segment_distance(d, a, z) - capture_radius) / vd
+                           - np.linalg.norm(a - z, axis=1) / va)
+    centres, radii = apollonius_disc(a, d, speeds)
+    return slack, np.linalg.norm(centres, axis=1) - radii - target_radius
 
 
 def play_region(attackers: np.ndarray, defenders: np.ndarray, speeds: tuple[float, float]

@@ -13,13 +13,20 @@ Conventions (BENCHMARKS.md says them to the reader):
 - Every ```` ```python ```` block of ``README.md`` and ``docs/*.md`` runs, the blocks of one
   page in order in one namespace, in a scratch folder (a block needing RLlib or BenchMARL
   is skipped where they are not installed). Shell commands are ```` ```bash ````.
+- The site builds with ``mkdocs build --strict`` and not one warning (a link out of
+  ``docs/``, to a result file, is a broken link there: the pages name result files in
+  inline code).
 """
 
 from __future__ import annotations
 
 import fnmatch
+import importlib.util
 import json
+import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -222,3 +229,14 @@ def test_every_module_is_in_the_api_reference(package):
         dotted = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
         if parts[-1] != "__main__":
             assert f"::: {dotted}\n" in page, f"add '::: {dotted}' to docs/api/{package}.md"
+
+
+@pytest.mark.skipif(importlib.util.find_spec("mkdocs") is None,
+                    reason="mkdocs is not installed (the docs extra: pip install -e '.[docs]')")
+def test_the_site_builds_without_a_warning(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir",
+                           str(tmp_path / "site")], cwd=ROOT, capture_output=True, text=True,
+                          env=dict(os.environ, NO_MKDOCS_2_WARNING="1"), timeout=300)
+    warnings = [line for line in (done.stdout + done.stderr).splitlines()
+                if line.startswith(("WARNING", "ERROR"))]
+    assert done.returncode == 0 and warnings == [], "\n".join(warnings) or done.stderr

@@ -6,10 +6,10 @@ import dataclasses
 
 import numpy as np
 import pytest
-from theory import disc_target_margins
 
 from reachavoid_env import Circle, GameMap, builtin_map
 from solvers.hj import SolverSettings, solve_1v1
+from solvers.open_space import disc_target_margins
 
 VA, VD, R = 1.0, 1.5, 0.1
 

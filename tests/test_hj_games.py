@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from theory import segment_distance
 
 from reachavoid_env import Circle, GameMap, builtin_map
 from solvers.hj import (
@@ -19,6 +18,7 @@ from solvers.hj import (
     solve_2v1,
     solve_declared,
 )
+from solvers.open_space import segment_distance
 
 VA, VD, R, EDGE = 1.0, 1.5, 0.05, -0.8
 
