@@ -38,6 +38,7 @@ from reachavoid_env.observations import (
     agent_rows,
     player_table,
 )
+from reachavoid_env.rewards import outcomes, progress, zero_sum
 from reachavoid_env.scenario import MAX_STEPS, Scenario, ScenarioError
 from reachavoid_env.world import World
 
@@ -355,19 +356,18 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
 
     def _rewards(self, events: rules.StepEvents, old: np.ndarray,
                  new: np.ndarray) -> np.ndarray:
-        """Phase 4: ``(M + N,)`` rewards: +1 arrival, -1 capture, the shaping term for the
-        attackers active at the start of the step; each defender gets minus their sum."""
+        """Phase 4: ``(M + N,)`` rewards (``reachavoid_env.rewards``): +1 arrival, -1
+        capture, the ``progress`` term for the attackers active at the start of the step;
+        each defender gets minus their sum."""
         m = self._m
         if not self.shaping and not events.left.any():
             return self._no_rewards
-        rewards = events.arrived.astype(np.float64) - events.captured
+        attackers = outcomes(events.arrived, events.captured)
         if self.shaping:
-            game_map = self.scenario.map
-            progress = (game_map.target_signed_distance(old[:m])
-                        - game_map.target_signed_distance(new[:m]))
+            distance = self.scenario.map.target_signed_distance
             started = (self._status == 0) | events.left
-            rewards += self.shaping * np.where(started, progress, 0.0)
-        return np.concatenate([rewards, np.full(self._n, -rewards.sum())])
+            attackers += progress(distance(old[:m]), distance(new[:m]), started, self.shaping)
+        return zero_sum(attackers, self._n)
 
     def _outputs(self, live: list[str], rows: slice | list[int], events: rules.StepEvents,
                  rewards: np.ndarray) -> tuple[dict, dict, dict, dict, dict]:

@@ -68,6 +68,7 @@ from reachavoid_env.environment import (
 from reachavoid_env.game_state import AttackerStatus, BatchState
 from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.observations import ObservationConfig, Observer
+from reachavoid_env.rewards import outcomes, progress, zero_sum
 from reachavoid_env.scenario import MAX_STEPS, Scenario, ScenarioError
 from reachavoid_env.world import World
 
@@ -304,20 +305,19 @@ class ReachAvoidVectorEnv:
 
     def _rewards(self, events: rules.StepEvents, old: np.ndarray,
                  new: np.ndarray) -> np.ndarray:
-        """Phase 4: ``(K, P)`` rewards as ``ReachAvoidEnv._rewards``, copy by copy."""
+        """Phase 4: ``(K, P)`` rewards as ``ReachAvoidEnv._rewards``, copy by copy
+        (``reachavoid_env.rewards``)."""
         m = self._m
-        rewards = events.arrived.astype(np.float64) - events.captured
+        attackers = outcomes(events.arrived, events.captured)
         if self.shaping:
-            progress = np.zeros_like(rewards)
+            before, after = np.zeros_like(attackers), np.zeros_like(attackers)
             for index in np.unique(self._map_of).tolist():
                 here = self._map_of == index
-                game_map = self.scenarios[index].map
-                progress[here] = (game_map.target_signed_distance(old[here, :m])
-                                  - game_map.target_signed_distance(new[here, :m]))
+                distance = self.scenarios[index].map.target_signed_distance
+                before[here], after[here] = distance(old[here, :m]), distance(new[here, :m])
             started = (self._status == 0) | events.left
-            rewards = rewards + self.shaping * np.where(started, progress, 0.0)
-        team = -rewards.sum(axis=1, keepdims=True)
-        return np.concatenate([rewards, np.broadcast_to(team, (len(team), self._n))], axis=1)
+            attackers = attackers + progress(before, after, started, self.shaping)
+        return zero_sum(attackers, self._n)
 
     def _outputs(self, live: np.ndarray, events: rules.StepEvents, rewards: np.ndarray,
                  ) -> tuple[dict, dict, dict, dict, dict]:

@@ -17,7 +17,7 @@ copies are the current ones), ``infos["episode_over"]`` ``(K,)`` marks those cop
 Rewards are the env's (``shaping`` included) plus ``timeout_reward`` for a learner still
 in play when its episode is truncated, and, for learning attackers, ``team_reward`` times
 the sum of the other learners' +1 / -1 (arrival, capture) in each env step for a learner in
-play (``reachavoid_env.wrappers.team_bonus``, as ``AttackerParallelEnv``).
+play (``reachavoid_env.rewards.team_bonus``, as ``AttackerParallelEnv``).
 ``start_reach`` reads and sets the vector env's (easy starts for a curriculum; Stable-
 Baselines3's ``set_attr`` reaches it through ``integrations.vector``).
 
@@ -37,8 +37,8 @@ import numpy as np
 
 from reachavoid_env import checks
 from reachavoid_env.game_state import AttackerStatus, BatchPolicy
+from reachavoid_env.rewards import team_bonus, timeout
 from reachavoid_env.vector import ReachAvoidVectorEnv
-from reachavoid_env.wrappers import team_bonus
 
 _ARRIVED = AttackerStatus.ARRIVED.code
 
@@ -144,7 +144,7 @@ class LearnerVectorEnv:
                 over |= ending
             if over.all():
                 break
-        totals += self.timeout_reward * truncated
+        totals += timeout(truncated, self.timeout_reward)
         infos_out: dict[str, Any] = {"episode_over": over, "arrived": arrived}
         if over.any():
             infos_out["final_observation"] = np.where(over[:, None, None], final, table)

@@ -37,6 +37,7 @@ from reachavoid_env import checks
 from reachavoid_env.environment import ReachAvoidEnv, check_agent_names
 from reachavoid_env.game_state import AttackerStatus, GameState, Overlay, Policy, merged_overlay
 from reachavoid_env.maps import ScenarioSource
+from reachavoid_env.rewards import team_bonus, timeout
 from reachavoid_env.scenario import Scenario
 from reachavoid_env.video import realtime_fps
 
@@ -160,24 +161,6 @@ def _metadata(metadata: dict[str, Any], game: ReachAvoidEnv, action_repeat: int,
     """``metadata`` with ``render_fps`` such that one frame per learner step (``action_repeat``
     env steps of ``dt`` seconds) plays back in real time."""
     return {**metadata, "render_fps": realtime_fps(game.base_scenario.dt, action_repeat)}
-
-
-def team_bonus(outcomes: np.ndarray, live: np.ndarray, weight: float) -> np.ndarray:
-    """The ``team_reward`` term of the attacker training views.
-
-    Args:
-        outcomes: ``(..., L)`` each learning attacker's outcome in one env step: +1 it
-            arrived, -1 it was captured, 0 otherwise.
-        live: ``(..., L)`` bool, the learner was in play at the start of the step.
-        weight: the views' ``team_reward``.
-
-    Returns:
-        ``(..., L)``: ``weight`` times the sum of the *other* learners' outcomes, for the
-        learners in play (0 for the others): a share of its teammates' arrivals and
-        captures, so that a learner gains by helping a teammate through.
-    """
-    others = outcomes.sum(axis=-1, keepdims=True) - outcomes
-    return np.where(live, weight * others, 0.0)
 
 
 class _OnGame:
@@ -316,7 +299,7 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
                 self._share_outcomes(playing, term, rewards)
             for name in obs.keys() & self._learners:
                 observations[name] = obs[name]
-                rewards[name] += rew[name] + (self.timeout_reward if trunc[name] else 0.0)
+                rewards[name] += rew[name] + timeout(trunc[name], self.timeout_reward)
                 terminations[name] = term[name]
                 truncations[name] = trunc[name]
                 infos[name] = info[name]
@@ -436,8 +419,7 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
             terminated, truncated = terminations[learner], truncations[learner]
             if terminated or truncated:
                 break
-        if truncated:
-            total += self.timeout_reward
+        total += timeout(truncated, self.timeout_reward)
         info = infos[learner]
         if terminated or truncated:
             status = self.game.game_state().attacker_status[self._learner_index]
