@@ -2,7 +2,8 @@
 policies (``BatchPolicy``) move the others.
 
 ``LearnerVectorEnv(vec, learners, scripted)`` steps ``vec`` (a ``ReachAvoidVectorEnv``
-made with ``autoreset=False``) with the learners' actions ``(K, L, 2)`` and the scripted
+made with ``autoreset=False``) with the learners' actions ``(K, L, 2)`` (``(K, L)``
+integers when ``vec`` has ``continuous_actions=False``) and the scripted
 sides' ``act_batch`` of the same ``BatchState``, every env step. Arrays out are
 ``(K, L, ...)``: copy first, learner second (agent order). ``action_repeat = k`` holds the
 learners' actions for ``k`` env steps and sums their rewards; a copy whose episode ends
@@ -36,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from reachavoid_env import checks
+from reachavoid_env.actions import controls
 from reachavoid_env.game_state import AttackerStatus, BatchPolicy
 from reachavoid_env.rewards import team_bonus, timeout
 from reachavoid_env.vector import ReachAvoidVectorEnv
@@ -102,11 +104,17 @@ class LearnerVectorEnv:
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                           dict[str, Any]]:
-        """``actions`` ``(K, L, 2)``; one learner step (``action_repeat`` env steps)."""
-        learned = np.asarray(actions, dtype=np.float64)
+        """``actions`` ``(K, L, 2)`` (``(K, L)`` integers with the vector env's
+        ``continuous_actions=False``); one learner step (``action_repeat`` env steps)."""
+        if not self.vec.continuous_actions:
+            learned = controls("actions", actions, (self.num_envs, len(self.learners)))
+        else:
+            learned = np.asarray(actions, dtype=np.float64)
         if learned.shape != (self.num_envs, len(self.learners), 2):
             raise ValueError(f"actions: expected shape ({self.num_envs}, {len(self.learners)}, "
                              f"2), got {learned.shape}")
+        if not np.isfinite(learned).all():
+            raise ValueError("actions: must be finite real numbers")
         vec, rows = self.vec, self._learner_rows
         names = vec.possible_agents
         k, learners = self.num_envs, len(self.learners)
@@ -124,8 +132,7 @@ class LearnerVectorEnv:
             for policy, moved, side_rows in self._scripted:
                 full[:, moved] = policy.act_batch(states)[:, side_rows]
             playing = vec.active[:, rows] if self.team_reward else None
-            observations, rewards, terms, truncs, infos = vec.step(
-                {name: full[:, i] for i, name in enumerate(names)})
+            observations, rewards, terms, truncs, infos = vec.advance(full)
             table = np.stack([observations[name] for name in self.learners], axis=1)
             totals += np.stack([rewards[n] for n in self.learners], axis=1)
             left = np.stack([terms[n] for n in self.learners], axis=1)
