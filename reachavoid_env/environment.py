@@ -3,17 +3,8 @@
 ``ReachAvoidEnv`` is the parallel env; ``env()`` / ``raw_env()`` give the AEC version.
 The rules themselves live in ``rules``; ``step`` applies them in named phases.
 
-Version History (``reachavoid/ReachAvoid-vN``, ``reach_avoid_vN``):
-
-- v1: the egocentric observation by default (own position and velocity, the target's
-  nearest point and signed distance, lidar rays to walls and obstacles, every other
-  player's relative position, velocity and active flag, the time left;
-  ``observations.ObservationConfig``); ``GameState.velocities``. Rules, rewards and infos
-  as v0.
-- v0: the global observation (every player's normalised position and active flag);
-  numeric infos (``status`` codes, ``captured_by`` on every step) since the TorchRL work,
-  readable ones with ``info_format="readable"``. Still available, bit for bit, as
-  ``reach_avoid_v0`` / ``ReachAvoid-v0`` and ``observation=GLOBAL``.
+Version History: in ``reach_avoid_v2`` (v2 plays this env in decisions; v0 and v1 are
+this env with the global and the egocentric observation, bit for bit).
 """
 
 from __future__ import annotations
