@@ -124,6 +124,11 @@ class DecisionEnv(ParallelEnv, EzPickle):
         self.game.max_cycles = value * self.decision_steps
 
     @property
+    def info_format(self) -> str:
+        """``"numeric"`` or ``"readable"`` (``ReachAvoidEnv``)."""
+        return self.game.info_format
+
+    @property
     def scenario(self) -> Scenario:
         """The scenario of the current episode (its starts included)."""
         return self.game.scenario
@@ -223,7 +228,7 @@ class DecisionEnv(ParallelEnv, EzPickle):
         ``infos`` (out of the game, kept) repeat their last, with ``captured_by`` -1."""
         codes = [status.code for status in state.attacker_status]
         counts = {"captured": codes.count(_CAPTURED), "arrived": codes.count(_ARRIVED)}
-        numeric = self.game.info_format == "numeric"
+        numeric = self.info_format == "numeric"
         in_play = set(self.game.agents)
         completed = {}
         for name in self.agents:
