@@ -91,6 +91,7 @@ class DecisionEnv(ParallelEnv, EzPickle):
                                   render_mode=render_mode, render_width=render_width,
                                   info_format=info_format, starts=starts,
                                   observation=observation)
+        self.game.observing = False   # observations once, at the end of each decision
         self.metadata = {**self.metadata, "render_fps": round(realtime_fps(
             self.game.base_scenario.dt, self.decision_steps))}
         self.render_mode = render_mode
@@ -173,14 +174,12 @@ class DecisionEnv(ParallelEnv, EzPickle):
                 raise KeyError(f"step: no action for live agent {name!r}")
             held[name] = actions[name] if self.continuous_actions \
                 else control(name, actions[name])
-        observations: dict[str, np.ndarray] = {}
         rewards = dict.fromkeys(live, 0.0)
         terminated: dict[str, bool] = {}
         truncated: dict[str, bool] = {}
         infos: dict[str, dict[str, Any]] = {}
         for _ in range(self.decision_steps):
-            obs, rew, term, trunc, info = game.step({name: held[name] for name in game.agents})
-            observations.update(obs)
+            _, rew, term, trunc, info = game.step({name: held[name] for name in game.agents})
             infos.update(info)
             terminated.update(term)
             truncated.update(trunc)
@@ -188,6 +187,7 @@ class DecisionEnv(ParallelEnv, EzPickle):
                 rewards[name] += value
             if not game.agents:
                 break
+        observations = game.observe(playing)
         state = game.game_state()
         if self.reward == "shaped":
             phi = self._potential()(state.attacker_positions, state.active_attackers)

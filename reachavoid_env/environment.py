@@ -182,6 +182,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         self._caption: str | None = None
         self._observer: Observer | None = None
         self._observer_map: Any = None
+        self.observing = True
+        """``False``: ``step`` returns no observations (v2 asks ``observe`` once a decision)."""
 
     # ----------------------------------------------------------------- spaces
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
@@ -365,7 +367,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         """Phase 5: observations, rewards, terminations, truncations and infos of the agents
         live at the start of the step; the agents that ended leave ``agents``."""
         truncate = self._steps >= self.max_cycles
-        observations = self._observations(live, rows)
+        observations = self._observations(live, rows) if self.observing else {}
         reward_dict = dict(zip(live, rewards[rows].tolist(), strict=True))
         infos = self._infos(live, events.captor)
         if events.left.any() or truncate:
@@ -403,6 +405,10 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     def _state_matrix(self) -> np.ndarray:
         """``(M + N, 3)`` float32: normalised x, y and the active flag of every player."""
         return player_table(self._positions, self._active, self._normaliser)
+
+    def observe(self, agents: list[str]) -> dict[str, np.ndarray]:
+        """The observations of ``agents`` now (in or out of the game), as ``step`` gives."""
+        return self._observations(agents, [self._index[name] for name in agents])
 
     def _observations(self, agents: list[str], rows: slice | list[int],
                       ) -> dict[str, np.ndarray]:
