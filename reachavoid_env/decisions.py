@@ -137,7 +137,15 @@ class DecisionEnv(ParallelEnv, EzPickle):
     # ------------------------------------------------------------------ reset
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None,
               ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
-        """A new episode, as ``ReachAvoidEnv.reset`` (the same options)."""
+        """A new episode, as ``ReachAvoidEnv.reset``.
+
+        Args:
+            seed: seeds the env's generator (starts, maps); ``None`` draws on.
+            options: ``ReachAvoidEnv.reset``'s options.
+
+        Returns:
+            Every agent's first observation and info (the keys of ``_completed``).
+        """
         observations, infos = self.game.reset(seed=seed, options=options)
         self.np_random, self.np_random_seed = self.game.np_random, self.game.np_random_seed
         self.agents = self.possible_agents[:]
@@ -159,7 +167,17 @@ class DecisionEnv(ParallelEnv, EzPickle):
     def step(self, actions: dict[str, Any]) -> tuple[dict[str, np.ndarray], dict[str, float],
                                                      dict[str, bool], dict[str, bool],
                                                      dict[str, dict[str, Any]]]:
-        """One decision: ``actions`` held for up to ``decision_steps`` physics steps."""
+        """One decision: ``actions`` held for up to ``decision_steps`` physics steps.
+
+        Args:
+            actions: ``{agent: action}`` for every agent in play (a ``Box`` vector, or an
+                integer with ``continuous_actions=False``); agents out of the game (kept
+                with ``remove_agents=False``) need none.
+
+        Returns:
+            Observations, rewards (summed over the physics steps, plus the shaping),
+            terminations, truncations and infos of the agents in ``agents`` at the start.
+        """
         if not isinstance(actions, Mapping):
             raise TypeError(f"step: actions must be a dict {{agent name: action}}, got "
                             f"{type(actions).__name__}")

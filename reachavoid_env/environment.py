@@ -407,7 +407,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         return player_table(self._positions, self._active, self._normaliser)
 
     def observe(self, agents: list[str]) -> dict[str, np.ndarray]:
-        """The observations of ``agents`` now (in or out of the game), as ``step`` gives."""
+        """The observations ``step`` would give ``agents`` (in or out of the game) now."""
         return self._observations(agents, [self._index[name] for name in agents])
 
     def _observations(self, agents: list[str], rows: slice | list[int],

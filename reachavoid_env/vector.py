@@ -79,6 +79,9 @@ MAX_COPIES = 65_536
 COPIES_PER_WORLD = 64
 """Copies whose players share one pymunk space (per map): a space's broadphase slows past
 a few hundred bodies, so larger batches use several spaces."""
+VectorStep = tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray],
+                   dict[str, np.ndarray], dict[str, Any]]
+"""What ``step`` returns: observations, rewards, terminations, truncations, infos."""
 _SHARED = ("dt", "attacker_speed", "defender_speed", "capture_radius", "player_radius")
 
 
@@ -228,20 +231,14 @@ class ReachAvoidVectorEnv:
                 rows, self._positions[here].reshape(-1, 2))
 
     # ------------------------------------------------------------------- step
-    def step(self, actions: Mapping[str, Any]) -> tuple[dict[str, np.ndarray],
-                                                       dict[str, np.ndarray],
-                                                       dict[str, np.ndarray],
-                                                       dict[str, np.ndarray], dict[str, Any]]:
+    def step(self, actions: Mapping[str, Any]) -> VectorStep:
         """One step of ``dt`` seconds in every copy: controls, move, events, rewards,
         outputs, then the reset of the copies whose game ended (module docstring)."""
         if not self._generators:
             raise RuntimeError("step: call reset() first")
         return self.advance(self._stacked(actions))
 
-    def advance(self, wanted: np.ndarray) -> tuple[dict[str, np.ndarray],
-                                                     dict[str, np.ndarray],
-                                                     dict[str, np.ndarray],
-                                                     dict[str, np.ndarray], dict[str, Any]]:
+    def advance(self, wanted: np.ndarray) -> VectorStep:
         """``step`` with every player's continuous action ``(K, P, 2)`` (float64, checked
         by the caller), whatever ``continuous_actions`` is: the training views' path."""
         if not self._generators:
