@@ -86,6 +86,12 @@ class LearnerVectorEnv:
         self.single_action_space = vec.single_action_space
 
     @property
+    def action_shape(self) -> tuple[int, ...]:
+        """One learner's action: ``(2,)``, or ``()`` (an integer) with the vector env's
+        ``continuous_actions=False``."""
+        return (2,) if self.vec.continuous_actions else ()
+
+    @property
     def start_reach(self) -> float | None:
         """The vector env's ``start_reach`` (module docstring)."""
         return self.vec.start_reach

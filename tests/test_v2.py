@@ -223,3 +223,31 @@ def test_discrete_actions_in_every_view():
     parallel.reset(seed=0)
     parallel.step({a: parallel.action_space(a).sample() for a in parallel.agents})
     assert parallel.action_space("attacker_0") is parallel.action_space("attacker_0")
+
+
+def test_discrete_actions_through_the_vector_integrations():
+    """Stable-Baselines3's and Gymnasium's vector forms and TorchRL's batched env of a
+    view with discrete actions take integers."""
+    from policies.training import make_attacker_vector_env, make_attackers_vector_env
+    from reachavoid_env.integrations.vector import GymVectorEnv, sb3_vec_env
+
+    view = make_attackers_vector_env(CROWDED, defenders="idle", num_envs=2,
+                                     continuous_actions=False)
+    assert view.action_shape == ()
+    sb3 = sb3_vec_env(view)
+    sb3.reset()
+    sb3.step(np.full(sb3.num_envs, 2))
+    gym = GymVectorEnv(make_attacker_vector_env(CROWDED, defenders="idle", num_envs=2,
+                                                continuous_actions=False))
+    gym.reset(seed=0)
+    gym.step(gym.action_space.sample())
+    torch = pytest.importorskip("torch")
+    pytest.importorskip("torchrl")
+    from torchrl.envs.utils import check_env_specs
+
+    from reachavoid_env.integrations.torchrl import VectorGroupEnv
+
+    env = VectorGroupEnv(make_attackers_vector_env(CROWDED, defenders="idle", num_envs=2,
+                                                   continuous_actions=False, autoreset=False))
+    check_env_specs(env)
+    assert env.rollout(5)["attacker", "action"].dtype == torch.int64
