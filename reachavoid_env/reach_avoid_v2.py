@@ -15,8 +15,10 @@ BENCHMARKS.md):
   scenarios: an attacker moves 0.05 map units, half the capture radius, so a decision is
   still fine enough to dodge). Captures and arrivals are still judged on every physics
   step, by the env's own step; the decision stops at the sub-step the episode ends on.
-  With one physics step per decision a random action moves a player 5 mm, and random
-  play meets nothing (160 episodes of v1: no capture, no arrival).
+  With one physics step per decision (v1) a random action moves a player 0.005 map units,
+  and random play meets nothing (issue 51: 160 episodes of v1's default game, no capture
+  and no arrival). Observations are taken once, at the end of the decision (an agent
+  that left within it observes the game as the decision ends).
 - ``max_cycles=400`` decisions (20 s of game in the paper's scenarios, four times v1's
   1000 physics steps). Measured on ``paper_2v1``, 200 seeded episodes
   (``benchmarks/v2_defaults.py``): random play meets a capture or an arrival in 47.5% of
