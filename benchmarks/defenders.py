@@ -43,11 +43,11 @@ import numpy as np
 from result_file import write_result
 
 import reachavoid_env
-from policies.geodesic import distance_field
 from policies.intercept import race_all
 from policies.registry import PolicySpec
 from reachavoid.evaluation import Z95, wilson_interval
 from reachavoid.sweep import play_seed, sweep_of
+from reachavoid_env.geodesic import distance_field
 
 CONFIGS = {"2v1": ("paper_2v1", 2, 1), "6v2": ("paper_2v1", 6, 2),
            "8v4": ("paper_2v1", 8, 4), "6v4eq": ("paper_6v4_equal", 6, 4)}

@@ -1,16 +1,14 @@
 """Defender and attacker policies (design.md section 3).
 
-The names below load their modules on first use (PEP 562). Importing the package after
-Gymnasium or PettingZoo (as ``gymnasium.make("policies:reachavoid/Attacker-v0")`` does)
-registers the attacker-training envs with both (``policies.training``); importing
-``policies.training`` registers them in any case. Without either library loaded, the
-package imports neither (the command line's path).
+The names below load their modules on first use (PEP 562). The attacker-training envs'
+ids (factories in ``policies.training``) are registered by ``reachavoid_env``
+(``reachavoid_env.training_ids``) when Gymnasium or PettingZoo is imported, so
+``gymnasium.make("policies:reachavoid/Attacker-v1")`` and a plain ``import reachavoid_env``
+both find them. The package imports neither library (the command line's path).
 """
 
 from __future__ import annotations
 
-import importlib
-import sys
 from typing import TYPE_CHECKING
 
 from reachavoid_env import lazy
@@ -55,6 +53,3 @@ __getattr__, __dir__ = lazy.attributes(__name__, {
                      "IdleDefender", "MatchingDefenderPolicy"], "policies.defenders"),
     **dict.fromkeys(["make_attacker_env", "make_attackers_parallel_env"], "policies.training"),
 })
-
-if "gymnasium" in sys.modules or "pettingzoo" in sys.modules:
-    importlib.import_module("policies.training")

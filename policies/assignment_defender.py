@@ -25,7 +25,6 @@ from policies.certificate import (
     open_games,
     roles_of,
 )
-from policies.geodesic import DistanceField, distance_field
 from policies.intercept import Plan, plan_intercepts, race_all
 from policies.intercept import headings as intercept_headings
 from policies.lookups import DecisionTables, TubeArrays, decision_controls, decision_tables
@@ -34,6 +33,7 @@ from policies.strategy import Program, Strategy
 from policies.tube_states import control_headings, pair_states, team_states, team_values
 from policies.tubes import check_tube
 from reachavoid_env import GameState, Overlay, Scenario
+from reachavoid_env.geodesic import DistanceField, distance_field
 from solvers.assignment import Assignment
 from solvers.hj import ValueFunction
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from policies.geodesic import DEFAULT_CELLS, DistanceField, distance_field
 from policies.tubes import tube_1v1, tube_2v1
 from reachavoid_env import GameMap, GameState, Scenario
+from reachavoid_env.geodesic import DEFAULT_CELLS, DistanceField, distance_field
 from reachavoid_env.rules import unit_vectors
 from solvers.hj import PAPER_GRIDS, ValueFunction
 
@@ -196,7 +196,7 @@ class ShortestPathAttacker:
     """Every attacker runs at full speed along the shortest path to the target around
     obstacles, ignoring defenders: the paper's scripted attacker.
 
-    It descends the map's geodesic distance field (``policies.geodesic``; obstacles grown
+    It descends the map's geodesic distance field (``reachavoid_env.geodesic``; obstacles grown
     by the scenario's player radius, ``cells`` grid cells along the longer side of the
     domain), sliding along walls and round their corners. Inside the target it stands
     still. ``field`` is the field in use (after ``reset``).

@@ -43,7 +43,6 @@ from policies.certificate import (
     open_games,
     roles_of,
 )
-from policies.geodesic import DistanceField, distance_field
 from policies.intercept import PATH_STEP, Plan, headings, race_points, traced_points
 from policies.lookups import (
     Ragged,
@@ -56,6 +55,7 @@ from policies.strategy import CERTIFICATE_CELLS, check_margin_cells
 from policies.tubes import check_tube, tube_1v1, tube_2v1
 from reachavoid_env import BatchState, Scenario
 from reachavoid_env.game_state import checked_copies
+from reachavoid_env.geodesic import DistanceField, distance_field
 from solvers import open_space
 from solvers.assignment import AssignmentSolver
 from solvers.hj import PAPER_GRIDS, ValueFunction

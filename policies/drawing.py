@@ -8,10 +8,10 @@ from collections.abc import Callable
 import numpy as np
 
 from policies.certificate import Match
-from policies.geodesic import DistanceField, distance_to
 from policies.intercept import Plan, traced_points
 from reachavoid_env import GameState, Overlay
 from reachavoid_env.game_state import EdgeKind, Route
+from reachavoid_env.geodesic import DistanceField, distance_to
 
 
 def overlay(games: list[Match], races: tuple[tuple[int, int], ...], line: str,

@@ -1,7 +1,7 @@
 """Time-to-intercept defenders: race each attacker to a point of its shortest path.
 
 An attacker heading for the target takes the shortest path around the obstacles (the
-descent of the map's geodesic distance field, ``policies.geodesic``). ``trace_paths``
+descent of the map's geodesic distance field, ``reachavoid_env.geodesic``). ``trace_paths``
 samples that path every ``step`` map units from each attacker's position; the attacker
 reaches the ``k``-th point after ``k * step / attacker_speed`` seconds. A defender
 *intercepts* at the first point it can reach, within the capture radius, no later than
@@ -26,8 +26,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from policies.geodesic import DEFAULT_CELLS, DistanceField, distance_field
 from reachavoid_env import GameState, Overlay, Scenario
+from reachavoid_env.geodesic import DEFAULT_CELLS, DistanceField, distance_field
 from reachavoid_env.jit_cache import check_numba_config
 from reachavoid_env.rules import unit_vectors
 
@@ -228,7 +228,7 @@ class InterceptDefender:
     """Every defender races an attacker to a point of its shortest path (``plan_intercepts``),
     re-planned every step; defenders left over back up the most threatening attacker.
 
-    ``cells`` is the resolution of the geodesic field (``policies.geodesic``).
+    ``cells`` is the resolution of the geodesic field (``reachavoid_env.geodesic``).
     ``overlay()`` shows each defender's target as an edge.
     """
 

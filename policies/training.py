@@ -1,4 +1,6 @@
-"""Training envs with named scripted policies, and their Gymnasium / PettingZoo ids.
+"""Training envs with named scripted policies: the factories of the Gymnasium / PettingZoo
+ids (``reachavoid_env.training_ids`` registers them; ``GYM_ID``, ``PETTINGZOO_ID``,
+``gym_id`` and ``pettingzoo_id`` are re-exported here).
 
 ``reachavoid_env.wrappers`` takes policy objects; this module names them, so an env can be
 made from strings (on the command line, in a registry id, in a subprocess):
@@ -7,8 +9,8 @@ made from strings (on the command line, in a registry id, in a subprocess):
     env = make_attacker_env("paper_2v1", defenders="hj",
                             defender_options={"grid1": 31, "grid2": 15})
 
-Importing ``policies`` (or this module) registers, for Gymnasium (``make_attacker_env``,
-one learning attacker):
+Importing ``reachavoid_env`` (which ``policies`` does) registers, once Gymnasium is imported
+(``make_attacker_env``, one learning attacker):
 
 - ``reachavoid/Attacker-v1`` (``scenario=`` keyword, default ``paper_2v1``; a map library
   folder or index trains across its maps, one drawn per reset, with the defenders built
@@ -20,7 +22,7 @@ one learning attacker):
   ``reachavoid/Attacker-paper_6v2-random-v1`` for 6 vs 2;
 
 and for PettingZoo (``pettingzoo.make("parallel", ...)``, ``make_attackers_parallel_env``,
-every attacker learning) ``reachavoid/Attackers-v1`` (``scenario=`` keyword) and
+every attacker learning; PettingZoo 1.27 on) ``reachavoid/Attackers-v1`` (``scenario=`` keyword) and
 ``reachavoid/Attackers-<builtin>-v1`` / ``reachavoid/Attackers-<builtin>-random-v1``
 likewise. Every id takes ``starts="random"`` as a keyword too. Without importing anything
 first, Gymnasium's ``"module:id"`` form loads them:
@@ -44,14 +46,15 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-import gymnasium
-import pettingzoo
-
 from policies.registry import DEFENDERS, PolicySpec, make_batch_policy
 from reachavoid_env import checks
 from reachavoid_env.game_state import BatchPolicy, PerCopy, PerMap
 from reachavoid_env.maps import ScenarioSource, load_library
-from reachavoid_env.scenario import builtin_names, load_scenario
+from reachavoid_env.scenario import load_scenario
+from reachavoid_env.training_ids import GYM_ID as GYM_ID
+from reachavoid_env.training_ids import PETTINGZOO_ID as PETTINGZOO_ID
+from reachavoid_env.training_ids import gym_id as gym_id
+from reachavoid_env.training_ids import pettingzoo_id as pettingzoo_id
 from reachavoid_env.vector import ReachAvoidVectorEnv
 from reachavoid_env.vector_views import LearnerVectorEnv
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
@@ -324,48 +327,3 @@ def make_attacker_vector_env(scenario: ScenarioSource = "paper_2v1", defenders: 
                          others))
     return LearnerVectorEnv(vec, [learner], scripted, action_repeat=action_repeat,
                             timeout_reward=timeout_reward)
-
-
-GYM_ID = "reachavoid/Attacker-v1"
-PETTINGZOO_ID = "reachavoid/Attackers-v1"
-_VERSIONS = {1: {}, 0: {"observation": {"egocentric": False}}}
-
-
-def gym_id(scenario: str, starts: str = "scenario", version: int = 1) -> str:
-    """The Gymnasium id of the single-attacker env of built-in ``scenario`` (``starts``:
-    ``"scenario"`` or ``"random"``, as ``ReachAvoidEnv``; ``version`` 1 or 0)."""
-    return f"reachavoid/Attacker-{scenario}{_STARTS_SUFFIX[starts]}-v{version}"
-
-
-def pettingzoo_id(scenario: str, starts: str = "scenario", version: int = 1) -> str:
-    """The PettingZoo id of the attacker-only env of built-in ``scenario``."""
-    return f"reachavoid/Attackers-{scenario}{_STARTS_SUFFIX[starts]}-v{version}"
-
-
-_STARTS_SUFFIX = {"scenario": "", "random": "-random"}
-
-
-def _ids(default_id: str, id_of: Any) -> dict[str, dict[str, Any]]:
-    """``default_id`` (no keywords) and ``id_of(builtin, starts, version)`` of every
-    built-in, starts and version, with their keywords."""
-    ids: dict[str, dict[str, Any]] = {}
-    for version, kwargs in _VERSIONS.items():
-        ids[default_id.replace("-v1", f"-v{version}")] = kwargs
-        ids |= {id_of(name, starts, version): {"scenario": name, "starts": starts, **kwargs}
-                for name in builtin_names() for starts in _STARTS_SUFFIX}
-    return ids
-
-
-def register_envs() -> None:
-    """Register the ids listed in the module docstring (again: a no-op)."""
-    for env_id, kwargs in _ids(GYM_ID, gym_id).items():
-        if env_id not in gymnasium.registry:
-            gymnasium.register(id=env_id, entry_point="policies.training:make_attacker_env",
-                               kwargs=kwargs)
-    for env_id, kwargs in _ids(PETTINGZOO_ID, pettingzoo_id).items():
-        if env_id not in pettingzoo.parallel_registry:
-            pettingzoo.register("parallel", env_id, kwargs=kwargs,
-                                entry_point="policies.training:make_attackers_parallel_env")
-
-
-register_envs()

@@ -200,7 +200,7 @@ def validate(args: argparse.Namespace) -> int:
 def _playable(scenario: Scenario) -> None:
     """What ``play`` with its default policies would find wrong with ``scenario`` before
     playing: the shortest-path field's grid and the tubes' grids must see the target."""
-    from policies.geodesic import distance_field
+    from reachavoid_env.geodesic import distance_field
     from solvers.hj.games import check_tube_grids
 
     distance_field(scenario.map, scenario.player_radius)

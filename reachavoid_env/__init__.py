@@ -6,10 +6,16 @@ env (``ReachAvoidEnv``, ``env``, ``parallel_env``, ``raw_env``) loads PettingZoo
 Gymnasium and pymunk, so the solvers stand on the map without the simulator.
 
 Importing the package registers the env with PettingZoo as ``reachavoid/ReachAvoid-v1``
-(the egocentric observation; ``env``, ``parallel_env`` and ``raw_env`` here are v1's) and
-``reachavoid/ReachAvoid-v0`` (the global observation, ``reach_avoid_v0``), both for
+(the egocentric observation; ``env``, ``parallel_env`` and ``raw_env`` here are v1's),
+``reachavoid/ReachAvoid-v0`` (the global observation, ``reach_avoid_v0``) and
+``reachavoid/ReachAvoid-v2`` (decisions, random starts, shaped reward and discrete actions
+as options: the version for learning from scratch, ``reach_avoid_v2``), all for
 ``pettingzoo.make("parallel", ...)`` and ``pettingzoo.make("aec", ...)``: at once when
-PettingZoo is loaded already, else the moment it is imported.
+PettingZoo is loaded already, else the moment it is imported. PettingZoo has a registry
+from 1.27; on older releases (pyproject allows 1.25) nothing is registered and the
+versioned modules (``reach_avoid_v2.parallel_env(...)``) make the envs. The attacker
+training envs' ids (``training_ids``) register the same way, with Gymnasium too: no
+``import policies`` first.
 """
 
 from __future__ import annotations
@@ -80,7 +86,8 @@ __all__ = [
 ]
 
 ENV_IDS = {"reachavoid/ReachAvoid-v0": "reachavoid_env.reach_avoid_v0",
-           "reachavoid/ReachAvoid-v1": "reachavoid_env.reach_avoid_v1"}
+           "reachavoid/ReachAvoid-v1": "reachavoid_env.reach_avoid_v1",
+           "reachavoid/ReachAvoid-v2": "reachavoid_env.reach_avoid_v2"}
 ENV_ID = "reachavoid/ReachAvoid-v1"
 """The current version's id."""
 
@@ -101,9 +108,24 @@ __getattr__, __dir__ = lazy.attributes(__name__, {
 
 
 def _register(pettingzoo: Any) -> None:
+    """Register ``ENV_IDS`` with PettingZoo's registry (1.27 on; older releases have
+    none, and the versioned modules are their way in)."""
+    if not hasattr(pettingzoo, "register"):
+        return
     for env_id, module in ENV_IDS.items():
         pettingzoo.register("parallel", env_id, entry_point=f"{module}:parallel_env")
         pettingzoo.register("aec", env_id, entry_point=f"{module}:env")
+    from reachavoid_env.training_ids import register_pettingzoo
+
+    register_pettingzoo(pettingzoo)
+
+
+def _register_training(gymnasium: Any) -> None:
+    """Register the attacker training envs' Gymnasium ids (``training_ids``)."""
+    from reachavoid_env.training_ids import register_gymnasium
+
+    register_gymnasium(gymnasium)
 
 
 lazy.after_import("pettingzoo", _register)
+lazy.after_import("gymnasium", _register_training)

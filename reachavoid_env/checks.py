@@ -14,6 +14,8 @@ import numbers
 import os
 from typing import Any
 
+import numpy as np
+
 
 class FieldError(ValueError):
     """A bad value; ``field`` names where it was given (a dotted path in a scenario file, an
@@ -91,3 +93,10 @@ def integer(value: Any, field: str, low: int | None = None, high: int | None = N
         raise error(f"{field}: must be an integer {_describe(low, high, False)}, got {value!r}",
                     field)
     return number
+
+
+def flag(value: Any, field: str, *, error: type[FieldError] = FieldError) -> bool:
+    """``value`` as a bool: ``True`` or ``False`` (numpy's too), nothing else."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise error(f"{field}: expected True or False, got {value!r}", field)
+    return bool(value)

@@ -3,17 +3,8 @@
 ``ReachAvoidEnv`` is the parallel env; ``env()`` / ``raw_env()`` give the AEC version.
 The rules themselves live in ``rules``; ``step`` applies them in named phases.
 
-Version History (``reachavoid/ReachAvoid-vN``, ``reach_avoid_vN``):
-
-- v1: the egocentric observation by default (own position and velocity, the target's
-  nearest point and signed distance, lidar rays to walls and obstacles, every other
-  player's relative position, velocity and active flag, the time left;
-  ``observations.ObservationConfig``); ``GameState.velocities``. Rules, rewards and infos
-  as v0.
-- v0: the global observation (every player's normalised position and active flag);
-  numeric infos (``status`` codes, ``captured_by`` on every step) since the TorchRL work,
-  readable ones with ``info_format="readable"``. Still available, bit for bit, as
-  ``reach_avoid_v0`` / ``ReachAvoid-v0`` and ``observation=GLOBAL``.
+Version History: in ``reach_avoid_v2`` (v2 plays this env in decisions; v0 and v1 are
+this env with the global and the egocentric observation, bit for bit).
 """
 
 from __future__ import annotations
@@ -38,6 +29,7 @@ from reachavoid_env.observations import (
     agent_rows,
     player_table,
 )
+from reachavoid_env.rewards import outcomes, progress, zero_sum
 from reachavoid_env.scenario import MAX_STEPS, Scenario, ScenarioError
 from reachavoid_env.world import World
 
@@ -190,6 +182,8 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         self._caption: str | None = None
         self._observer: Observer | None = None
         self._observer_map: Any = None
+        self.observing = True
+        """``False``: ``step`` returns no observations (v2 asks ``observe`` once a decision)."""
 
     # ----------------------------------------------------------------- spaces
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
@@ -355,26 +349,25 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
 
     def _rewards(self, events: rules.StepEvents, old: np.ndarray,
                  new: np.ndarray) -> np.ndarray:
-        """Phase 4: ``(M + N,)`` rewards: +1 arrival, -1 capture, the shaping term for the
-        attackers active at the start of the step; each defender gets minus their sum."""
+        """Phase 4: ``(M + N,)`` rewards (``reachavoid_env.rewards``): +1 arrival, -1
+        capture, the ``progress`` term for the attackers active at the start of the step;
+        each defender gets minus their sum."""
         m = self._m
         if not self.shaping and not events.left.any():
             return self._no_rewards
-        rewards = events.arrived.astype(np.float64) - events.captured
+        attackers = outcomes(events.arrived, events.captured)
         if self.shaping:
-            game_map = self.scenario.map
-            progress = (game_map.target_signed_distance(old[:m])
-                        - game_map.target_signed_distance(new[:m]))
+            distance = self.scenario.map.target_signed_distance
             started = (self._status == 0) | events.left
-            rewards += self.shaping * np.where(started, progress, 0.0)
-        return np.concatenate([rewards, np.full(self._n, -rewards.sum())])
+            attackers += progress(distance(old[:m]), distance(new[:m]), started, self.shaping)
+        return zero_sum(attackers, self._n)
 
     def _outputs(self, live: list[str], rows: slice | list[int], events: rules.StepEvents,
                  rewards: np.ndarray) -> tuple[dict, dict, dict, dict, dict]:
         """Phase 5: observations, rewards, terminations, truncations and infos of the agents
         live at the start of the step; the agents that ended leave ``agents``."""
         truncate = self._steps >= self.max_cycles
-        observations = self._observations(live, rows)
+        observations = self._observations(live, rows) if self.observing else {}
         reward_dict = dict(zip(live, rewards[rows].tolist(), strict=True))
         infos = self._infos(live, events.captor)
         if events.left.any() or truncate:
@@ -412,6 +405,10 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
     def _state_matrix(self) -> np.ndarray:
         """``(M + N, 3)`` float32: normalised x, y and the active flag of every player."""
         return player_table(self._positions, self._active, self._normaliser)
+
+    def observe(self, agents: list[str]) -> dict[str, np.ndarray]:
+        """The observations ``step`` would give ``agents`` (in or out of the game) now."""
+        return self._observations(agents, [self._index[name] for name in agents])
 
     def _observations(self, agents: list[str], rows: slice | list[int],
                       ) -> dict[str, np.ndarray]:

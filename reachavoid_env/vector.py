@@ -11,7 +11,8 @@ episodes included: the same starts, trajectories, rewards, observations and outc
 for bit (``tests/test_vector_env.py``).
 
 **Arrays**: ``step(actions)`` takes ``{agent: (K, 2)}`` (every agent of
-``possible_agents``; rows of players out of the game are ignored) and returns
+``possible_agents``; rows of players out of the game are ignored; with
+``continuous_actions=False`` ``{agent: (K,)}`` integers, ``reachavoid_env.actions``) and returns
 ``observations {agent: (K, D)}`` float32, ``rewards {agent: (K,)}`` float64,
 ``terminations`` / ``truncations {agent: (K,)}`` bool and one ``infos`` dict of arrays.
 Agents never leave the dicts: an agent out of the game has ``infos["active"]`` false, a
@@ -57,6 +58,7 @@ import numpy as np
 from gymnasium.utils import seeding
 
 from reachavoid_env import checks, rules
+from reachavoid_env.actions import action_space, controls
 from reachavoid_env.environment import (
     REAL_KINDS,
     STARTS,
@@ -68,6 +70,7 @@ from reachavoid_env.environment import (
 from reachavoid_env.game_state import AttackerStatus, BatchState
 from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.observations import ObservationConfig, Observer
+from reachavoid_env.rewards import outcomes, progress, zero_sum
 from reachavoid_env.scenario import MAX_STEPS, Scenario, ScenarioError
 from reachavoid_env.world import World
 
@@ -76,6 +79,9 @@ MAX_COPIES = 65_536
 COPIES_PER_WORLD = 64
 """Copies whose players share one pymunk space (per map): a space's broadphase slows past
 a few hundred bodies, so larger batches use several spaces."""
+VectorStep = tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray],
+                   dict[str, np.ndarray], dict[str, Any]]
+"""What ``step`` returns: observations, rewards, terminations, truncations, infos."""
 _SHARED = ("dt", "attacker_speed", "defender_speed", "capture_radius", "player_radius")
 
 
@@ -98,15 +104,18 @@ class ReachAvoidVectorEnv:
 
     Args as ``ReachAvoidEnv`` (``scenario``: a built-in, file, ``Scenario`` or library, whose
     maps must then share ``dt``, the speeds, ``capture_radius`` and ``player_radius``;
-    ``starts`` ``"random"`` by default), plus ``num_envs``, the number of copies, and
-    ``copies_per_map`` (module docstring).
+    ``starts`` ``"random"`` by default), plus ``num_envs``, the number of copies,
+    ``copies_per_map`` (module docstring) and ``continuous_actions`` (``False``: MPE2's
+    discrete actions, ``reachavoid_env.actions``).
     """
 
     def __init__(self, scenario: ScenarioSource = "paper_2v1", num_envs: int = 1,
                  starts: str = "random", max_cycles: int | None = None, shaping: float = 0.0,
                  observation: ObservationConfig | Mapping[str, Any] | None = None,
-                 autoreset: bool = True, copies_per_map: int = 1) -> None:
+                 autoreset: bool = True, copies_per_map: int = 1,
+                 continuous_actions: bool = True) -> None:
         self.autoreset = bool(autoreset)
+        self.continuous_actions = checks.flag(continuous_actions, "continuous_actions")
         self.num_envs = checks.integer(num_envs, "num_envs", 1, MAX_COPIES)
         self.copies_per_map = checks.integer(copies_per_map, "copies_per_map", 1, MAX_COPIES)
         if starts not in STARTS:
@@ -129,7 +138,7 @@ class ReachAvoidVectorEnv:
         size = self.observation.size(m, n)
         _check_memory(self.num_envs, m + n, size)
         self.single_observation_space = gymnasium.spaces.Box(-1.0, 1.0, (size,), np.float32)
-        self.single_action_space = gymnasium.spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self.single_action_space = action_space(self.continuous_actions)
         self._speeds = np.concatenate([np.full(m, base.attacker_speed),
                                        np.full(n, base.defender_speed)])[:, None]
         self._fastest = max(base.attacker_speed, base.defender_speed)
@@ -237,24 +246,30 @@ class ReachAvoidVectorEnv:
                 rows, self._positions[here].reshape(-1, 2))
 
     # ------------------------------------------------------------------- step
-    def step(self, actions: Mapping[str, Any]) -> tuple[dict[str, np.ndarray],
-                                                       dict[str, np.ndarray],
-                                                       dict[str, np.ndarray],
-                                                       dict[str, np.ndarray], dict[str, Any]]:
+    def step(self, actions: Mapping[str, Any]) -> VectorStep:
         """One step of ``dt`` seconds in every copy: controls, move, events, rewards,
         outputs, then the reset of the copies whose game ended (module docstring)."""
         if not self._generators:
             raise RuntimeError("step: call reset() first")
+        return self.advance(self._stacked(actions))
+
+    def advance(self, wanted: np.ndarray) -> VectorStep:
+        """``step`` with every player's continuous action ``(K, P, 2)`` (float64, checked
+        by the caller), whatever ``continuous_actions`` is: the training views' path."""
+        if not self._generators:
+            raise RuntimeError("step: call reset() first")
         live = self._active & self._running[:, None]
-        velocities = self._controls(actions)
+        wanted = np.where(live[..., None], wanted, 0.0)
+        velocities = rules.bounded_controls(wanted) * self._speeds
         old, new = self._move(velocities)
         events = self._resolve_events(old, new, velocities)
         rewards = self._rewards(events, old, new)
         self._steps += self._running
         return self._outputs(live, events, rewards)
 
-    def _controls(self, actions: Mapping[str, Any]) -> np.ndarray:
-        """Phase 1: ``(K, P, 2)`` velocities, map units per second (zero out of the game)."""
+    def _stacked(self, actions: Mapping[str, Any]) -> np.ndarray:
+        """Phase 1: every player's continuous action ``(K, P, 2)`` (discrete ones through
+        ``actions.TABLE``), checked."""
         if not isinstance(actions, Mapping):
             raise TypeError(f"step: actions must be a dict {{agent name: (K, 2) array}}, got "
                             f"{type(actions).__name__}")
@@ -264,14 +279,16 @@ class ReachAvoidVectorEnv:
             if name not in actions:
                 raise KeyError(f"step: no action for agent {name!r}")
             array = np.asarray(actions[name])
-            if array.dtype.kind not in REAL_KINDS or array.shape != (self.num_envs, 2) \
+            if not self.continuous_actions:
+                stacked[:, i] = controls(f"action for {name}", array, (self.num_envs,))
+            elif array.dtype.kind not in REAL_KINDS or array.shape != (self.num_envs, 2) \
                     or not np.isfinite(array).all():
                 raise ValueError(f"action for {name}: expected finite real numbers of shape "
                                  f"({self.num_envs}, 2), got {array.dtype} of shape "
                                  f"{array.shape}")
-            stacked[:, i] = array
-        stacked[~(self._active & self._running[:, None])] = 0.0
-        return rules.bounded_controls(stacked) * self._speeds
+            else:
+                stacked[:, i] = array
+        return stacked
 
     def _move(self, velocities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Phase 2: positions before and after every world's step."""
@@ -319,20 +336,19 @@ class ReachAvoidVectorEnv:
 
     def _rewards(self, events: rules.StepEvents, old: np.ndarray,
                  new: np.ndarray) -> np.ndarray:
-        """Phase 4: ``(K, P)`` rewards as ``ReachAvoidEnv._rewards``, copy by copy."""
+        """Phase 4: ``(K, P)`` rewards as ``ReachAvoidEnv._rewards``, copy by copy
+        (``reachavoid_env.rewards``)."""
         m = self._m
-        rewards = events.arrived.astype(np.float64) - events.captured
+        attackers = outcomes(events.arrived, events.captured)
         if self.shaping:
-            progress = np.zeros_like(rewards)
+            before, after = np.zeros_like(attackers), np.zeros_like(attackers)
             for index in np.unique(self._map_of).tolist():
                 here = self._map_of == index
-                game_map = self.scenarios[index].map
-                progress[here] = (game_map.target_signed_distance(old[here, :m])
-                                  - game_map.target_signed_distance(new[here, :m]))
+                distance = self.scenarios[index].map.target_signed_distance
+                before[here], after[here] = distance(old[here, :m]), distance(new[here, :m])
             started = (self._status == 0) | events.left
-            rewards = rewards + self.shaping * np.where(started, progress, 0.0)
-        team = -rewards.sum(axis=1, keepdims=True)
-        return np.concatenate([rewards, np.broadcast_to(team, (len(team), self._n))], axis=1)
+            attackers = attackers + progress(before, after, started, self.shaping)
+        return zero_sum(attackers, self._n)
 
     def _outputs(self, live: np.ndarray, events: rules.StepEvents, rewards: np.ndarray,
                  ) -> tuple[dict, dict, dict, dict, dict]:
@@ -414,5 +430,5 @@ def vector_env(scenario: ScenarioSource = "paper_2v1", num_envs: int = 1,
                starts: str = "random", **env_kwargs: Any) -> ReachAvoidVectorEnv:
     """``num_envs`` copies of the game stepped together (``ReachAvoidVectorEnv``);
     ``env_kwargs``: ``max_cycles``, ``shaping``, ``observation``, ``autoreset``,
-    ``copies_per_map``."""
+    ``copies_per_map``, ``continuous_actions``."""
     return ReachAvoidVectorEnv(scenario, num_envs=num_envs, starts=starts, **env_kwargs)

@@ -2,7 +2,8 @@
 policies (``BatchPolicy``) move the others.
 
 ``LearnerVectorEnv(vec, learners, scripted)`` steps ``vec`` (a ``ReachAvoidVectorEnv``
-made with ``autoreset=False``) with the learners' actions ``(K, L, 2)`` and the scripted
+made with ``autoreset=False``) with the learners' actions ``(K, L, 2)`` (``(K, L)``
+integers when ``vec`` has ``continuous_actions=False``) and the scripted
 sides' ``act_batch`` of the same ``BatchState``, every env step. Arrays out are
 ``(K, L, ...)``: copy first, learner second (agent order). ``action_repeat = k`` holds the
 learners' actions for ``k`` env steps and sums their rewards; a copy whose episode ends
@@ -17,7 +18,7 @@ copies are the current ones), ``infos["episode_over"]`` ``(K,)`` marks those cop
 Rewards are the env's (``shaping`` included) plus ``timeout_reward`` for a learner still
 in play when its episode is truncated, and, for learning attackers, ``team_reward`` times
 the sum of the other learners' +1 / -1 (arrival, capture) in each env step for a learner in
-play (``reachavoid_env.wrappers.team_bonus``, as ``AttackerParallelEnv``).
+play (``reachavoid_env.rewards.team_bonus``, as ``AttackerParallelEnv``).
 ``start_reach`` reads and sets the vector env's (easy starts for a curriculum; Stable-
 Baselines3's ``set_attr`` reaches it through ``integrations.vector``).
 
@@ -36,9 +37,10 @@ from typing import Any
 import numpy as np
 
 from reachavoid_env import checks
+from reachavoid_env.actions import controls
 from reachavoid_env.game_state import AttackerStatus, BatchPolicy
+from reachavoid_env.rewards import team_bonus, timeout
 from reachavoid_env.vector import ReachAvoidVectorEnv
-from reachavoid_env.wrappers import team_bonus
 
 _ARRIVED = AttackerStatus.ARRIVED.code
 
@@ -84,6 +86,12 @@ class LearnerVectorEnv:
         self.single_action_space = vec.single_action_space
 
     @property
+    def action_shape(self) -> tuple[int, ...]:
+        """One learner's action: ``(2,)``, or ``()`` (an integer) with the vector env's
+        ``continuous_actions=False``."""
+        return (2,) if self.vec.continuous_actions else ()
+
+    @property
     def start_reach(self) -> float | None:
         """The vector env's ``start_reach`` (module docstring)."""
         return self.vec.start_reach
@@ -102,11 +110,17 @@ class LearnerVectorEnv:
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                           dict[str, Any]]:
-        """``actions`` ``(K, L, 2)``; one learner step (``action_repeat`` env steps)."""
-        learned = np.asarray(actions, dtype=np.float64)
+        """``actions`` ``(K, L, 2)`` (``(K, L)`` integers with the vector env's
+        ``continuous_actions=False``); one learner step (``action_repeat`` env steps)."""
+        if not self.vec.continuous_actions:
+            learned = controls("actions", actions, (self.num_envs, len(self.learners)))
+        else:
+            learned = np.asarray(actions, dtype=np.float64)
         if learned.shape != (self.num_envs, len(self.learners), 2):
             raise ValueError(f"actions: expected shape ({self.num_envs}, {len(self.learners)}, "
                              f"2), got {learned.shape}")
+        if not np.isfinite(learned).all():
+            raise ValueError("actions: must be finite real numbers")
         vec, rows = self.vec, self._learner_rows
         names = vec.possible_agents
         k, learners = self.num_envs, len(self.learners)
@@ -124,8 +138,7 @@ class LearnerVectorEnv:
             for policy, moved, side_rows in self._scripted:
                 full[:, moved] = policy.act_batch(states)[:, side_rows]
             playing = vec.active[:, rows] if self.team_reward else None
-            observations, rewards, terms, truncs, infos = vec.step(
-                {name: full[:, i] for i, name in enumerate(names)})
+            observations, rewards, terms, truncs, infos = vec.advance(full)
             table = np.stack([observations[name] for name in self.learners], axis=1)
             totals += np.stack([rewards[n] for n in self.learners], axis=1)
             left = np.stack([terms[n] for n in self.learners], axis=1)
@@ -144,7 +157,7 @@ class LearnerVectorEnv:
                 over |= ending
             if over.all():
                 break
-        totals += self.timeout_reward * truncated
+        totals += timeout(truncated, self.timeout_reward)
         infos_out: dict[str, Any] = {"episode_over": over, "arrived": arrived}
         if over.any():
             infos_out["final_observation"] = np.where(over[:, None, None], final, table)

@@ -11,6 +11,8 @@ env is pickled or sent to a subprocess (``AsyncVectorEnv``) and the policy is he
 each copy of the env builds its own policy from it. Both inherit ``EzPickle``, so a pickled
 env is rebuilt from its constructor arguments (a fresh, un-reset env).
 
+``continuous_actions=False`` gives the learners MPE2's discrete actions
+(``reachavoid_env.actions``: stay or 8 full-speed headings).
 ``action_repeat = k`` holds each learner action for ``k`` env steps; rewards are summed
 over the held steps, and ``metadata["render_fps"]`` is ``1 / (k dt)``: one frame per
 learner step plays back in real time. ``starts="random"`` draws every player's start at
@@ -34,9 +36,11 @@ from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 
 from reachavoid_env import checks
+from reachavoid_env.actions import action_space, control
 from reachavoid_env.environment import ReachAvoidEnv, check_agent_names
 from reachavoid_env.game_state import AttackerStatus, GameState, Overlay, Policy, merged_overlay
 from reachavoid_env.maps import ScenarioSource
+from reachavoid_env.rewards import team_bonus, timeout
 from reachavoid_env.scenario import Scenario
 from reachavoid_env.video import realtime_fps
 
@@ -162,24 +166,6 @@ def _metadata(metadata: dict[str, Any], game: ReachAvoidEnv, action_repeat: int,
     return {**metadata, "render_fps": realtime_fps(game.base_scenario.dt, action_repeat)}
 
 
-def team_bonus(outcomes: np.ndarray, live: np.ndarray, weight: float) -> np.ndarray:
-    """The ``team_reward`` term of the attacker training views.
-
-    Args:
-        outcomes: ``(..., L)`` each learning attacker's outcome in one env step: +1 it
-            arrived, -1 it was captured, 0 otherwise.
-        live: ``(..., L)`` bool, the learner was in play at the start of the step.
-        weight: the views' ``team_reward``.
-
-    Returns:
-        ``(..., L)``: ``weight`` times the sum of the *other* learners' outcomes, for the
-        learners in play (0 for the others): a share of its teammates' arrivals and
-        captures, so that a learner gains by helping a teammate through.
-    """
-    others = outcomes.sum(axis=-1, keepdims=True) - outcomes
-    return np.where(live, weight * others, 0.0)
-
-
 class _OnGame:
     """What a training view passes straight to its ``game`` (a ``ReachAvoidEnv``)."""
 
@@ -189,9 +175,11 @@ class _OnGame:
     def _open_game(self, scenario: ScenarioSource, max_cycles: int | None,
                    render_mode: str | None, shaping: float, timeout_reward: float,
                    action_repeat: int, scripted_every: int, render_width: int,
-                   info_format: str, starts: str, observation: Any) -> ReachAvoidEnv:
+                   info_format: str, starts: str, observation: Any,
+                   continuous_actions: bool) -> ReachAvoidEnv:
         """Check the view's own options, set them and ``metadata``, and build the game
         (which checks the rest)."""
+        self.continuous_actions = checks.flag(continuous_actions, "continuous_actions")
         self.timeout_reward = checks.real(timeout_reward, "timeout_reward")
         self.action_repeat = checks.integer(action_repeat, "action_repeat", 1, 1_000_000)
         self.scripted_every = checks.integer(scripted_every, "scripted_every", 1, 1_000_000)
@@ -199,7 +187,14 @@ class _OnGame:
                              shaping=shaping, render_width=render_width, info_format=info_format,
                              starts=starts, observation=observation)
         self.metadata = _metadata(self.metadata, game, self.action_repeat)
+        self._action_spaces = {name: action_space(self.continuous_actions)
+                               for name in game.possible_agents}
         return game
+
+    def _action(self, agent: str, action: Any) -> Any:
+        """The continuous action the game steps with (a discrete one through
+        ``actions.TABLE``)."""
+        return action if self.continuous_actions else control(agent, action)
 
     def game_state(self) -> GameState:
         return self.game.game_state()
@@ -246,17 +241,18 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
                  scripted_every: int = 1, render_width: int = 640,
                  info_format: str = "numeric", starts: str = "scenario",
-                 observation: Any = None, team_reward: float = 0.0) -> None:
+                 observation: Any = None, team_reward: float = 0.0,
+                 continuous_actions: bool = True) -> None:
         EzPickle.__init__(self, defenders, scenario=scenario, max_cycles=max_cycles,
                           render_mode=render_mode, shaping=shaping,
                           timeout_reward=timeout_reward, action_repeat=action_repeat,
                           scripted_every=scripted_every, render_width=render_width,
                           info_format=info_format, starts=starts, observation=observation,
-                          team_reward=team_reward)
+                          team_reward=team_reward, continuous_actions=continuous_actions)
         self.team_reward = checks.real(team_reward, "team_reward")
         game = self._open_game(scenario, max_cycles, render_mode, shaping, timeout_reward,
                                action_repeat, scripted_every, render_width, info_format,
-                               starts, observation)
+                               starts, observation, continuous_actions)
         self.game = game
         self.render_mode = render_mode
         self.defenders = scripted_policy(defenders, game, "defenders")
@@ -271,8 +267,8 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
         return self.game.observation_space(agent)
 
-    def action_space(self, agent: str) -> gymnasium.spaces.Box:
-        return self.game.action_space(agent)
+    def action_space(self, agent: str) -> gymnasium.spaces.Space:
+        return self._action_spaces[agent]
 
     @property
     def max_cycles(self) -> int:
@@ -308,7 +304,7 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
         truncations: dict[str, bool] = {}
         infos: dict[str, dict[str, Any]] = {}
         for _ in range(self.action_repeat):
-            held = {name: actions[name] for name in self.game.agents
+            held = {name: self._action(name, actions[name]) for name in self.game.agents
                     if name in self._learners and name in actions}
             playing = [name for name in self.possible_agents if name in self.game.agents]
             obs, rew, term, trunc, info = self._core.step(held)
@@ -316,7 +312,7 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
                 self._share_outcomes(playing, term, rewards)
             for name in obs.keys() & self._learners:
                 observations[name] = obs[name]
-                rewards[name] += rew[name] + (self.timeout_reward if trunc[name] else 0.0)
+                rewards[name] += rew[name] + timeout(trunc[name], self.timeout_reward)
                 terminations[name] = term[name]
                 truncations[name] = trunc[name]
                 infos[name] = info[name]
@@ -385,16 +381,16 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
                  shaping: float = 0.0, timeout_reward: float = 0.0, action_repeat: int = 1,
                  scripted_every: int = 1, render_width: int = 640,
                  info_format: str = "numeric", starts: str = "scenario",
-                 observation: Any = None) -> None:
+                 observation: Any = None, continuous_actions: bool = True) -> None:
         EzPickle.__init__(self, defenders, scenario=scenario, attacker=attacker,
                           teammates=teammates, max_cycles=max_cycles, render_mode=render_mode,
                           shaping=shaping, timeout_reward=timeout_reward,
                           action_repeat=action_repeat, scripted_every=scripted_every,
                           render_width=render_width, info_format=info_format, starts=starts,
-                          observation=observation)
+                          observation=observation, continuous_actions=continuous_actions)
         game = self._open_game(scenario, max_cycles, render_mode, shaping, timeout_reward,
                                action_repeat, scripted_every, render_width, info_format,
-                               starts, observation)
+                               starts, observation, continuous_actions)
         base = game.base_scenario
         m = base.num_attackers
         if isinstance(attacker, bool) or not isinstance(attacker, int) \
@@ -417,7 +413,7 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
             scripted.append((self.teammates, others))
         self._core = _Scripted(game, scripted, self.scripted_every)
         self.observation_space = game.observation_space(self.learner)
-        self.action_space = game.action_space(self.learner)
+        self.action_space = self._action_spaces[self.learner]
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None,
               ) -> tuple[np.ndarray, dict[str, Any]]:
@@ -429,6 +425,7 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
         learner = self.learner
         if learner not in self.game.agents:
             raise RuntimeError("step: the episode has ended; call reset()")
+        action = self._action(learner, action)
         total = 0.0
         for _ in range(self.action_repeat):
             obs, rewards, terminations, truncations, infos = self._core.step({learner: action})
@@ -436,8 +433,7 @@ class SingleAttackerEnv(_OnGame, gymnasium.Env, EzPickle):
             terminated, truncated = terminations[learner], truncations[learner]
             if terminated or truncated:
                 break
-        if truncated:
-            total += self.timeout_reward
+        total += timeout(truncated, self.timeout_reward)
         info = infos[learner]
         if terminated or truncated:
             status = self.game.game_state().attacker_status[self._learner_index]

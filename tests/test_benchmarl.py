@@ -4,12 +4,15 @@ class and a MAPPO experiment of a few thousand frames."""
 from __future__ import annotations
 
 import math
+import re
+import subprocess
+import sys
 
 import pytest
 
 pytest.importorskip("benchmarl")
 
-from checks import example  # noqa: E402
+from checks import ENV, ROOT, example  # noqa: E402
 
 from reachavoid_env.integrations.benchmarl import ReachAvoidTask  # noqa: E402
 
@@ -94,3 +97,29 @@ def test_the_example_refuses_a_batch_that_is_not_whole_copies(capsys):
         mappo.parse_args(["--task", "attackers", "--envs", "16", "--batch", "1000"])
     assert ended.value.code == 2
     assert "--batch: a batched step is --envs (16) env steps" in capsys.readouterr().err
+
+
+def test_v2_task_takes_discrete_actions():
+    task = ReachAvoidTask.REACH_AVOID_V2.get_task({"max_cycles": 20})
+    assert task.supports_discrete_actions() and task.max_steps(None) == 20
+    env = task.get_env_fun(num_envs=1, continuous_actions=False, seed=0, device="cpu")()
+    assert task.group_map(env) == {"attacker": ["attacker_0", "attacker_1"],
+                                   "defender": ["defender_0"]}
+    rollout = env.rollout(25, break_when_any_done=False)
+    assert rollout["next", "done"].squeeze(-1).nonzero().flatten().tolist() == [19]
+
+
+@pytest.mark.parametrize("continuous", ["1", "0"])
+def test_the_v2_script_sees_a_reward_and_ends(tmp_path, continuous):
+    """docs/training-code.md's BenchMARL script at a tiny budget, sparse reward."""
+    done = subprocess.run([sys.executable, str(ROOT / "examples" / "benchmarl_v2.py"),
+                           "--reward", "sparse", "--frames", "4000", "--batch", "2000",
+                           "--continuous-actions", continuous, "--out", str(tmp_path)],
+                          capture_output=True, text=True, timeout=600, cwd=ROOT,
+                          env={**ENV, "PYTHONPATH": str(ROOT)})
+    assert done.returncode == 0, done.stderr[-2000:]
+    lines = done.stdout.strip().splitlines()
+    assert lines[-1] == "done"
+    seen = [float(n) for line in lines for n in re.findall(r"(?:attacker|defender) ([\d.e+-]+)",
+                                                           line)]
+    assert seen and max(seen) > 0, done.stdout

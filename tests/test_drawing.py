@@ -7,11 +7,11 @@ import pytest
 import reachavoid_env
 from policies.defenders import HJDefenderPolicy, IdleDefender
 from policies.drawing import race_routes
-from policies.geodesic import distance_field
 from policies.intercept import plan_intercepts, race_all
 from reachavoid_env import AttackerStatus, GameState, Overlay, merged_overlay
 from reachavoid_env import palette as P
 from reachavoid_env.game_state import EdgeKind, Route
+from reachavoid_env.geodesic import distance_field
 from reachavoid_env.render import Renderer
 
 SCENARIO = reachavoid_env.builtin_scenario("paper_2v1")

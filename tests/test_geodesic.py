@@ -7,8 +7,8 @@ import pytest
 
 import reachavoid_env
 from policies import IdleDefender, ShortestPathAttacker
-from policies.geodesic import distance_field
 from reachavoid_env import AttackerStatus, Box, GameMap, GameState, Policy, builtin_map
+from reachavoid_env.geodesic import distance_field
 
 RADIUS = 0.005
 PAPER = builtin_map("paper")

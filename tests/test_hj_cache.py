@@ -352,3 +352,25 @@ def test_stale_temporaries_are_swept_by_their_lock_not_their_pid(cache_in_tmp):
     finally:
         owner.kill()
         owner.wait()
+
+
+def test_a_solve_says_so_in_one_line_even_without_a_terminal(cache_in_tmp, capsys):
+    """With progress, a solve that runs prints a line first (standard error is not a
+    terminal under pytest); one loaded from the cache prints none."""
+    solve_1v1(PAPER_MAP, grid_points=9, settings=LOW, progress=True)
+    first = capsys.readouterr().err
+    assert "1v1 HJ solve on a 9x9x9x9 grid: not in the cache, solving once" in first
+    solve_1v1(PAPER_MAP, grid_points=9, settings=LOW, progress=True)
+    assert "solving" not in capsys.readouterr().err
+
+
+def test_a_long_solve_says_so_without_progress(cache_in_tmp, capsys, monkeypatch):
+    """A grid of ``LONG_SOLVE_NODES`` nodes or more is announced even with progress off
+    (the command line's setting when standard error is not a terminal)."""
+    from solvers.hj import solve
+
+    solve_1v1(PAPER_MAP, grid_points=9, settings=LOW, progress=False)
+    assert capsys.readouterr().err == ""
+    monkeypatch.setattr(solve, "LONG_SOLVE_NODES", 11 ** 4)
+    solve_1v1(PAPER_MAP, grid_points=11, settings=LOW, progress=False)
+    assert "1v1 HJ solve on a 11x11x11x11 grid: not in the cache" in capsys.readouterr().err

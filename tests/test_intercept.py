@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 
 import reachavoid_env
-from policies.geodesic import distance_field
 from policies.intercept import (
     PATH_STEP,
     InterceptDefender,
@@ -17,6 +16,7 @@ from policies.intercept import (
 )
 from policies.registry import make_policy
 from reachavoid.rollout import run_episode
+from reachavoid_env.geodesic import distance_field
 
 
 def reference_paths(field, starts, step=PATH_STEP, max_points=256):

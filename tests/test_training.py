@@ -142,6 +142,20 @@ def test_module_colon_id_loads_the_ids_in_a_fresh_interpreter():
     assert done.stdout.strip() == "(8,)"
 
 
+@pytest.mark.parametrize("first", ["reachavoid_env", "gymnasium"])
+def test_importing_the_env_registers_the_training_ids(first):
+    """No ``import policies`` first: ``reachavoid_env`` registers the ids (by string) when
+    Gymnasium is imported, before or after it."""
+    second = {"reachavoid_env": "gymnasium", "gymnasium": "reachavoid_env"}[first]
+    code = (f"import sys, {first}, {second}; import gymnasium; "
+            "assert 'policies' not in sys.modules; env = gymnasium.make("
+            "'reachavoid/Attacker-paper_1v1-random-v1', defenders='greedy'); "
+            "print(env.reset(seed=0)[0].shape)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=ROOT, timeout=120, check=True)
+    assert done.stdout.strip() == "(29,)"
+
+
 def test_pettingzoo_id():
     env = pettingzoo.make("parallel", PETTINGZOO_ID, scenario="paper_6v2", defenders="greedy")
     assert isinstance(env, AttackerParallelEnv)

@@ -12,7 +12,9 @@ install it in a virtual environment of its own).
                critic_model_config=mlp, seed=0, config=ExperimentConfig.get_from_yaml()).run()
 
 ``ReachAvoidTask.REACH_AVOID``: the task config holds ``ReachAvoidEnv`` keyword arguments
-(``scenario``, ``max_cycles``, ``shaping``, ...); both teams learn, as the groups
+(``scenario``, ``max_cycles``, ``shaping``, ...); ``ReachAvoidTask.REACH_AVOID_V2`` holds
+v2's (``decisions.DecisionEnv``: ``reward``, ``decision_steps``, ...; continuous or
+discrete actions as the algorithm asks). Both teams learn, as the groups
 ``"attacker"`` and ``"defender"`` (continuous actions, the global ``state`` for
 centralised critics). The env is made by ``reachavoid_env.integrations.torchrl.torchrl_env``:
 agents that leave are masked.
@@ -38,6 +40,7 @@ from benchmarl.environments.pettingzoo.common import PettingZooClass
 from torchrl.data import Composite
 from torchrl.envs import EnvBase
 
+from reachavoid_env.decisions import DecisionEnv
 from reachavoid_env.environment import ReachAvoidEnv
 from reachavoid_env.integrations.torchrl import VectorGroupEnv, torchrl_env
 from reachavoid_env.vector_views import LearnerVectorEnv
@@ -47,16 +50,25 @@ class ReachAvoidClass(PettingZooClass):
     """BenchMARL's view of the game; everything not defined here is BenchMARL's PettingZoo
     handling (specs and groups read from the TorchRL env)."""
 
+    def _game(self, **changes: Any) -> ReachAvoidEnv | DecisionEnv:
+        """The env of the task's config: v2's ``DecisionEnv`` for ``REACH_AVOID_V2``."""
+        if self.name.upper() == "REACH_AVOID_V2":
+            return DecisionEnv(**(dict(self.config) | changes))
+        return ReachAvoidEnv(**self.config)
+
     def get_env_fun(self, num_envs: int, continuous_actions: bool, seed: int | None,
                     device: Any) -> Callable[[], EnvBase]:
-        config = dict(self.config)
-        return lambda: torchrl_env(ReachAvoidEnv(**config), seed=seed, device=device)
+        def make() -> EnvBase:
+            game = self._game(continuous_actions=continuous_actions)
+            return torchrl_env(game, seed=seed, device=device)
+
+        return make
 
     def supports_continuous_actions(self) -> bool:
         return True
 
     def supports_discrete_actions(self) -> bool:
-        return False
+        return self.name.upper() == "REACH_AVOID_V2"
 
     def has_state(self) -> bool:
         return True
@@ -65,7 +77,7 @@ class ReachAvoidClass(PettingZooClass):
         return False
 
     def max_steps(self, env: EnvBase) -> int:
-        return ReachAvoidEnv(**self.config).max_cycles
+        return self._game().max_cycles
 
     @staticmethod
     def env_name() -> str:
@@ -74,9 +86,11 @@ class ReachAvoidClass(PettingZooClass):
 
 class ReachAvoidTask(Task):
     """BenchMARL tasks of this package: ``REACH_AVOID``, the game with both teams
-    learning (``get_task(config)`` with ``ReachAvoidEnv`` keyword arguments)."""
+    learning (``get_task(config)`` with ``ReachAvoidEnv`` keyword arguments), and
+    ``REACH_AVOID_V2``, v2 (``DecisionEnv`` keyword arguments; discrete actions too)."""
 
     REACH_AVOID = None
+    REACH_AVOID_V2 = None
 
     @staticmethod
     def associated_class() -> type[ReachAvoidClass]:

@@ -110,7 +110,8 @@ class VectorGroupEnv(EnvBase):
     ``autoreset=False``; ``policies.training.make_attackers_vector_env(...,
     autoreset=False)``) as a batched TorchRL env: batch size ``(K,)``, one group (``group``:
     ``"attacker"`` or ``"defender"``, the learners' side) with ``observation``
-    ``(K, L, D)``, ``action`` ``(K, L, 2)``, ``reward``
+    ``(K, L, D)``, ``action`` ``(K, L, 2)`` (``(K, L)`` integers for a view with discrete
+    actions), ``reward``
     ``(K, L, 1)``, per-learner ``done`` / ``terminated`` / ``truncated`` and ``mask``
     (``False`` for a learner that has left: its observation is then zero), and the copy's
     ``done`` / ``terminated`` / ``truncated`` ``(K, 1)`` at the root. A copy whose episode
@@ -132,9 +133,10 @@ class VectorGroupEnv(EnvBase):
         self.observation_spec = Composite({self.group: Composite(
             observation=Bounded(-1.0, 1.0, (*group, size), dtype=torch.float32),
             mask=Categorical(2, group, dtype=torch.bool), shape=group)}, shape=(k,))
-        self.action_spec = Composite({self.group: Composite(
-            action=Bounded(-1.0, 1.0, (*group, 2), dtype=torch.float32), shape=group)},
-            shape=(k,))
+        action = Bounded(-1.0, 1.0, (*group, 2), dtype=torch.float32) \
+            if view.action_shape else Categorical(view.single_action_space.n, group)
+        self.action_spec = Composite({self.group: Composite(action=action, shape=group)},
+                                     shape=(k,))
         self.reward_spec = Composite({self.group: Composite(
             reward=Unbounded((*group, 1), dtype=torch.float32), shape=group)}, shape=(k,))
         self.done_spec = Composite(

@@ -54,7 +54,8 @@ def _sb3_vec_env_class() -> type:
             return self._flat(np.where(self._alive[..., None], table, 0.0))
 
         def step_async(self, actions: np.ndarray) -> None:
-            self._actions = np.asarray(actions).reshape(self.view.num_envs, self._learners, 2)
+            self._actions = np.asarray(actions).reshape(self.view.num_envs, self._learners,
+                                                        *self.view.action_shape)
 
         def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict]]:
             alive_before = self._alive
@@ -145,7 +146,7 @@ class GymVectorEnv(VectorEnv):
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                           dict[str, Any]]:
         table, rewards, terminated, truncated, infos = self.view.step(
-            np.asarray(actions).reshape(self.num_envs, 1, 2))
+            np.asarray(actions).reshape(self.num_envs, 1, *self.view.action_shape))
         out: dict[str, Any] = {}
         over = infos["episode_over"]
         if over.any():

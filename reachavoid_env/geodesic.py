@@ -24,8 +24,9 @@ from typing import NamedTuple
 import numpy as np
 import skfmm
 
-from reachavoid_env import GameMap, ScenarioError
+from reachavoid_env.game_map import GameMap
 from reachavoid_env.rules import unit_vectors
+from reachavoid_env.scenario import ScenarioError
 
 DEFAULT_CELLS = 256
 """Grid cells along the longer side of the domain (the paper map: spacing 2/256)."""
