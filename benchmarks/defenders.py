@@ -20,6 +20,10 @@ interval)::
     python benchmarks/defenders.py --grid1 45 --grid2 30 --seeds 200 --results d.jsonl
     python benchmarks/defenders.py --results d.jsonl --report      # tables only
 
+``--compare OTHER.jsonl@LABEL`` adds the episodes another checkout of this script played
+(``git worktree add`` of a revision, the same flags) as methods ``METHOD@LABEL``, paired
+with this checkout's ``hj``: the same defender before and after a change, seed by seed.
+
 ``--json PATH`` also writes the tables' figures as a result record
 (``benchmarks/result_file.py``), keyed ``capture_percent.CONFIG.ATTACKERS.METHOD``,
 ``arrival_percent...``, ``minus_hj_points...`` (capture), ``arrival_minus_hj_points...``
@@ -234,6 +238,10 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--report", action="store_true", help="only print the tables")
     parser.add_argument("--json", help="write the result record (benchmarks/result_file.py) here")
+    parser.add_argument("--compare", metavar="FILE@LABEL",
+                        help="also report the episodes of another checkout's --results FILE "
+                             "(this script run there), each method named METHOD@LABEL, "
+                             "paired with this checkout's hj")
     args = parser.parse_args()
     split = lambda text: [x.strip() for x in text.split(",") if x.strip()]  # noqa: E731
     grid = (args.grid1, args.grid2)
@@ -252,7 +260,11 @@ def main() -> None:
                       flush=True)
         print(f"wall time {time.perf_counter() - started:.0f} s")
     figures: dict[str, Any] = {}
-    print(report(stored(args.results), grid, figures))
+    rows = stored(args.results)
+    if args.compare:
+        path, _, label = args.compare.rpartition("@")
+        rows += [row | {"method": f"{row['method']}@{label}"} for row in stored(Path(path))]
+    print(report(rows, grid, figures))
     if args.json:
         write_result(args.json, "defenders", figures, {
             "capture_percent": f"mean share of attackers captured, percent, tubes "
