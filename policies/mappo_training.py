@@ -91,12 +91,14 @@ class TrainConfig:
 class PaddedView:
     """A defenders' training view (``LearnerVectorEnv``) whose observations are in the
     padded layout: what ``VectorGroupEnv`` reads (``num_envs``, ``learners``, ``autoreset``,
-    ``single_observation_space``, ``reset`` / ``step`` / ``reset_copies``)."""
+    ``single_observation_space``, the view's ``action_shape`` and ``single_action_space``,
+    ``reset`` / ``step`` / ``reset_copies``)."""
 
     def __init__(self, view: LearnerVectorEnv, lidar_rays: int) -> None:
         scenario = view.vec.base_scenario
         self.view = view
         self.num_envs, self.learners, self.autoreset = view.num_envs, view.learners, False
+        self.action_shape, self.single_action_space = view.action_shape, view.single_action_space
         self._pad = (scenario.num_attackers, scenario.num_defenders, lidar_rays)
         self.single_observation_space = gymnasium.spaces.Box(
             -1.0, 1.0, (padded_size(lidar_rays),), dtype=np.float32)
