@@ -202,11 +202,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         parser.error("--dagger-rounds: needs --imitate-steps")
     if args.net_arch is not None:
         try:
-            args.net_arch = [int(size) for size in args.net_arch.split(",")]
-        except ValueError:
-            args.net_arch = []
-        if not args.net_arch or min(args.net_arch) < 1:
-            parser.error("--net-arch: positive integers separated by commas")
+            args.net_arch = net_arch_sizes(args.net_arch, "--net-arch")
+        except FieldError as err:
+            parser.error(str(err))
     for name in ("init", "evaluate_only"):
         path = getattr(args, name)
         if path is not None and not path.is_file():
@@ -226,6 +224,18 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     except UsageError as err:
         parser.error(str(err))
     return args
+
+
+def net_arch_sizes(text: str, flag: str) -> list[int]:
+    """``--net-arch``'s hidden layer sizes from ``256,256``; ``FieldError`` naming ``flag``
+    unless they are positive integers separated by commas."""
+    try:
+        sizes = [int(size) for size in text.split(",")]
+    except ValueError:
+        sizes = []
+    if not sizes or min(sizes) < 1:
+        raise FieldError(f"{flag}: positive integers separated by commas, got {text!r}", flag)
+    return sizes
 
 
 def outputs(args: argparse.Namespace) -> list[tuple[str, Path]]:
