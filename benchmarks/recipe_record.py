@@ -1,7 +1,7 @@
-"""A run of the team recipe (``examples/train_attacker_team.py``) as a result record.
+"""A run of the team recipe (``reachavoid.training.recipe``) as a result record.
 
 Runs the recipe with the arguments after ``--`` (in this process, as
-``train_attacker_team.main``), then writes its report's figures as a result record
+``reachavoid.training.recipe.main``), then writes its report's figures as a result record
 (``benchmarks/result_file.py``) to ``--json``:
 
     python benchmarks/recipe_record.py --json benchmarks/results/learned_attacker_2v1.json \\
@@ -21,25 +21,13 @@ and the run's (``evaluation_wall_s``, ``evaluation_cpu_s``, ``run_wall_s``, ``ru
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import sys
-from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 from result_file import write_result
 
-RECIPE_SCRIPT = Path(__file__).resolve().parent.parent / "examples" / "train_attacker_team.py"
-
-
-def load_recipe() -> ModuleType:
-    """The recipe script as the module ``train_attacker_team`` (an example, not a package;
-    in ``sys.modules``, as its dataclasses need)."""
-    spec = importlib.util.spec_from_file_location("train_attacker_team", RECIPE_SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+from reachavoid.training import recipe
+from reachavoid.training.config import ModelError
 
 
 def percent(value: float) -> float:
@@ -112,10 +100,9 @@ def main() -> None:
     parser.add_argument("recipe", nargs=argparse.REMAINDER,
                         help="-- then the recipe's arguments")
     args = parser.parse_args()
-    recipe = load_recipe()
     try:
         report = recipe.main(args.recipe[1:] if args.recipe[:1] == ["--"] else args.recipe)
-    except recipe.ModelError as err:
+    except ModelError as err:
         parser.exit(2, f"{parser.prog}: error: {err}\n")
     figures = figures_of(report)
     units = {key.split(".")[0]: UNITS.get(key.split(".")[0], MINUS_UNITS) for key in figures}

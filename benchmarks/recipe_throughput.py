@@ -25,6 +25,7 @@ first on the path (``PYTHONPATH=$PWD``).
 from __future__ import annotations
 
 import argparse
+import importlib
 import importlib.util
 import os
 import statistics
@@ -44,15 +45,18 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 class Recipe(NamedTuple):
-    """A recipe: its example's name, the flag of its old path, agent steps per run."""
+    """A recipe: its example's name, the flag of its old path, agent steps per run, and
+    the module that holds it when that is a package's (the example only runs it)."""
 
     example: str
     old_flag: str
     timesteps: int
+    module: str | None = None
 
 
 RECIPES = {"sb3": Recipe("train_attacker_sb3", "--single-envs", 4096),
-           "team": Recipe("train_attacker_team", "--supersuit", 6144)}
+           "team": Recipe("train_attacker_team", "--supersuit", 6144,
+                          "reachavoid.training.recipe")}
 """Default agent steps: one PPO rollout of the one-attacker recipe (16 copies x 256 steps;
 its old path takes a minute for it on a quiet core) and two of the team recipe (2 copies x
 6 attackers x 256 steps)."""
@@ -69,8 +73,11 @@ class Run(NamedTuple):
     cpu_s: float
 
 
-def load_example(name: str) -> ModuleType:
-    """``examples/<name>.py`` as a module."""
+def load_recipe(recipe: Recipe) -> ModuleType:
+    """The module of ``recipe``: its package's, or ``examples/<name>.py`` as a module."""
+    if recipe.module is not None:
+        return importlib.import_module(recipe.module)
+    name = recipe.example
     spec = importlib.util.spec_from_file_location(f"example_{name}",
                                                   ROOT / "examples" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
@@ -118,7 +125,7 @@ def measure(recipes: list[str], repeats: int, timesteps: dict[str, int],
     figures: dict[str, float] = {}
     for name in recipes:
         recipe = RECIPES[name]
-        module = load_example(recipe.example)
+        module = load_recipe(recipe)
         common = ["--timesteps", str(timesteps[name]), "--out", str(out / name)]
         if name == "sb3":
             common += ["--print-seconds", "1e9"]

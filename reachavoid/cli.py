@@ -41,6 +41,7 @@ from reachavoid.paths import UsageError
 from reachavoid.solve import DEFAULT_GRID, GAMES
 from reachavoid.suite import suite_names
 from reachavoid.sweep import BACKENDS, WorkerDied
+from reachavoid.training.budget import Budget
 from reachavoid_env import ScenarioError
 from reachavoid_env.files import forget_expected
 from reachavoid_env.maps import MapOptions
@@ -144,6 +145,14 @@ COMMANDS = {
               "defenders and the matching baseline against shortest-path attackers "
               "(unassigned defenders stand still, as in the paper), print the table next to "
               "the paper's, and write the videos and the tube-slice figure."),
+    "exploit": ("train a best response to each defender and report its exploitability",
+                "For each defender and training seed, train an attacker team against the "
+                "defender as bench plays it (clone the best scripted team with DAgger and "
+                "full-speed actions, then PPO), evaluate it on fresh starts against that "
+                "scripted team, and report the exploitability: the best response's arrival "
+                "rate minus the script's, paired, beside the captures the defender's tubes "
+                "promise and deliver. Each run keeps its own folder under --out; a rerun "
+                "skips the runs that finished."),
     "validate": ("check scenario files without playing them",
                  "Load each scenario (a TOML file or a built-in name) and reset an env on it; "
                  "print one line per file. Exit status 0 when all are valid, 2 when any is not "
@@ -168,7 +177,7 @@ def build_parser() -> argparse.ArgumentParser:
                      description="Multi-agent reach-avoid games: play, record, solve.")
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in (_play_command, _solve_command, _bench_command, _maps_command, _paper_command,
-                _validate_command):
+                _exploit_command, _validate_command):
         add(subparsers)
     return parser
 
@@ -298,6 +307,28 @@ def _paper_command(subparsers: Any) -> None:
                         help="where the videos, figure and table go (default: %(default)s)")
     parser.add_argument("--no-video", action="store_true", help="skip the videos")
     _grid_options(parser, for_policies=False)
+    _force_option(parser)
+
+
+def _exploit_command(subparsers: Any) -> None:
+    parser = _command(subparsers, "exploit", commands.exploit)
+    _policy_option(parser, "defenders", "hj", "comma-separated built-in defender methods, "
+                   "each trained against", metavar="A,B")
+    _scenario_option(parser, "paper_2v1", "the map, speeds and settings")
+    parser.add_argument("--config", default="2v1", metavar="MvN",
+                        help="attackers v defenders, random starts (default: %(default)s)")
+    _grid_options(parser, for_policies=False)
+    parser.add_argument("--seeds", type=int, default=1, metavar="N",
+                        help="training seeds 0..N-1 per defender (default: %(default)s)")
+    for item in dataclasses.fields(Budget):
+        parser.add_argument(f"--{item.name.replace('_', '-')}", type=type(item.default),
+                            default=item.default, metavar=item.metadata["metavar"],
+                            help=f"{item.metadata['help']} (default: %(default)s)")
+    _backend_options(parser, "where the runs go", "processes of the pool, or CPUs of a local "
+                     "Ray instance (default: all cores)")
+    parser.add_argument("--out", required=True, metavar="DIR",
+                        help="a folder per run, and exploitability.json")
+    _plot_option(parser, "draw the exploitability per defender with its intervals")
     _force_option(parser)
 
 

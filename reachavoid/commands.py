@@ -224,3 +224,46 @@ def paper(args: argparse.Namespace) -> int:
                                  progress=args.progress)
     print(paper_lines(rows, args.grid1, args.grid2, paper_table.ATTACKERS, out))
     return 0
+
+
+def exploit(args: argparse.Namespace) -> int:
+    """``exploit``: every run not finished in ``--out`` (``reachavoid.training.exploit``),
+    then ``exploitability.json``, the plot and a line per defender."""
+    from policies.registry import DEFENDERS
+    from reachavoid.training import exploit as best_response
+    from reachavoid.training.budget import Budget, check_budget
+
+    methods = defender_methods(args.defenders)
+    untrainable = [method for method in methods if method not in DEFENDERS]
+    if untrainable:
+        raise UsageError(f"--defenders: {untrainable[0]!r}: the recipe trains against the "
+                         f"built-in defenders only ({', '.join(DEFENDERS)})",
+                         field="--defenders")
+    checked(checks.integer, args.seeds, "--seeds", 1, 10_000)
+    budget = Budget(**{item.name: getattr(args, item.name)
+                       for item in dataclasses.fields(Budget)})
+    try:
+        check_budget(budget)
+    except checks.FieldError as err:
+        raise reported(err) from None
+    check_backend_options(args)
+    players = checked(parse_players, args.config, "--config")
+    out = writable_folder(args.out, "--out")
+    result_path = out / "exploitability.json"
+    check_outputs((("--out", result_path), ("--plot", args.plot)), args.force, out)
+    game = best_response.Game(load_one(args.scenario).with_players(*players), args.grid1,
+                              args.grid2)
+    try:
+        best_response.check_folder(out, game, budget)
+    except checks.FieldError as err:
+        raise reported(err) from None
+    result = best_response.exploit(game, budget, methods, args.seeds, out, args.backend,
+                                   args.workers, args.address)
+    write_json(result_path, result, indent=1)
+    if args.plot:
+        best_response.plot(result, args.plot)
+    for method, entry in result["defenders"].items():
+        print(f"{method}: exploitability {entry['mean_exploitability']:+.3f} over "
+              f"{len(entry['runs'])} seed(s) (best scripted team: {entry['best_scripted']})")
+    print(f"JSON: {result_path}" + (f"\nplot: {args.plot}" if args.plot else ""))
+    return 0

@@ -176,6 +176,11 @@ def capture_fractions(results: Sequence[EpisodeResult]) -> np.ndarray:
     return np.array([r.captured_count / r.num_attackers for r in results])
 
 
+def arrival_fractions(results: Sequence[EpisodeResult]) -> np.ndarray:
+    """Per episode, the fraction of its attackers that arrived."""
+    return np.array([r.arrived_count / r.num_attackers for r in results])
+
+
 def summarize(label: str, results: Sequence[EpisodeResult]) -> CaptureSummary:
     """Capture statistics of ``results`` (episodes of one game size)."""
     attackers = _attackers(results)

@@ -120,19 +120,35 @@ def test_the_circle_check_sees_imports():
         ROOT / "reachavoid_env" / "rules.py")  # for type checking only
 
 
-def test_the_solver_stands_on_geometry_alone():
-    """Importing the HJ solver loads neither the simulator nor its libraries."""
-    code = ("import solvers.hj, sys; print(sorted(m for m in sys.modules if m.split('.')[0] in "
-            "('pettingzoo', 'gymnasium', 'pymunk', 'pygame')))")
+def printed(code: str) -> str:
+    """What ``python -c code`` prints, in a fresh interpreter on this tree."""
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
-    assert done.stdout.strip() == "[]"
+    return done.stdout.strip()
+
+
+def loaded(statement: str, packages: tuple[str, ...]) -> str:
+    """Which of ``packages`` are imported after ``statement``, as a printed sorted list."""
+    return printed(f"import sys; {statement}; print(sorted(m for m in sys.modules "
+                   f"if m.split('.')[0] in {packages!r}))")
+
+
+def test_the_solver_stands_on_geometry_alone():
+    """Importing the HJ solver loads neither the simulator nor its libraries."""
+    assert loaded("import solvers.hj", ("pettingzoo", "gymnasium", "pymunk", "pygame")) == "[]"
+
+
+def test_the_command_line_loads_no_learning_library():
+    """``reachavoid`` and its parser (``exploit`` and its budget flags included) load
+    neither torch nor Stable-Baselines3 nor matplotlib: the training modules import them
+    when they run."""
+    assert loaded("import reachavoid, reachavoid.cli; reachavoid.cli.build_parser()",
+                  ("torch", "stable_baselines3", "matplotlib")) == "[]"
 
 
 def test_the_env_registers_when_pettingzoo_is_imported_later():
-    code = ("import sys, reachavoid_env; assert 'pettingzoo' not in sys.modules; "
-            "import pettingzoo; env = pettingzoo.make('parallel', reachavoid_env.ENV_ID, "
-            "scenario='paper_2v1'); print(type(env).__name__, env.possible_agents)")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          check=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
-    assert done.stdout.strip() == "ReachAvoidEnv ['attacker_0', 'attacker_1', 'defender_0']"
+    assert printed(
+        "import sys, reachavoid_env; assert 'pettingzoo' not in sys.modules; "
+        "import pettingzoo; env = pettingzoo.make('parallel', reachavoid_env.ENV_ID, "
+        "scenario='paper_2v1'); print(type(env).__name__, env.possible_agents)"
+    ) == "ReachAvoidEnv ['attacker_0', 'attacker_1', 'defender_0']"

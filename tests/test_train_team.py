@@ -1,5 +1,5 @@
-"""The shared-policy attacker team recipe (examples/train_attacker_team.py), end to end on a
-tiny budget: it trains, writes every output, evaluates three teams on the same starts, and
+"""The shared-policy attacker team recipe (``reachavoid.training.recipe``), end to end on
+a tiny budget: it trains, writes every output, evaluates three teams on the same starts, and
 ``--evaluate-only`` reproduces the evaluation of the saved model."""
 
 from __future__ import annotations
@@ -8,7 +8,6 @@ import csv
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,14 +15,16 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("supersuit")
 
-from checks import example  # noqa: E402
+from checks import ROOT  # noqa: E402
+from stable_baselines3 import PPO  # noqa: E402
+
+from reachavoid.training import callbacks, cloning, config, recipe  # noqa: E402
 
 TINY = ["--grid1", "11", "--grid2", "8", "--timesteps", "192", "--copies", "1",
         "--n-steps", "16", "--batch-size", "48", "--episodes", "3", "--video-every", "20"]
 
 
 def test_recipe_trains_evaluates_and_records(tmp_path):
-    recipe = example("train_attacker_team")
     report = recipe.main([*TINY, "--out", str(tmp_path)])
 
     assert report["defenders"] == "hj" and report["grids"] == [11, 8]
@@ -67,7 +68,6 @@ def test_recipe_trains_evaluates_and_records(tmp_path):
 
 
 def test_scripted_teams_alone_train_nothing(tmp_path):
-    recipe = example("train_attacker_team")
     report = recipe.main(["--defenders", "greedy", "--teams", "shortest-path",
                           "--episodes", "2", "--out", str(tmp_path)])
     assert list(report["evaluation"]) == ["seeds", "shortest-path"]
@@ -78,7 +78,6 @@ def test_scripted_teams_alone_train_nothing(tmp_path):
 def test_the_recipe_replaces_a_users_file_only_with_force(tmp_path, capsys):
     """The recipe's outputs follow the command's rule: checked before any work, an existing
     file replaced only with ``--force``, a missing folder refused."""
-    recipe = example("train_attacker_team")
     for name in ("model.zip", "report.json"):
         (tmp_path / name).write_text("mine")
     quick = ["--defenders", "greedy", "--episodes", "2", "--out", str(tmp_path)]
@@ -99,7 +98,6 @@ def test_the_recipe_replaces_a_users_file_only_with_force(tmp_path, capsys):
 
 def test_init_and_evaluate_only_refuse_a_model_others_can_change(tmp_path, capsys):
     """A model file is code: one in a folder others can write is not read."""
-    recipe = example("train_attacker_team")
     shared = tmp_path / "shared"
     shared.mkdir()
     (shared / "model.zip").write_bytes(b"PK")
@@ -117,7 +115,6 @@ def test_init_and_evaluate_only_refuse_a_model_others_can_change(tmp_path, capsy
 def test_first_seed_shifts_the_evaluation_starts(tmp_path):
     """``--first-seed 1 --episodes 2`` plays the starts 1 and 2: the last two of
     ``--episodes 3``, episode by episode."""
-    recipe = example("train_attacker_team")
     reports = [recipe.main(["--defenders", "greedy", "--teams", "shortest-path", *argv,
                             "--out", str(tmp_path / str(k))])
                for k, argv in enumerate((["--episodes", "3"],
@@ -131,7 +128,6 @@ def test_first_seed_shifts_the_evaluation_starts(tmp_path):
 def test_easy_starts_open_the_map_over_the_training(tmp_path):
     """``--easy-starts 0.3 --easy-fraction 0.5``: the curve's rows carry the reach of their
     rollout, 0.3 map units at first, growing, then anywhere (empty) for the second half."""
-    recipe = example("train_attacker_team")
     report = recipe.main(["--defenders", "greedy", "--scenario", "paper_2v1", "--copies", "2",
                           "--n-steps", "16", "--batch-size", "32", "--timesteps", "320",
                           "--easy-starts", "0.3", "--teams", "learned", "--episodes", "1",
@@ -141,12 +137,11 @@ def test_easy_starts_open_the_map_over_the_training(tmp_path):
         reaches = [row["start_reach"] for row in csv.DictReader(handle)]
     assert len(reaches) == 5 and float(reaches[0]) == pytest.approx(0.3)
     assert 0.3 < float(reaches[1]) < 2 * np.sqrt(2) and reaches[-2:] == ["", ""]
-    assert recipe.row_text({"timesteps": 320, "start_reach": None}) == (
+    assert callbacks.row_text({"timesteps": 320, "start_reach": None}) == (
         "PPO: timesteps 320, start_reach anywhere")
 
 
 def test_bad_arguments_exit_2(tmp_path, capsys):
-    recipe = example("train_attacker_team")
     for argv in (["--evaluate-only", str(tmp_path / "missing.zip")], ["--teams", "learnt"],
                  ["--episodes", "0"], ["--first-seed", "-1"], ["--easy-starts", "0"],
                  ["--easy-starts", "0.3", "--easy-fraction", "2"],
@@ -189,7 +184,6 @@ def test_training_curve_counts_how_every_attacker_ended(tmp_path):
     from reachavoid_env import load_scenario
     from reachavoid_env.integrations.supersuit import sb3_vec_env
 
-    recipe = example("train_attacker_team")
     truth = tmp_path / "statuses.txt"
 
     class Statuses(BaseParallelWrapper):
@@ -208,7 +202,7 @@ def test_training_curve_counts_how_every_attacker_ended(tmp_path):
     game = make_attackers_parallel_env(scenario, defenders="greedy", action_repeat=10,
                                        shaping=1.0, timeout_reward=-1.0, max_cycles=300)
     envs = sb3_vec_env(Statuses(game))
-    curve = recipe.TrainingCurve()
+    curve = callbacks.TrainingCurve()
     PPO("MlpPolicy", envs, n_steps=64, batch_size=64, seed=0, device="cpu").learn(
         64 * 6 * 6, callback=curve)
     ended = sum(row["attacker_episodes"] for row in curve.rows)
@@ -224,7 +218,6 @@ def test_training_curve_counts_how_every_attacker_ended(tmp_path):
 def test_cloned_policy_alone_follows_the_script(tmp_path):
     """``--imitate-steps`` with ``--timesteps 0``: the shortest-path team's steps are
     recorded and cloned, no PPO runs, and the cloned policy is evaluated and saved."""
-    recipe = example("train_attacker_team")
     report = recipe.main([*TINY, "--timesteps", "0", "--imitate-steps", "300",
                           "--imitate-epochs", "3", "--imitate-log-std", "-1.5",
                           "--teams", "learned", "--no-video", "--out", str(tmp_path)])
@@ -234,7 +227,7 @@ def test_cloned_policy_alone_follows_the_script(tmp_path):
     assert imitation["action_mse"] < 1.0
     assert 0 < imitation["cpu_seconds"] <= report["run"]["cpu_seconds"]
     assert report["training"]["agent_steps"] == 0 and "curve" not in report
-    model = recipe.PPO.load(tmp_path / "model.zip", device="cpu")
+    model = PPO.load(tmp_path / "model.zip", device="cpu")
     assert model.policy.log_std.detach().tolist() == pytest.approx([-1.5, -1.5])
     assert report["evaluation"]["learned"]["episodes"] == 3
 
@@ -242,11 +235,10 @@ def test_cloned_policy_alone_follows_the_script(tmp_path):
 def test_init_starts_ppo_from_a_saved_policy(tmp_path, capsys):
     """``--init`` continues from a saved policy (its network kept, the new run's PPO
     settings used); ``--team-reward`` reaches the training env and the report."""
-    recipe = example("train_attacker_team")
     recipe.main([*TINY, "--timesteps", "0", "--imitate-steps", "100", "--imitate-epochs", "1",
                  "--net-arch", "8,8", "--teams", "learned", "--no-video",
                  "--out", str(tmp_path / "clone")])
-    start = recipe.PPO.load(tmp_path / "clone" / "model.zip", device="cpu")
+    start = PPO.load(tmp_path / "clone" / "model.zip", device="cpu")
     report = recipe.main([*TINY, "--init", str(tmp_path / "clone" / "model.zip"),
                           "--learning-rate", "1e-5", "--team-reward", "0.5",
                           "--teams", "learned", "--no-video", "--out", str(tmp_path / "tuned")])
@@ -254,7 +246,7 @@ def test_init_starts_ppo_from_a_saved_policy(tmp_path, capsys):
     assert training["init"] == str(tmp_path / "clone" / "model.zip")
     assert training["net_arch"] == [8, 8] and training["agent_steps"] >= 192
     assert report["team_reward"] == 0.5
-    tuned = recipe.PPO.load(tmp_path / "tuned" / "model.zip", device="cpu")
+    tuned = PPO.load(tmp_path / "tuned" / "model.zip", device="cpu")
     assert tuned.learning_rate == 1e-5
     before = start.policy.state_dict()
     after = tuned.policy.state_dict()
@@ -275,15 +267,14 @@ def test_a_model_of_another_game_is_refused_in_one_line(tmp_path):
     training; the command prints it in one line and exits with status 2."""
     import gymnasium
 
-    recipe = example("train_attacker_team")
     foreign = tmp_path / "pendulum.zip"
-    recipe.PPO("MlpPolicy", gymnasium.make("Pendulum-v1"), device="cpu").save(foreign)
+    PPO("MlpPolicy", gymnasium.make("Pendulum-v1"), device="cpu").save(foreign)
     for flag in ("--init", "--evaluate-only"):
-        with pytest.raises(recipe.ModelError, match=f"^{flag}: .*pendulum.zip") as refused:
+        with pytest.raises(config.ModelError, match=f"^{flag}: .*pendulum.zip") as refused:
             recipe.main(["--defenders", "greedy", flag, str(foreign), "--no-video",
                          "--out", str(tmp_path / flag.strip("-"))])
         assert "\n" not in str(refused.value)
-    script = Path(recipe.__file__)
+    script = ROOT / "examples" / "train_attacker_team.py"
     finished = subprocess.run([sys.executable, str(script), "--defenders", "greedy",
                                "--evaluate-only", str(foreign), "--out", str(tmp_path / "cli")],
                               capture_output=True, text=True, cwd=script.parent.parent)
@@ -295,15 +286,14 @@ def test_a_model_of_another_game_is_refused_in_one_line(tmp_path):
 def test_demonstrations_line_up_with_their_returns(tmp_path):
     """Every recorded row is a live attacker's observation, the script's unit action and
     the discounted return of the rewards that followed it."""
-    recipe = example("train_attacker_team")
-    args = recipe.parse_args(["--defenders", "greedy", "--imitate-steps", "200",
+    args = config.parse_args(["--defenders", "greedy", "--imitate-steps", "200",
                               "--out", str(tmp_path)])
-    demonstrations = recipe.collect_demonstrations(args, recipe.team_maps(args.scenario), 0.9)
+    demonstrations = cloning.collect_demonstrations(args, config.team_maps(args.scenario), 0.9)
     assert demonstrations.observations.shape == (200, 7 + 16 + 5 * 7 + 1)
     assert demonstrations.actions.shape == (200, 2) and demonstrations.returns.shape == (200,)
     lengths = np.linalg.norm(demonstrations.actions, axis=1)
     assert np.all((np.abs(lengths - 1.0) < 1e-4) | (lengths == 0.0))
-    assert recipe.discounted([1.0, 0.0, 2.0], 0.5) == pytest.approx([1.5, 1.0, 2.0])
+    assert cloning.discounted([1.0, 0.0, 2.0], 0.5) == pytest.approx([1.5, 1.0, 2.0])
 
 
 def test_the_hj_team_is_cloned_and_evaluated_beside_the_clone(tmp_path):
@@ -314,15 +304,14 @@ def test_the_hj_team_is_cloned_and_evaluated_beside_the_clone(tmp_path):
     from policies.attackers import HJAttacker, ShortestPathAttacker
     from policies.tubes import tube_1v1
 
-    recipe = example("train_attacker_team")
-    args = recipe.parse_args(["--defenders", "greedy", "--grid1", "11", "--imitate-steps",
+    args = config.parse_args(["--defenders", "greedy", "--grid1", "11", "--imitate-steps",
                               "6", "--imitate-from", "hj", "--out", str(tmp_path)])
     assert args.teams == ("learned", "shortest-path", "random", "hj")
-    maps = recipe.team_maps(args.scenario)
+    maps = config.team_maps(args.scenario)
     [scenario] = maps
-    demonstrations = recipe.collect_demonstrations(args, maps, 0.9)
-    env = recipe.game(args, maps)
-    env.reset(seed=args.seed + recipe.IMITATION_SEED_OFFSET)
+    demonstrations = cloning.collect_demonstrations(args, maps, 0.9)
+    env = config.game(args, maps)
+    env.reset(seed=args.seed + cloning.IMITATION_SEED_OFFSET)
     first_steps = []                # the rows start with attacker_0's first step
     for teacher in (HJAttacker(tube_1v1(scenario, 11, progress=False)),
                     ShortestPathAttacker()):
@@ -341,15 +330,14 @@ def test_the_hj_team_is_cloned_and_evaluated_beside_the_clone(tmp_path):
         difference = evaluation[f"{first}_minus_{second}".replace("-", "_")]
         assert difference["arrival_rate"] == pytest.approx(
             evaluation[first]["arrival_rate"] - evaluation[second]["arrival_rate"])
-    cloned = recipe.PPO.load(tmp_path / "cloned.zip", device="cpu")
-    trained = recipe.PPO.load(tmp_path / "model.zip", device="cpu")
+    cloned = PPO.load(tmp_path / "cloned.zip", device="cpu")
+    trained = PPO.load(tmp_path / "model.zip", device="cpu")
     for name, values in cloned.policy.state_dict().items():
         np.testing.assert_array_equal(values, trained.policy.state_dict()[name])
 
 
 def test_teams_are_any_scripted_attackers(tmp_path):
-    recipe = example("train_attacker_team")
-    assert recipe.parse_args(["--out", str(tmp_path)]).teams == recipe.DEFAULT_TEAMS
+    assert config.parse_args(["--out", str(tmp_path)]).teams == config.DEFAULT_TEAMS
     report = recipe.main(["--defenders", "greedy", "--teams", "straight,shortest-path",
                           "--episodes", "2", "--out", str(tmp_path)])
     assert {"straight", "shortest-path"} <= report["evaluation"].keys()
@@ -360,7 +348,6 @@ def test_dagger_rounds_refit_a_wider_network_on_the_learner_states(tmp_path):
     """``--dagger-rounds 1``: after the cloning, the policy (``--net-arch 32,32``) plays the
     training env, the teacher labels the states it visits, the policy is refitted on all
     the rows, and that refitted policy is ``cloned.zip``; the report records the round."""
-    recipe = example("train_attacker_team")
     report = recipe.main([*TINY, "--timesteps", "0", "--imitate-steps", "60",
                           "--imitate-epochs", "2", "--dagger-rounds", "1", "--dagger-steps",
                           "40", "--net-arch", "32,32", "--teams", "learned", "--no-video",
@@ -373,9 +360,9 @@ def test_dagger_rounds_refit_a_wider_network_on_the_learner_states(tmp_path):
     assert 0.0 <= played["learner_arrival_rate"] <= 1.0
     assert played["action_mse"] >= 0.0 and played["learner_action_mse"] >= 0.0
     assert report["training"]["net_arch"] == [32, 32]
-    cloned = recipe.PPO.load(tmp_path / "cloned.zip", device="cpu")
+    cloned = PPO.load(tmp_path / "cloned.zip", device="cpu")
     assert cloned.policy.net_arch == [32, 32]
-    trained = recipe.PPO.load(tmp_path / "model.zip", device="cpu")
+    trained = PPO.load(tmp_path / "model.zip", device="cpu")
     for name, values in cloned.policy.state_dict().items():
         np.testing.assert_array_equal(values, trained.policy.state_dict()[name])
 
@@ -383,9 +370,8 @@ def test_dagger_rounds_refit_a_wider_network_on_the_learner_states(tmp_path):
 def test_dagger_rows_are_the_learner_states_labelled_by_the_teacher(tmp_path):
     """With a player, the rows are the states the player visits, each with the teacher's
     action there, not the player's."""
-    recipe = example("train_attacker_team")
-    args = recipe.parse_args(["--defenders", "greedy", "--out", str(tmp_path)])
-    maps = recipe.team_maps(args.scenario)
+    args = config.parse_args(["--defenders", "greedy", "--out", str(tmp_path)])
+    maps = config.team_maps(args.scenario)
 
     class Still:
         def reset(self, env):
@@ -394,8 +380,8 @@ def test_dagger_rows_are_the_learner_states_labelled_by_the_teacher(tmp_path):
         def act(self, observations, env):
             return {name: np.zeros(2, dtype=np.float32) for name in env.agents}
 
-    taught = recipe.collect_demonstrations(args, maps, 0.9, steps=30, seed=5)
-    still = recipe.collect_demonstrations(args, maps, 0.9, player=Still(), steps=30,
+    taught = cloning.collect_demonstrations(args, maps, 0.9, steps=30, seed=5)
+    still = cloning.collect_demonstrations(args, maps, 0.9, player=Still(), steps=30,
                                           seed=5)
     # the rows start with attacker_0's steps: the same first state and label, then the
     # states where the player, not the teacher, has moved it
@@ -409,10 +395,9 @@ def test_dagger_rows_are_the_learner_states_labelled_by_the_teacher(tmp_path):
 
 
 def test_dagger_arguments_are_checked(tmp_path, capsys):
-    recipe = example("train_attacker_team")
     for argv in (["--dagger-rounds", "1"], ["--net-arch", "64,x"], ["--net-arch", "0"]):
         with pytest.raises(SystemExit) as stopped:
-            recipe.parse_args([*argv, "--out", str(tmp_path)])
+            config.parse_args([*argv, "--out", str(tmp_path)])
         assert stopped.value.code == 2
     assert "--dagger-rounds: needs --imitate-steps" in capsys.readouterr().err
 
@@ -425,7 +410,6 @@ def test_trained_on_one_library_evaluated_on_another(tmp_path):
     small = MapOptions(obstacles=(1, 2), shapes=("box", "circle"), density=(0.0, 0.3))
     write_library(tmp_path / "train", small, 0, 2)
     write_library(tmp_path / "test", small, 1, 2)
-    recipe = example("train_attacker_team")
     report = recipe.main(["--defenders", "greedy", "--scenario", str(tmp_path / "train"),
                           "--evaluate-on", str(tmp_path / "test"), "--imitate-steps", "20",
                           "--imitate-epochs", "1", "--timesteps", "0", "--teams",
@@ -443,7 +427,6 @@ def test_full_speed_actions_are_headings_in_training_and_play(tmp_path):
 
     from policies.learned import load_sb3
 
-    recipe = example("train_attacker_team")
     report = recipe.main([*TINY, "--full-speed", "--teams", "learned", "--no-video",
                           "--out", str(tmp_path)])
     assert report["full_speed"] is True
@@ -458,7 +441,7 @@ def test_full_speed_actions_are_headings_in_training_and_play(tmp_path):
             self.actions = actions
 
     games = Games()
-    recipe.FullSpeed(games).step_async(np.array([[0.3, 0.4], [0.0, 0.0], [-1.0, 1.0]]))
+    callbacks.FullSpeed(games).step_async(np.array([[0.3, 0.4], [0.0, 0.0], [-1.0, 1.0]]))
     np.testing.assert_allclose(games.actions, [[0.6, 0.8], [0.0, 0.0],
                                                [-0.5 ** 0.5, 0.5 ** 0.5]])
 
@@ -470,7 +453,6 @@ def test_a_two_vs_one_policy_of_the_nearest_players_plays_six_vs_two(tmp_path):
     from policies.learned import load_sb3
     from reachavoid_env import builtin_scenario
 
-    recipe = example("train_attacker_team")
     nearest = ["--teammates", "1", "--opponents", "1", "--defenders", "greedy", "--no-video"]
     recipe.main([*TINY, *nearest, "--scenario", "paper_2v1", "--teams", "learned",
                  "--out", str(tmp_path / "two")])
@@ -481,7 +463,7 @@ def test_a_two_vs_one_policy_of_the_nearest_players_plays_six_vs_two(tmp_path):
     assert report["evaluation"]["learned"]["episodes"] == 3
     assert load_sb3(model).observation.teammates == 1
     load_sb3(model).reset(builtin_scenario("paper_6v2"))
-    with pytest.raises(recipe.ModelError, match="^--evaluate-only: .*observes"):
+    with pytest.raises(config.ModelError, match="^--evaluate-only: .*observes"):
         recipe.main([*TINY, "--defenders", "greedy", "--scenario", "paper_6v2",
                      "--evaluate-only", str(model), "--out", str(tmp_path / "full")])
     with pytest.raises(SystemExit) as stopped:
@@ -492,7 +474,6 @@ def test_a_two_vs_one_policy_of_the_nearest_players_plays_six_vs_two(tmp_path):
 def test_past_selves_train_one_attacker_per_copy(tmp_path):
     """``--past-selves POOL``: one slot per copy (agent steps are game decisions), the
     teammates played by snapshots (its refusals: ``test_bad_arguments_exit_2``)."""
-    recipe = example("train_attacker_team")
     report = recipe.main([*TINY, "--copies", "2", "--past-selves", "2", "--teams", "learned",
                           "--no-video", "--out", str(tmp_path / "run")])
     training = report["training"]
@@ -501,7 +482,6 @@ def test_past_selves_train_one_attacker_per_copy(tmp_path):
 
 
 def test_a_scenario_that_does_not_load_is_a_one_line_error(tmp_path, capsys):
-    recipe = example("train_attacker_team")
     for flag in ("--scenario", "--evaluate-on"):
         with pytest.raises(SystemExit) as stopped:
             recipe.main([flag, str(tmp_path / "missing"), "--out", str(tmp_path / "out")])
