@@ -111,11 +111,11 @@ def pair_keepers(doubles: np.ndarray, targets: np.ndarray, busy: np.ndarray) -> 
     A pair game the program plays (one defender against two attackers, every value of it
     > 0) is seldom certified: its 2 vs 1 value lies within a grid cell of 0 nearly
     everywhere. The plan races one attacker at a time, and a pair that splits beats it:
-    the pair's value falls below 0 within a second and the game is lost (docs/
-    defenders.md, "Why hj lost to attackers that split"). So the defender of a pair game
-    keeps the 2 vs 1 optimal control while the plan sends it after one of the pair; where
-    the plan sends it after a third attacker, the team's plan rules (in 6 vs 2 that is
-    what captures more).
+    the pair's value falls below 0 within a second and the game is lost
+    (``docs/defenders.md``, "Why hj lost to attackers that split"). So the defender of a
+    pair game keeps the 2 vs 1 optimal control while the plan sends it after one of the
+    pair; where the plan sends it after a third attacker, the team's plan rules (in 6 vs 2
+    that is what captures more).
 
     Args:
         doubles: ``(D, 3)`` int rows ``(first, second, defender)`` of the program's pair
