@@ -147,10 +147,13 @@ class AssignmentDefender:
 
     @property
     def played_games(self) -> list[Match]:
-        """The games of the last decision played by their own controls: the certified
-        games and, with the intercept plan, the pair games whose defender keeps the pair's
-        control (``policies.steering.pair_keepers``)."""
-        return list(self._played)
+        """The games of the last decision played by their own controls: with the intercept
+        plan, the certified games and the pair games whose defender keeps the pair's
+        control (``policies.steering.pair_keepers``); without it, every game of the
+        assignment."""
+        if self.strategy.plans or self._decision is None:
+            return list(self._played)
+        return games_of(self._decision.assignment)
 
     @property
     def guaranteed_captures(self) -> int | None:
@@ -193,7 +196,7 @@ class AssignmentDefender:
         decision = self._decision
         if decision is None:
             return Overlay()
-        games = self._played if self.strategy.plans else games_of(decision.assignment)
+        games = self.played_games
         line = (f"guaranteed: {self.guaranteed_captures} of "
                 f"{int(decision.state.active_attackers.sum())}, "
                 f"program's count: {self.nominal_captures}")
