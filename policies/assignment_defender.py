@@ -28,7 +28,7 @@ from policies.certificate import (
 from policies.intercept import Plan, plan_intercepts, race_all
 from policies.intercept import headings as intercept_headings
 from policies.lookups import DecisionTables, TubeArrays, decision_controls, decision_tables
-from policies.steering import pair_keepers, steer
+from policies.steering import game_keepers, steer
 from policies.strategy import Program, Strategy
 from policies.tube_states import control_headings, pair_states, team_states, team_values
 from policies.tubes import check_tube
@@ -79,8 +79,9 @@ class AssignmentDefender:
     proposes, the certificate filters. One ``policies.intercept.plan_intercepts`` plan of
     the whole team each step; every defender outside the certified games (with
     ``margin_cells=0`` every game of the assignment is one) plays it, but for the defender
-    of a pair game whom the plan sends after one of its pair, which keeps the pair's
-    optimal control (``policies.steering.pair_keepers``: a pair that splits beats the
+    of an uncertified game of the program whom the plan sends after the game's attacker
+    (or one of its pair), which keeps the game's optimal control
+    (``policies.steering.game_keepers``: an attacker off its shortest path beats the
     plan); the defender of a certified 1 vs 1 game plays the plan as far as the value
     allows (``policies.steering.steer``); certified pairs and teams keep their optimal
     controls. The others: every assigned
@@ -148,8 +149,8 @@ class AssignmentDefender:
     @property
     def played_games(self) -> list[Match]:
         """The games of the last decision played by their own controls: with the intercept
-        plan, the certified games and the pair games whose defender keeps the pair's
-        control (``policies.steering.pair_keepers``); without it, every game of the
+        plan, the certified games and the program's games whose defender keeps the game's
+        control (``policies.steering.game_keepers``); without it, every game of the
         assignment."""
         if self.strategy.plans or self._decision is None:
             return list(self._played)
@@ -332,21 +333,23 @@ class AssignmentDefender:
     def _play_plan(self, state: GameState, actions: np.ndarray) -> None:
         """Every defender outside a certified game plays the intercept plan of the whole
         team (``policies.intercept.plan_intercepts``: every defender, every active
-        attacker), except the defender of a pair game whom the plan sends after one of
-        its pair: it keeps the pair's optimal control (``policies.steering.pair_keepers``);
-        a certified 1 vs 1 tube game's defender plays it as far as the certificate allows
-        (``policies.steering.steer``); the other certified games keep their optimal
-        controls (open-space games are played by ``_play_open``)."""
+        attacker), except the defender of a game of the program whom the plan sends after
+        the game's attacker (or one of its pair): it keeps the game's optimal control
+        (``policies.steering.game_keepers``); a certified 1 vs 1 tube game's defender plays
+        it as far as the certificate allows (``policies.steering.steer``); the other
+        certified games keep their optimal controls (open-space games are played by
+        ``_play_open``)."""
         plan = self._plan = plan_intercepts(race_all(self._field, state),
                                             np.ones(len(actions), dtype=bool),
                                             state.active_attackers)
         desired = intercept_headings(plan, state.defender_positions, state.attacker_positions)
         free = np.ones(len(actions), dtype=bool)
         free[[j for game in self._certified for j in game.defenders]] = False
-        doubles = roles_of(self._decision.assignment).doubles
-        keepers = pair_keepers(doubles, plan.targets, ~free)
+        roles = roles_of(self._decision.assignment)
+        keepers = game_keepers(roles.singles, roles.doubles, plan.targets, ~free)
         self._played = self._certified + [
-            Match((int(j),), (int(i), int(k))) for i, k, j in doubles.tolist() if j in keepers]
+            game for game in roles.games
+            if len(game.defenders) == 1 and game.defenders[0] in keepers]
         free[keepers] = False
         actions[free] = desired[free]
         games = [game for game in self._certified if game.basis is Basis.TUBE

@@ -50,7 +50,7 @@ from policies.lookups import (
     batch_decision_controls,
     batch_decision_tables,
 )
-from policies.steering import pair_keepers, steer
+from policies.steering import game_keepers, steer
 from policies.strategy import CERTIFICATE_CELLS, check_margin_cells
 from policies.tubes import check_tube, tube_1v1, tube_2v1
 from reachavoid_env import BatchState, Scenario
@@ -90,11 +90,13 @@ class _Copy:
     """What one copy's defenders carry from step to step: the program's solver (its
     cache), the certified games of the last decision, the attackers' last positions
     (``None`` before the first decision or after a game without attackers), and the
-    step's pair games of the program (``Roles.doubles``, read by the plan)."""
+    step's 1 vs 1 and pair games of the program (``Roles.singles``, ``Roles.doubles``,
+    read by the plan)."""
 
     solver: AssignmentSolver = field(default_factory=lambda: AssignmentSolver("mip"))
     certified: list[Match] = field(default_factory=list)
     previous: np.ndarray | None = None
+    singles: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
     doubles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))
 
 
@@ -282,7 +284,7 @@ class BatchHJDefenders:
             fresh.append([match for match in roles.games if match not in kept])
             singles.append(roles.singles)
             doubles.append(roles.doubles)
-            copy.certified, copy.doubles = kept, roles.doubles
+            copy.certified, copy.singles, copy.doubles = kept, roles.singles, roles.doubles
         self._ask_games(game, wins, [(c, m.attackers[0], m.defenders[0])
                                      for c, games in enumerate(fresh) for m in games
                                      if len(m.defenders) == len(m.attackers) == 1])
@@ -308,14 +310,14 @@ class BatchHJDefenders:
 
     def _play_plan(self, game: _Batch, actions: np.ndarray) -> None:
         """``AssignmentDefender._play_plan`` of every live copy: the races and the
-        intercept plan of all copies at once, the pair games' keepers per copy, then the
+        intercept plan of all copies at once, the games' keepers per copy, then the
         certified defenders' steering."""
         aims, targets = _plan(*_races(self._field, game), game.active)
         desired = headings(Plan(targets, aims), game.defenders, game.attackers)
         free = np.ones(actions.shape[:2], dtype=bool)
         for c, copy in enumerate(game.copies):
             free[c, [j for match in copy.certified for j in match.defenders]] = False
-            free[c, pair_keepers(copy.doubles, targets[c], ~free[c])] = False
+            free[c, game_keepers(copy.singles, copy.doubles, targets[c], ~free[c])] = False
         actions[free] = desired[free]
         self._steer_certified(game, desired, actions)
 

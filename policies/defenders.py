@@ -79,9 +79,9 @@ class HJDefenderPolicy(AssignmentDefender):
     ``idle`` says what the defenders outside the certified games do
     (``policies.strategy.Spare``): ``"intercept"`` (default) play the team's intercept plan
     (``policies.intercept``; a certified 1 vs 1 game's defender too, as far as its
-    certificate allows; the defender of a pair game keeps the pair's 2 vs 1 optimal
-    control while the plan sends it after one of the pair,
-    ``policies.steering.pair_keepers``); ``"shadow"`` plays the assignment's games and
+    certificate allows; the defender of an uncertified game of the program keeps the
+    game's optimal control while the plan sends it after the game's attacker or one of
+    its pair, ``policies.steering.game_keepers``); ``"shadow"`` plays the assignment's games and
     shadows, with the 1 vs 1 optimal control, the unassigned attacker it is best placed against;
     ``"stand"`` plays the assignment's games and stands still unassigned, as in the
     paper's simulations. ``paper`` builds the paper's method exactly (``"stand"``,

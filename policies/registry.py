@@ -129,8 +129,8 @@ def _first_line(factory: Any) -> str:
 DEFENDERS: dict[str, NamedPolicy] = {
     "hj": NamedPolicy("the reference: HJ tubes + the paper's assignment MIP (CP-SAT), "
                       "re-solved every step; certified games kept, the team's intercept plan "
-                      "played as far as the certificates allow, a pair game's control kept "
-                      "while the plan chases one of the pair",
+                      "played as far as the certificates allow, an uncertified game's control "
+                      "kept while the plan chases its attacker",
                       "policies.defenders:HJDefenderPolicy.for_scenario"),
     "hj-pairs": NamedPolicy("the reference with defender teams: two defenders may share an "
                             "attacker neither stops alone (1 vs 2 tube), re-solved every step",

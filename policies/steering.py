@@ -1,7 +1,7 @@
 """Where the intercept plan's headings reach into the games (the plan proposes, the
 games filter): how far a certified 1 vs 1 game's defender may take the heading the plan
-proposes (``steer``), and which defenders of the program's pair games keep the pair's
-optimal control instead (``pair_keepers``).
+proposes (``steer``), and which defenders of the program's uncertified games keep the
+game's optimal control instead (``game_keepers``).
 
 Each is the one rule, used by ``policies.assignment_defender`` for one game and by
 ``policies.batch_defenders`` for the games of K copies at once (same arrays row by row,
@@ -104,29 +104,36 @@ def held_one_step(vf11: ValueFunction, attackers: np.ndarray, defenders: np.ndar
     return after.min(axis=1) > margin
 
 
-def pair_keepers(doubles: np.ndarray, targets: np.ndarray, busy: np.ndarray) -> np.ndarray:
-    """The defenders of the program's pair games that play the pair's 2 vs 1 optimal
-    control rather than the plan's heading.
+def game_keepers(singles: np.ndarray, doubles: np.ndarray, targets: np.ndarray,
+                 busy: np.ndarray) -> np.ndarray:
+    """The defenders of the program's games that play the game's optimal control (1 vs 1
+    or 2 vs 1) rather than the plan's heading.
 
-    A pair game the program plays (one defender against two attackers, every value of it
-    > 0) is seldom certified: its 2 vs 1 value lies within a grid cell of 0 nearly
-    everywhere. The plan races one attacker at a time, and a pair that splits beats it:
-    the pair's value falls below 0 within a second and the game is lost
-    (``docs/defenders.md``, "Why hj lost to attackers that split"). So the defender of a
-    pair game keeps the 2 vs 1 optimal control while the plan sends it after one of the
-    pair; where the plan sends it after a third attacker, the team's plan rules (in 6 vs 2
-    that is what captures more).
+    A game the program plays (every value of it > 0) but the tube does not certify has a
+    value within the tube's error of 0. The plan races its attacker as if it kept to its
+    shortest path; an attacker that does not (a pair that splits, a lone attacker that
+    feints) beats the race: the game's value falls below 0 within a second or two and
+    the game is lost (``docs/defenders.md``, "Why hj lost to attackers that split"). So
+    the defender of such a game keeps the game's optimal control while the plan sends it
+    after the game's attacker (or one of its pair): the plan and the game then agree on
+    whom to chase, and the game knows how. Where the plan sends it after another
+    attacker, the team's plan rules (in 6 vs 2 that is what captures more).
 
     Args:
-        doubles: ``(D, 3)`` int rows ``(first, second, defender)`` of the program's pair
-            games (``policies.certificate.Roles.doubles``).
+        singles: ``(S, 2)`` int rows ``(attacker, defender)`` of the program's 1 vs 1
+            games (``policies.certificate.Roles.singles``).
+        doubles: ``(D, 3)`` int rows ``(first, second, defender)`` of its pair games
+            (``Roles.doubles``).
         targets: ``(N,)`` the attacker the plan sends each defender after (-1 for none).
         busy: ``(N,)`` bool, the defenders of certified games (they play those).
 
     Returns:
-        The defenders (int array) that keep their pair's optimal control.
+        The defenders (int array, singles' first, then pairs') that keep their game's
+        optimal control.
     """
-    defenders = doubles[:, 2]
-    chased = targets[defenders]
-    keeps = ((chased == doubles[:, 0]) | (chased == doubles[:, 1])) & ~busy[defenders]
-    return defenders[keeps]
+    single = singles[:, 1]
+    pair = doubles[:, 2]
+    keeps_single = (targets[single] == singles[:, 0]) & ~busy[single]
+    chased = targets[pair]
+    keeps_pair = ((chased == doubles[:, 0]) | (chased == doubles[:, 1])) & ~busy[pair]
+    return np.concatenate([single[keeps_single], pair[keeps_pair]])

@@ -94,8 +94,8 @@ class Spare(str, enum.Enum):
     INTERCEPT = "intercept"
     """Race the team's intercept plan (``policies.intercept``); the certified games are
     played, a certified 1 vs 1 game's defender steering towards the plan as far as its
-    certificate allows, and so are the program's pair games whose defender the plan sends
-    after one of the pair (``policies.steering.pair_keepers``)."""
+    certificate allows, and so are the program's games whose defender the plan sends after
+    the game's attacker or one of its pair (``policies.steering.game_keepers``)."""
     SHADOW = "shadow"
     """Play the assignment's games; an unassigned defender shadows, with the 1 vs 1
     optimal control, the unassigned attacker it is best placed against (largest 1 vs 1

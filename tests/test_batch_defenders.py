@@ -82,8 +82,9 @@ def play_side_by_side(scenario, count, steps, reference, batched, watch=None):
 
 @pytest.mark.parametrize(("name", "count", "steps", "margin", "kinds"), [
     ("paper_8v4", 16, 300, 1.0, {(Basis.TUBE, 1), (Basis.OPEN, 1), "solved", "pair",
-                                 "pair kept"}),
-    ("paper_6v2", 8, 300, 1.0, {(Basis.TUBE, 1), "solved", "pair", "pair kept"}),
+                                 "pair kept", "single kept"}),
+    ("paper_6v2", 8, 300, 1.0, {(Basis.TUBE, 1), "solved", "pair", "pair kept",
+                                "single kept"}),
     ("paper_8v4", 64, 100, 1.0, {(Basis.TUBE, 1), (Basis.OPEN, 1), "solved", "pair"}),
     # no certificate: every game of the program is played, none kept
     ("paper_8v4", 8, 300, 0.0, {(Basis.TUBE, 1), (Basis.TUBE, 2), "solved", "pair"}),
@@ -103,9 +104,9 @@ def test_batched_hj_plays_as_one_policy_per_copy(coarse_tubes, name, count, step
             played = policy.last_assignment
             if played is not None and any(len(mine) == 2 for mine in played.by_defender):
                 seen.add("pair")
-            if any(len(game.attackers) == 2 and game not in policy.certified_games
-                   for game in policy.played_games):
-                seen.add("pair kept")
+            for game in policy.played_games:
+                if game not in policy.certified_games:
+                    seen.add("pair kept" if len(game.attackers) == 2 else "single kept")
 
     copies = play_side_by_side(scenario, count, steps, reference,
                                BatchHJDefenders(vf11, vf21, margin_cells=margin), watch)

@@ -20,7 +20,7 @@ from policies import (
     ShortestPathAttacker,
 )
 from policies.certificate import Basis, Match, games_of
-from policies.steering import ATTACKER_MOVES, held_one_step, pair_keepers, steer
+from policies.steering import ATTACKER_MOVES, game_keepers, held_one_step, steer
 from policies.strategy import Program, Spare, Strategy
 from policies.tube_states import pair_states
 from reachavoid.rollout import run_episode
@@ -79,14 +79,18 @@ def test_worked_example_is_not_certified(coarse_tubes):
     np.testing.assert_array_equal(actions["defender_0"], played["defender_0"])
 
 
-def test_a_pair_game_yields_to_the_plan_for_a_third_attacker():
-    """``pair_keepers``: a pair game's defender keeps the pair's control only while the
-    plan sends it after one of its pair and no certified game holds it."""
+def test_a_game_yields_to_the_plan_for_another_attacker():
+    """``game_keepers``: the defender of an uncertified game keeps the game's control only
+    while the plan sends it after the game's attacker (one of its pair) and no certified
+    game holds it."""
+    singles = np.array([[6, 3], [7, 4], [8, 5]])
     doubles = np.array([[0, 1, 0], [2, 3, 1], [4, 5, 2]])
-    targets = np.array([1, 0, 4])
-    busy = np.array([False, False, True])
-    np.testing.assert_array_equal(pair_keepers(doubles, targets, busy), [0])
-    assert len(pair_keepers(np.zeros((0, 3), dtype=np.int64), targets, busy)) == 0
+    targets = np.array([1, 0, 4, 6, 8, 8])
+    busy = np.array([False, False, True, False, False, True])
+    np.testing.assert_array_equal(game_keepers(singles, doubles, targets, busy), [3, 0])
+    none = game_keepers(np.zeros((0, 2), dtype=np.int64), np.zeros((0, 3), dtype=np.int64),
+                        targets, busy)
+    assert len(none) == 0
 
 
 def _check_certificate(policy, state, previous: list[Match]) -> int:
