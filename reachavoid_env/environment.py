@@ -322,7 +322,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
             if self.observation.egocentric:
                 self._velocities = (new - old) / self.scenario.dt
                 self._velocities[~self._active] = 0.0
-            return rules.no_events(m, new[:m])
+            return rules.no_events(new[:m])
         moves = rules.Moves(velocities, self.scenario.dt,
                             lambda players: world.replay(old[players], velocities[players]),
                             self._longest_move)
