@@ -34,8 +34,8 @@ class Stepped(NamedTuple):
 
     ``live``: ``(K, M + N)`` bool, the players in the game at the start of the step
     (``None``: every player of every copy); ``events``: ``rules.StepEvents`` of arrays
-    ``(K, M)``; ``rewards``: ``(K, M + N)`` float64 (zero for players that were not live;
-    read only, it may be shared between steps).
+    ``(K, M)``; ``rewards``: ``(K, M + N)`` float64, read only (it may be shared between
+    steps); the rows of players that were not live are no one's reward.
     """
 
     live: np.ndarray | None
@@ -171,8 +171,6 @@ class Core:
         events = self._events(old, new, velocities)
         rewards = self._rewards(events, old, new)
         self.steps += self.running
-        if live is not None and events.left.any():
-            rewards = np.where(live, rewards, 0.0)
         return Stepped(live, events, rewards)
 
     def _move(self, velocities: np.ndarray, live: np.ndarray | None,

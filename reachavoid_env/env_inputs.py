@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from reachavoid_env import checks
+from reachavoid_env.actions import controls
 from reachavoid_env.maps import load_library
 from reachavoid_env.observations import ObservationConfig
 from reachavoid_env.scenario import Scenario, ScenarioError
@@ -40,6 +41,31 @@ def stack_actions(live: Sequence[str], actions: Mapping[str, Any]) -> np.ndarray
     if stacked is None or stacked.shape != (len(live), 2) \
             or not np.isfinite(stacked).all():
         stacked = np.array([_checked_action(name, actions[name]) for name in live])
+    return stacked
+
+
+def vector_actions(actions: Any, agents: Sequence[str], copies: int,
+                   continuous: bool) -> np.ndarray:
+    """The vector env's actions ``{agent: (K, 2)}`` (``continuous``; else ``{agent: (K,)}``
+    discrete ones through ``actions.TABLE``) as every player's control ``(K, P, 2)``
+    float64, fractions of the speed, checked (errors name the agent)."""
+    if not isinstance(actions, Mapping):
+        raise TypeError(f"step: actions must be a dict {{agent name: (K, 2) array}}, got "
+                        f"{type(actions).__name__}")
+    check_agent_names(actions, agents)
+    stacked = np.empty((copies, len(agents), 2))
+    for i, name in enumerate(agents):
+        if name not in actions:
+            raise KeyError(f"step: no action for agent {name!r}")
+        array = np.asarray(actions[name])
+        if not continuous:
+            stacked[:, i] = controls(f"action for {name}", array, (copies,))
+        elif array.dtype.kind not in REAL_KINDS or array.shape != (copies, 2) \
+                or not np.isfinite(array).all():
+            raise ValueError(f"action for {name}: expected finite real numbers of shape "
+                             f"({copies}, 2), got {array.dtype} of shape {array.shape}")
+        else:
+            stacked[:, i] = array
     return stacked
 
 
