@@ -170,7 +170,7 @@ class Core:
         old, new = self._move(velocities, live)
         events = self._events(old, new, velocities)
         rewards = self._rewards(events, old, new)
-        self.steps += self.running
+        self.steps = self.steps + (1 if live is None else self.running)
         return Stepped(live, events, rewards)
 
     def _move(self, velocities: np.ndarray, live: np.ndarray | None,

@@ -18,9 +18,11 @@ solvers keep their own fast form and are tested against this module.
   slid into a corner is judged where it went, not on the chord. An active attacker's
   earliest event wins: capture at the first instant a defender is within
   ``capture_radius``, arrival at the first instant its path touches the target; a tie
-  goes to capture (``resolve_events``). Players that did not slide are judged on their
-  straight segment exactly as without ``Moves``; paths are replayed only for slid players
-  that are near an event, so an ordinary step costs nothing more.
+  goes to capture (``resolve_batch``, the one resolver, for ``K`` copies at once;
+  ``resolve_events`` is its view of one game). Players that did not slide are judged on
+  their straight segment exactly as without ``Moves``; paths are replayed only for slid
+  players that are near an event, so an ordinary step costs nothing more. ``EventWatch``
+  tells steps in which no event can happen, so that one game skips the resolver.
 """
 
 from __future__ import annotations
