@@ -151,16 +151,6 @@ class ReachAvoidVectorEnv:
     def start_reach(self, reach: float | None) -> None:
         self._start_reach = None if reach is None else checks.positive(reach, "start_reach")
 
-    @property
-    def start_reach(self) -> float | None:
-        """Random attackers of episodes that start from now on lie within this distance of
-        the target (map units; ``None``: anywhere); module docstring."""
-        return self._start_reach
-
-    @start_reach.setter
-    def start_reach(self, reach: float | None) -> None:
-        self._start_reach = None if reach is None else checks.positive(reach, "start_reach")
-
     # ------------------------------------------------------------------ reset
     def reset(self, seed: int | None = None,
               ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
