@@ -34,12 +34,14 @@ class Stepped(NamedTuple):
 
     ``live``: ``(K, M + N)`` bool, the players in the game at the start of the step
     (``None``: every player of every copy); ``events``: ``rules.StepEvents`` of arrays
-    ``(K, M)``; ``rewards``: ``(K, M + N)`` float64, read only (it may be shared between
-    steps); the rows of players that were not live are no one's reward.
+    ``(K, M)``, read only; ``left``: some attacker left; ``rewards``: ``(K, M + N)``
+    float64, read only (both may be shared between steps); the rows of players that were
+    not live are no one's reward.
     """
 
     live: np.ndarray | None
     events: rules.StepEvents
+    left: bool
     rewards: np.ndarray
 
 
@@ -97,6 +99,7 @@ class Core:
         """Every player of every copy is in the game (the masks are skipped)."""
         self.worlds: dict[tuple[int, int], World] = {}
         self._no_rewards = np.zeros((copies, p))
+        self._no_events = rules.no_events(np.zeros((copies, m, 2)))
         # One world holding every copy (one map, few copies): moved without masks.
         self._one_world = len(self.maps) == 1 and copies <= copies_per_world
         # One copy: the watch skips the steps it knows to be quiet (with more copies some
@@ -168,10 +171,10 @@ class Core:
             wanted = np.where(live[..., None], wanted, 0.0)
         velocities = rules.bounded_controls(wanted) * self.speeds
         old, new = self._move(velocities, live)
-        events = self._events(old, new, velocities)
-        rewards = self._rewards(events, old, new)
+        events, left = self._events(old, new, velocities)
+        rewards = self._rewards(events, left, old, new)
         self.steps = self.steps + (1 if live is None else self.running)
-        return Stepped(live, events, rewards)
+        return Stepped(live, events, left, rewards)
 
     def _move(self, velocities: np.ndarray, live: np.ndarray | None,
               ) -> tuple[np.ndarray, np.ndarray]:
@@ -193,13 +196,17 @@ class Core:
         return old, new
 
     def _events(self, old: np.ndarray, new: np.ndarray,
-                velocities: np.ndarray) -> rules.StepEvents:
+                velocities: np.ndarray) -> tuple[rules.StepEvents, bool]:
         """Captures and arrivals along the paths the world moved the players along
-        (``rules.resolve_batch``); attackers that left stop where their event happened, and
-        the defenders leave with the last. Updates the state."""
+        (``rules.resolve_batch``), and whether some attacker left; attackers that left stop
+        where their event happened, and the defenders leave with the last. Updates the
+        state."""
         m, watch = self.m, self._watch
         if watch is not None and watch.quiet():
-            events = rules.no_events(new[:, :m])
+            quiet = self._no_events
+            events = rules.StepEvents(quiet.captured, quiet.arrived, quiet.times,
+                                      quiet.captor, quiet.left, new[:, :m])
+            left = False
         else:
             worlds, per_world = self.worlds, self.copies_per_world
             map_of = self.map_of
@@ -214,7 +221,8 @@ class Core:
             events = rules.resolve_batch(self.maps, map_of, self.capture_radius, active,
                                          old[:, :m], new[:, :m], old[:, m:], new[:, m:],
                                          moves, self.bounds)
-            if events.left.any():
+            left = bool(events.left.any())
+            if left:
                 self._leave(events, new)
             if watch is not None:
                 watch.anchor(self.active[0, :m] & self.running[0], new[0, :m], new[0, m:])
@@ -223,7 +231,7 @@ class Core:
             self.velocities = (new - old) / self.dt
             if not self.everyone:
                 self.velocities[~(self.active & self.running[:, None])] = 0.0
-        return events
+        return events, left
 
     def _leave(self, events: rules.StepEvents, new: np.ndarray) -> None:
         """The attackers of ``events`` that left stop at their event (in ``new``) and leave
@@ -238,12 +246,12 @@ class Core:
         self.active[~self.active[:, :m].any(axis=1), m:] = False
         self.everyone = False
 
-    def _rewards(self, events: rules.StepEvents, old: np.ndarray,
+    def _rewards(self, events: rules.StepEvents, left: bool, old: np.ndarray,
                  new: np.ndarray) -> np.ndarray:
         """``(K, P)`` rewards (``reachavoid_env.rewards``): +1 arrival, -1 capture, the
         ``progress`` term for the attackers active at the start of the step; each defender
         gets minus their sum."""
-        if not self.shaping and not events.left.any():
+        if not self.shaping and not left:
             return self._no_rewards
         m = self.m
         attackers = outcomes(events.arrived, events.captured)

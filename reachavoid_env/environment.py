@@ -273,7 +273,7 @@ class ReachAvoidEnv(ParallelEnv, EzPickle):
         observations = self._observations(live, rows) if self.observing else {}
         reward_dict = dict(zip(live, stepped.rewards[0, rows].tolist(), strict=True))
         infos = self._infos(live, events.captor[0])
-        if events.left.any() or truncate:
+        if stepped.left or truncate:
             ended = (~core.active[0, rows]).tolist()
             terminations = dict(zip(live, ended, strict=True))
             truncations = {name: truncate and not done
