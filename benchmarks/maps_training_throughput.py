@@ -53,7 +53,7 @@ def one_run(library: str, copies: int, copies_per_map: int, warmup: int, steps: 
     def play() -> int:
         for t in range(warmup, warmup + steps):
             view.step(actions[t])
-            maps_live.append(len(np.unique(view.vec._map_of)))
+            maps_live.append(len(np.unique(view.vec._core.map_of)))
         return steps * copies * m
 
     return {"agent_steps_per_cpu_s": timed(play).median,

@@ -188,7 +188,8 @@ class Observer:
         self.fastest = float(fastest)
         self.max_cycles = int(max_cycles)
         self.lidar = Lidar(RayScene.of(game_map), config.lidar_rays,
-                           config.lidar_range or self.diagonal) if config.lidar_rays else None
+                           config.lidar_range or self.diagonal) \
+            if config.egocentric and config.lidar_rays else None
         m, n = num_attackers, num_defenders
         attackers, defenders = list(range(m)), list(range(m, m + n))
         self.others = np.array([[k for k in attackers if k != i] + defenders for i in attackers]

@@ -18,9 +18,11 @@ solvers keep their own fast form and are tested against this module.
   slid into a corner is judged where it went, not on the chord. An active attacker's
   earliest event wins: capture at the first instant a defender is within
   ``capture_radius``, arrival at the first instant its path touches the target; a tie
-  goes to capture (``resolve_events``). Players that did not slide are judged on their
-  straight segment exactly as without ``Moves``; paths are replayed only for slid players
-  that are near an event, so an ordinary step costs nothing more.
+  goes to capture (``resolve_batch``, the one resolver, for ``K`` copies at once;
+  ``resolve_events`` is its view of one game). Players that did not slide are judged on
+  their straight segment exactly as without ``Moves``; paths are replayed only for slid
+  players that are near an event, so an ordinary step costs nothing more. ``EventWatch``
+  tells steps in which no event can happen, so that one game skips the resolver.
 """
 
 from __future__ import annotations
@@ -131,7 +133,6 @@ class Moves(NamedTuple):
 
 
 class _Slides(NamedTuple):
-    pair_times: np.ndarray | None
     arrival: np.ndarray
     bent: np.ndarray
     """Indices of the attackers judged on their path."""
@@ -195,104 +196,12 @@ def target_bounds(game_map: GameMap) -> tuple[float, float, float, float]:
             float(bounds[:, 3].max()))
 
 
-def resolve_events(game_map: GameMap, capture_radius: float, active: np.ndarray,
-                   attackers_old: np.ndarray, attackers_new: np.ndarray,
-                   defenders_old: np.ndarray, defenders_new: np.ndarray,
-                   bounds: tuple[float, float, float, float] | None = None,
-                   moves: Moves | None = None) -> StepEvents:
-    """Which of the ``active`` ``(M,)`` attackers are captured or arrive during one step.
-
-    Each attacker's earliest event wins; a tie goes to capture (module docstring).
-    ``bounds`` (``target_bounds(game_map)``) only saves work: two cheap filters skip the
-    exact tests for pairs too far apart to meet and attackers too far from the target.
-    ``moves``: judge the players that slid on their paths (``Moves``); without it every
-    player is judged on its straight segment.
-    """
-    m = len(active)
-    never = np.full(m, np.inf)
-    t_capture, t_arrival, captor = never, never, np.full(m, -1)
-    # Nobody moves farther than sqrt(2) times its largest coordinate change (nor along a
-    # path farther than the longest asked move), so a pair farther apart than
-    # capture_radius plus two such moves cannot meet this step.
-    if moves is None:
-        a_move = np.abs(attackers_new - attackers_old)
-        longest = math.sqrt(2.0) * max(a_move.max(),
-                                       np.abs(defenders_new - defenders_old).max())
-    else:
-        a_move = longest = moves.longest
-    reach = capture_radius + 2.0 * longest
-    gaps = attackers_old[:, None, :] - defenders_old[None, :, :]
-    distances = np.einsum("ijk,ijk->ij", gaps, gaps)
-    meeting = distances <= reach * reach
-    pair_times = None
-    if meeting[active].any():
-        pair_times = capture_times(attackers_old, attackers_new, defenders_old, defenders_new,
-                                   capture_radius)
-    # Only attackers whose move spans the target's bounding box on both axes can enter it.
-    xmin, xmax, ymin, ymax = bounds or target_bounds(game_map)
-    centre = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
-    half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
-    near = (np.abs(attackers_old - centre) <= half + a_move).all(axis=1) & active
-    if near.any():
-        t_arrival = never.copy()
-        t_arrival[near] = game_map.target_entry_time(attackers_old[near], attackers_new[near])
-    slides = None
-    if moves is not None and (near.any() or pair_times is not None):
-        slides = _judge_slides(game_map, capture_radius, moves, near,
-                               meeting & active[:, None], pair_times, t_arrival,
-                               np.concatenate([attackers_old, defenders_old]),
-                               np.concatenate([attackers_new, defenders_new]))
-        if slides is not None:
-            pair_times, t_arrival = slides.pair_times, slides.arrival
-    if pair_times is not None:
-        captor = pair_times.argmin(axis=1)
-        t_capture = pair_times[np.arange(m), captor]
-    captured = active & (t_capture <= 1.0) & (t_capture <= t_arrival)
-    arrived = active & ~captured & (t_arrival <= 1.0)
-    left = captured | arrived
-    times = np.where(captured, t_capture, np.where(arrived, t_arrival, np.inf))
-    stops = attackers_new
-    if left.any():
-        stops = attackers_new.copy()
-        t = times[left][:, None]
-        stops[left] = attackers_old[left] + t * (attackers_new[left] - attackers_old[left])
-        if slides is not None and left[slides.bent].any():
-            which = left[slides.bent]
-            stops[slides.bent[which]] = position_on_path(slides.paths[:, which],
-                                                         times[slides.bent[which]])
-    return StepEvents(captured, arrived, times, np.where(captured, captor, -1), left, stops)
-
-
-def _judge_slides(game_map: GameMap, capture_radius: float, moves: Moves, near: np.ndarray,
-                  meeting: np.ndarray, pair_times: np.ndarray | None, arrival: np.ndarray,
-                  old: np.ndarray, new: np.ndarray) -> _Slides | None:
-    """``resolve_events``' times again, on the players' paths (``Moves.replay``), for the
-    attackers near the target that slid and the pairs that may meet where either slid;
-    ``None`` when nobody near an event slid."""
-    m = len(near)
-    involved = np.zeros(len(old), dtype=bool)
-    involved[:m] = near | meeting.any(axis=1)
-    involved[m:] = meeting.any(axis=0)
-    moved = np.zeros(len(old), dtype=bool)
-    moved[involved] = slid(old[involved], new[involved], moves.velocities[involved] * moves.dt)
-    if not moved.any():
-        return None
-    players = np.flatnonzero(moved)
-    replayed = moves.replay(players)
-    replayed[0], replayed[-1] = old[players], new[players]   # the world's own ends
-    path = straight_path(old, new, replayed.shape[0] - 1)
-    path[:, players] = replayed
-    bent = np.flatnonzero(moved[:m])
-    arrival = arrival.copy()
-    turned = bent[near[bent]]
-    arrival[turned] = path_entry_time(game_map, path[:, turned])
-    pairs = meeting & (moved[:m, None] | moved[None, m:])
-    if pairs.any():
-        rows = np.flatnonzero(pairs.any(axis=1))
-        bent_times = path_capture_times(path[:, rows], path[:, m:], capture_radius)
-        pair_times = pair_times.copy()   # computed: some pair may meet
-        pair_times[rows] = np.where(pairs[rows], bent_times, pair_times[rows])
-    return _Slides(pair_times, arrival, bent, path[:, bent])
+def target_box(bounds: tuple[float, float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The centre ``(2,)`` and half extent ``(2,)`` (map units, x then y) of a bounding box
+    ``(xmin, xmax, ymin, ymax)`` (``target_bounds``)."""
+    xmin, xmax, ymin, ymax = bounds
+    return (np.array([(xmin + xmax) / 2, (ymin + ymax) / 2]),
+            np.array([(xmax - xmin) / 2, (ymax - ymin) / 2]))
 
 
 class BatchMoves(NamedTuple):
@@ -306,58 +215,141 @@ class BatchMoves(NamedTuple):
     longest: float
 
 
+def resolve_events(game_map: GameMap, capture_radius: float, active: np.ndarray,
+                   attackers_old: np.ndarray, attackers_new: np.ndarray,
+                   defenders_old: np.ndarray, defenders_new: np.ndarray,
+                   bounds: tuple[float, float, float, float] | None = None,
+                   moves: Moves | None = None) -> StepEvents:
+    """``resolve_batch`` of one game: ``active`` ``(M,)``, positions ``(M, 2)`` and
+    ``(N, 2)`` map units; events ``(M,)``."""
+    batch = None if moves is None else BatchMoves(
+        moves.velocities[None], moves.dt, lambda _copy, players: moves.replay(players),
+        moves.longest)
+    events = resolve_batch((game_map,), _ONE_COPY, capture_radius, active[None],
+                           attackers_old[None], attackers_new[None], defenders_old[None],
+                           defenders_new[None], batch, None if bounds is None else (bounds,))
+    return StepEvents(events.captured[0], events.arrived[0], events.times[0],
+                      events.captor[0], events.left[0], events.stops[0])
+
+
+_ONE_COPY = np.zeros(1, dtype=np.intp)
+
+
 def resolve_batch(maps: Sequence[GameMap], map_of: np.ndarray, capture_radius: float,
                   active: np.ndarray, attackers_old: np.ndarray, attackers_new: np.ndarray,
                   defenders_old: np.ndarray, defenders_new: np.ndarray,
-                  moves: BatchMoves) -> StepEvents:
-    """``resolve_events`` of ``K`` copies at once: arrays ``(K, M)`` / ``(K, M, 2)`` /
-    ``(K, N, 2)``, copy ``k`` on map ``maps[map_of[k]]``. Each copy's events are exactly
-    those ``resolve_events`` (with its ``Moves``) finds for it: the straight segments with
-    the same arithmetic, element by element, and ``resolve_events`` itself for the few
-    copies where a player near an event slid (the rule that judges it on its path)."""
+                  moves: BatchMoves | None = None,
+                  bounds: Sequence[tuple[float, float, float, float]] | None = None,
+                  ) -> StepEvents:
+    """Which of the ``active`` attackers of ``K`` copies are captured or arrive in one step.
+
+    Args:
+        maps: the maps the copies play; copy ``k`` plays ``maps[map_of[k]]``.
+        map_of: ``(K,)`` int.
+        capture_radius: map units.
+        active: ``(K, M)`` bool, the attackers in play.
+        attackers_old, attackers_new: ``(K, M, 2)`` positions (map units) at the start and
+            the end of the step.
+        defenders_old, defenders_new: ``(K, N, 2)`` the same.
+        moves: judge the players that slid on their paths (``BatchMoves``); without it
+            every player is judged on its straight segment.
+        bounds: ``target_bounds`` of every map (only saves work).
+
+    Returns:
+        ``StepEvents`` of arrays ``(K, M)`` (``stops`` ``(K, M, 2)``). Each attacker's
+        earliest event wins; a tie goes to capture (module docstring). Two cheap filters
+        skip the exact tests for pairs too far apart to meet and attackers too far from
+        the target; every copy's events are those of the copy alone.
+    """
     k, m = active.shape
-    pair_times = capture_times(attackers_old, attackers_new, defenders_old, defenders_new,
-                               capture_radius)
-    captor = pair_times.argmin(axis=2)
-    t_capture = np.take_along_axis(pair_times, captor[..., None], axis=2)[..., 0]
-    t_arrival = np.full((k, m), np.inf)
-    # The copies to hand to resolve_events: where a player near an event (a superset of
-    # what resolve_events calls near, by a relative 1e-6) slid.
-    wide = moves.longest * (1.0 + 1e-6)
-    near = np.zeros((k, m), dtype=bool)
-    for index in np.unique(map_of).tolist():
-        xmin, xmax, ymin, ymax = target_bounds(maps[index])
-        centre = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
-        half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
-        here = (map_of == index)[:, None] & active
-        near |= (np.abs(attackers_old - centre) <= half + wide).all(axis=2) & here
-        if near.any():
-            t_arrival[near & here] = maps[index].target_entry_time(
-                attackers_old[near & here], attackers_new[near & here])
+    t_capture, t_arrival = np.full((k, m), np.inf), np.full((k, m), np.inf)
+    captor = np.full((k, m), -1)
+    # Nobody moves farther than sqrt(2) times its largest coordinate change (nor along a
+    # path farther than the longest asked move), so a pair farther apart than
+    # capture_radius plus two such moves cannot meet this step.
+    if moves is None:
+        a_move = np.abs(attackers_new - attackers_old)
+        longest = math.sqrt(2.0) * np.maximum(
+            a_move.max(axis=(1, 2)),
+            np.abs(defenders_new - defenders_old).max(axis=(1, 2)))[:, None, None]
+    else:
+        a_move = longest = moves.longest
+    reach = capture_radius + 2.0 * longest
+    gaps = attackers_old[:, :, None, :] - defenders_old[:, None, :, :]
+    meeting = (np.einsum("kijd,kijd->kij", gaps, gaps) <= reach * reach) & active[..., None]
+    pair_times = None
+    if meeting.any():
+        pair_times = capture_times(attackers_old, attackers_new, defenders_old, defenders_new,
+                                   capture_radius)
+    # Only attackers whose move spans the target's bounding box on both axes can enter it.
+    boxes = [target_box(b) for b in (bounds or [target_bounds(g) for g in maps])]
+    if len(maps) == 1:
+        centre, half = boxes[0]
+    else:
+        centre = np.array([box[0] for box in boxes])[map_of][:, None]
+        half = np.array([box[1] for box in boxes])[map_of][:, None]
+    near = (np.abs(attackers_old - centre) <= half + a_move).all(axis=2) & active
+    if near.any():
+        for index in np.unique(map_of[near.any(axis=1)]).tolist():
+            here = near if len(maps) == 1 else near & (map_of == index)[:, None]
+            t_arrival[here] = maps[index].target_entry_time(attackers_old[here],
+                                                            attackers_new[here])
+    slides: dict[int, _Slides] = {}
+    if moves is not None and (near.any() or pair_times is not None):
+        old = np.concatenate([attackers_old, defenders_old], axis=1)
+        new = np.concatenate([attackers_new, defenders_new], axis=1)
+        involved = np.concatenate([near | meeting.any(axis=2), meeting.any(axis=1)], axis=1)
+        moved = slid(old, new, moves.velocities * moves.dt) & involved
+        for c in np.flatnonzero(moved.any(axis=1)).tolist():
+            slides[c] = _judge_slides(maps[map_of[c]], capture_radius, moved[c],
+                                      functools.partial(moves.replay, c), near[c], meeting[c],
+                                      None if pair_times is None else pair_times[c],
+                                      t_arrival[c], old[c], new[c])
+            t_arrival[c] = slides[c].arrival
+    if pair_times is not None:
+        captor = pair_times.argmin(axis=2)
+        t_capture = np.take_along_axis(pair_times, captor[..., None], axis=2)[..., 0]
     captured = active & (t_capture <= 1.0) & (t_capture <= t_arrival)
     arrived = active & ~captured & (t_arrival <= 1.0)
     left = captured | arrived
     times = np.where(captured, t_capture, np.where(arrived, t_arrival, np.inf))
-    stops = attackers_new.copy()
-    stops[left] = attackers_old[left] + times[left][:, None] * (attackers_new[left]
-                                                               - attackers_old[left])
-    events = StepEvents(captured, arrived, times, np.where(captured, captor, -1), left, stops)
-    reach = (capture_radius + 2.0 * moves.longest) * (1.0 + 1e-6)
-    gaps = attackers_old[:, :, None, :] - defenders_old[:, None, :, :]
-    meeting = (np.einsum("kijd,kijd->kij", gaps, gaps) <= reach * reach) & active[..., None]
-    old = np.concatenate([attackers_old, defenders_old], axis=1)
-    new = np.concatenate([attackers_new, defenders_new], axis=1)
-    moved = slid(old, new, moves.velocities * moves.dt)
-    involved = np.concatenate([near | meeting.any(axis=2), meeting.any(axis=1)], axis=1)
-    for c in np.flatnonzero((moved & involved).any(axis=1)).tolist():
-        one = resolve_events(maps[map_of[c]], capture_radius, active[c], attackers_old[c],
-                             attackers_new[c], defenders_old[c], defenders_new[c],
-                             target_bounds(maps[map_of[c]]),
-                             Moves(moves.velocities[c], moves.dt,
-                                   functools.partial(moves.replay, c), moves.longest))
-        for field in ("captured", "arrived", "times", "captor", "left", "stops"):
-            getattr(events, field)[c] = getattr(one, field)
-    return events
+    stops = attackers_new
+    if left.any():
+        stops = attackers_new.copy()
+        t = times[left][:, None]
+        stops[left] = attackers_old[left] + t * (attackers_new[left] - attackers_old[left])
+        for c, bent in slides.items():
+            which = left[c, bent.bent]
+            if which.any():
+                stops[c, bent.bent[which]] = position_on_path(bent.paths[:, which],
+                                                              times[c, bent.bent[which]])
+    return StepEvents(captured, arrived, times, np.where(captured, captor, -1), left, stops)
+
+
+def _judge_slides(game_map: GameMap, capture_radius: float, moved: np.ndarray,
+                  replay: Callable[[np.ndarray], np.ndarray], near: np.ndarray,
+                  meeting: np.ndarray, pair_times: np.ndarray | None, arrival: np.ndarray,
+                  old: np.ndarray, new: np.ndarray) -> _Slides:
+    """``resolve_batch``' times of one copy again, on the players' paths (``replay``), for
+    the attackers near the target that slid and the pairs that may meet where either
+    slid; ``moved`` ``(M + N,)`` marks the players near an event that slid (some do).
+    ``pair_times`` ``(M, N)`` is updated in place."""
+    m = len(near)
+    players = np.flatnonzero(moved)
+    replayed = replay(players)
+    replayed[0], replayed[-1] = old[players], new[players]   # the world's own ends
+    path = straight_path(old, new, replayed.shape[0] - 1)
+    path[:, players] = replayed
+    bent = np.flatnonzero(moved[:m])
+    arrival = arrival.copy()
+    turned = bent[near[bent]]
+    arrival[turned] = path_entry_time(game_map, path[:, turned])
+    pairs = meeting & (moved[:m, None] | moved[None, m:])
+    if pairs.any():
+        rows = np.flatnonzero(pairs.any(axis=1))
+        bent_times = path_capture_times(path[:, rows], path[:, m:], capture_radius)
+        pair_times[rows] = np.where(pairs[rows], bent_times, pair_times[rows])  # computed
+    return _Slides(arrival, bent, path[:, bent])
 
 
 class EventWatch:
@@ -377,9 +369,7 @@ class EventWatch:
     def __init__(self, capture_radius: float, bounds: tuple[float, float, float, float],
                  longest: float) -> None:
         self._radius, self._longest = capture_radius, longest
-        xmin, xmax, ymin, ymax = bounds
-        self._centre = np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
-        self._half = np.array([(xmax - xmin) / 2, (ymax - ymin) / 2])
+        self._centre, self._half = target_box(bounds)
         self._slack = -math.inf
         self._spent = 0.0
 
@@ -409,8 +399,10 @@ class EventWatch:
         return self._spent < self._slack
 
 
-def no_events(m: int, stops: np.ndarray) -> StepEvents:
-    """The events of a step in which none of ``m`` attackers left; ``stops`` ``(M, 2)``
-    their new positions."""
-    return StepEvents(np.zeros(m, dtype=bool), np.zeros(m, dtype=bool), np.full(m, np.inf),
-                      np.full(m, -1), np.zeros(m, dtype=bool), stops)
+def no_events(stops: np.ndarray) -> StepEvents:
+    """The events of a step in which no attacker left: ``stops`` ``(..., M, 2)`` their new
+    positions (map units); arrays ``(..., M)``."""
+    shape = stops.shape[:-1]
+    return StepEvents(np.zeros(shape, dtype=bool), np.zeros(shape, dtype=bool),
+                      np.full(shape, np.inf), np.full(shape, -1), np.zeros(shape, dtype=bool),
+                      stops)

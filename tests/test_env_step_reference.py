@@ -12,7 +12,6 @@ import pytest
 
 from reachavoid_env import Box, Circle, GameMap, Polygon, ReachAvoidEnv, Scenario, rules
 from reachavoid_env.environment import _STATUSES
-from reachavoid_env.game_state import AttackerStatus
 from reachavoid_env.observations import GLOBAL
 
 MIXED_MAP = GameMap(
@@ -30,42 +29,23 @@ MIXED = Scenario(map=MIXED_MAP, num_attackers=4, num_defenders=3, capture_radius
 
 
 class ReferenceEnv(ReachAvoidEnv):
-    """The env with the reference event phase (the rules at every step) and infos."""
+    """The env with the reference event phase (the rules at every step: the core without
+    its watch) and infos."""
 
-    def _resolve_events(self, old, new, velocities):
-        m = self._m
-        world = self._world
-        moves = rules.Moves(velocities, self.scenario.dt,
-                            lambda players: world.replay(old[players], velocities[players]),
-                            self._longest_move)
-        events = rules.resolve_events(self.scenario.map, self.scenario.capture_radius,
-                                      self._active[:m].copy(), old[:m], new[:m], old[m:],
-                                      new[m:], self._target_bounds, moves)
-        left = events.left
-        if left.any():
-            new[:m][left] = events.stops[left]
-            self._status[events.captured] = AttackerStatus.CAPTURED.code
-            self._status[events.arrived] = AttackerStatus.ARRIVED.code
-            self._captured_count += int(events.captured.sum())
-            self._arrived_count += int(events.arrived.sum())
-            self._active[:m] &= ~left
-            if not self._active[:m].any():
-                self._active[m:] = False
-            self._all_active = False
-        self._positions = new
-        if self.observation.egocentric:
-            self._velocities = (new - old) / self.scenario.dt
-            self._velocities[~self._active] = 0.0
-        return events
+    def reset(self, seed=None, options=None):
+        out = super().reset(seed=seed, options=options)
+        self._core._watch = None
+        return out
 
     def _infos(self, agents, captor):
-        counts = {"captured": self._captured_count, "arrived": self._arrived_count}
+        captured, arrived = self._core.counts[0]
+        counts = {"captured": int(captured), "arrived": int(arrived)}
         infos: dict[str, dict[str, Any]] = {}
         for name in agents:
             i = self._index[name]
             info = dict(counts)
             if i < self._m:
-                code, by = int(self._status[i]), int(captor[i])
+                code, by = int(self._core.status[0, i]), int(captor[i])
                 if self.info_format == "numeric":
                     info.update({"status": code, "captured_by": by})
                 elif by < 0:
