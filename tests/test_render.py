@@ -150,11 +150,11 @@ def test_captured_plus_and_arrival_ring(renderer):
     frame = renderer.rgb_array()
     assert is_like(pixel(renderer, frame, captured), R.CAPTURED, 10)
     # the '+' has arms but no diagonal
-    scale = renderer.width / 640 * 5 / renderer._scale
+    scale = renderer.width / 640 * 5 / renderer.frame.scale
     assert is_like(pixel(renderer, frame, captured + [scale, 0]), R.CAPTURED, 10)
     assert is_like(pixel(renderer, frame, captured + [scale, scale]), R.FIELD, 10)
     assert is_like(pixel(renderer, frame, arrived), R.ATTACKER, 30)  # centre dot
-    ring = 7 * 1.3 * renderer.width / 640 / renderer._scale
+    ring = 7 * 1.3 * renderer.width / 640 / renderer.frame.scale
     assert is_like(pixel(renderer, frame, arrived + [ring, 0]), R.ATTACKER, 60)
     assert is_like(pixel(renderer, frame, arrived + [ring / 2, 0]), R.TARGET, 10)
 
@@ -190,7 +190,7 @@ def test_a_new_episode_starts_without_old_trails(renderer):
 
 
 def test_header_shows_time_counts_and_overlay_lines(renderer, scenario):
-    header = slice(0, renderer._header)
+    header = slice(0, renderer.frame.header)
     renderer.draw(state_of(scenario.attackers, scenario.defenders))
     first = renderer.rgb_array()[header]
     renderer.draw(state_of(scenario.attackers, scenario.defenders, time=0.5, step=100))
@@ -240,10 +240,10 @@ def test_env_human_mode_under_the_dummy_driver(monkeypatch):
 
 def test_long_overlay_lines_are_cut_short(renderer, scenario):
     line = "assignment: " + ", ".join(f"defender_{j}->attacker_{j}" for j in range(12))
-    fitted = renderer._fit(line, renderer.width - 20)
+    fitted = renderer.frame.fit(line, renderer.width - 20)
     assert fitted.endswith("...") and line.startswith(fitted[:-3])
-    assert renderer._font.size(fitted)[0] <= renderer.width - 20
-    assert renderer._fit("short", renderer.width) == "short"
+    assert renderer.frame.font.size(fitted)[0] <= renderer.width - 20
+    assert renderer.frame.fit("short", renderer.width) == "short"
     renderer.draw(state_of(scenario.attackers, scenario.defenders), Overlay(lines=(line,)))
 
 
@@ -300,7 +300,7 @@ def test_each_edge_kind_in_its_own_colour(renderer, kind):
 
 
 def test_legend_shows_every_kind_and_the_counts(renderer, scenario):
-    legend = slice(renderer._legend_top, renderer.height)
+    legend = slice(renderer.frame.legend_top, renderer.height)
     status = [ACTIVE] * 4 + [CAPTURED, ARRIVED]
     renderer.draw(state_of(scenario.attackers, scenario.defenders, status))
     frame = renderer.rgb_array()
@@ -310,16 +310,16 @@ def test_legend_shows_every_kind_and_the_counts(renderer, scenario):
         assert np.all(np.abs(below - colour) <= 20, axis=1).sum() > 5, colour
     renderer.draw(state_of(scenario.attackers, scenario.defenders))
     assert (renderer.rgb_array()[legend] != frame[legend]).any()  # the counts changed
-    map_rows = slice(renderer._header, renderer._legend_top)
+    map_rows = slice(renderer.frame.header, renderer.frame.legend_top)
     assert (renderer.rgb_array()[map_rows] == frame[map_rows]).sum() > 0.99 * frame[
         map_rows].size - 2000  # only the attackers' glyphs differ
 
 
 def test_legend_names_the_trails_when_there_are_any(scenario):
-    words = [entry.widest for group in Renderer(scenario.map, 0.1)._legend for entry in group]
+    words = [entry.widest for group in Renderer(scenario.map, 0.1).legend.groups for entry in group]
     assert "trails: the last 1 s" in words
     still = Renderer(scenario.map, 0.1, trail_seconds=0.0)
-    assert not any(e.widest.startswith("trails") for group in still._legend for e in group)
+    assert not any(e.widest.startswith("trails") for group in still.legend.groups for e in group)
 
 
 @pytest.mark.parametrize("word", ["attackers", "guaranteed"])
@@ -327,7 +327,7 @@ def test_words_keep_their_letters_together(scenario, word):
     """The bundled font's kerning opened gaps inside words ("at tackers", "guaran teed"):
     at a 1280-pixel frame no blank run between two letters is wider than 4 pixels (those
     were 5 and 6)."""
-    font = Renderer(scenario.map, 0.1, width=1280)._font
+    font = Renderer(scenario.map, 0.1, width=1280).frame.font
     ink = (pygame.surfarray.array_alpha(font.render(word, True, R.TEXT)) > 60).any(axis=1)
     columns = np.flatnonzero(ink)
     runs = np.diff(columns) - 1
@@ -352,11 +352,11 @@ def test_title_and_outcome_banner(renderer, scenario):
     titled = renderer.rgb_array()
     renderer.draw(state, game_over=True)
     banner = renderer.rgb_array()
-    title_rows = slice(0, renderer._title_font.get_linesize())
+    title_rows = slice(0, renderer.frame.title_font.get_linesize())
     assert (titled[title_rows] != plain[title_rows]).any()
-    assert (titled[renderer._header:] == plain[renderer._header:]).all()
+    assert (titled[renderer.frame.header:] == plain[renderer.frame.header:]).all()
     top = renderer.to_pixels(np.array([0.0, 0.95]))[1]
-    band = slice(renderer._header, round(top) + 20)
+    band = slice(renderer.frame.header, round(top) + 20)
     assert (banner[band] != plain[band]).sum() > 1000
     assert np.all(np.abs(banner[band].reshape(-1, 3).astype(int) - R.ATTACKER) <= 20,
                   axis=1).sum() > 50  # red frame: an attacker arrived

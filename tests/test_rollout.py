@@ -100,9 +100,9 @@ class Says(GreedyDefender):
 
 def overlay_line_ink(frame: np.ndarray, renderer: Renderer) -> int:
     """Dark pixels in the first overlay text row of ``frame``."""
-    top = round(renderer._margin / 2) + renderer._title_font.get_linesize() + \
-        renderer._line_height
-    row = frame[top:top + renderer._line_height, :renderer.width // 2]
+    layout = renderer.frame
+    top = round(layout.margin / 2) + layout.title_font.get_linesize() + layout.line_height
+    row = frame[top:top + layout.line_height, :renderer.width // 2]
     return int((row.max(axis=2) < 140).sum())
 
 
