@@ -137,7 +137,8 @@ class Captions:
         lines = list(overlay.lines) if overlay is not None else []
         if len(lines) > frame.text_lines:
             lines = lines[:frame.text_lines]
-            lines[-1] += " ..."
+            if lines:  # no room for text (text_lines=0): none drawn
+                lines[-1] += " ..."
         for k, line in enumerate(lines, start=1):
             text = frame.text(frame.fit(line, room), P.TEXT_DIM, frame.font)
             frame.surface.blit(text, (pad, top + k * frame.line_height))

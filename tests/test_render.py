@@ -203,6 +203,15 @@ def test_header_shows_time_counts_and_overlay_lines(renderer, scenario):
     assert (first.max(axis=2) < 100).sum() > 100  # dark text on the light header
 
 
+def test_no_text_lines_leave_the_overlay_text_out(scenario):
+    renderer = Renderer(scenario.map, scenario.capture_radius, text_lines=0)
+    state = state_of(scenario.attackers, scenario.defenders)
+    renderer.draw(state)
+    plain = renderer.rgb_array()
+    renderer.draw(state, Overlay(lines=("assignment: D0 -> A1",)))  # raised IndexError
+    assert (renderer.rgb_array() == plain).all()
+
+
 def test_bad_arguments(scenario):
     with pytest.raises(ValueError, match="capture_radius"):
         Renderer(scenario.map, 0.0)
