@@ -1,10 +1,9 @@
-"""The reference defenders and the greedy ones acting on K copies of a game in one call.
+"""The reference defenders acting on K copies of a game in one call.
 
 Each class here is a ``reachavoid_env.BatchPolicy``: ``reset_copies(copies, scenarios)``
 and ``act_batch(states) -> (K, N, 2)``, and gives every copy exactly (bit for bit) the
 actions its single-game policy gives for that copy's ``GameState``:
 
-- ``BatchGreedyDefenders``: ``policies.defenders.GreedyDefender``, in numpy over the batch;
 - ``BatchHJDefenders``: ``policies.defenders.HJDefenderPolicy`` (``idle="intercept"``, the
   registry's ``hj``). What reads many points runs over every copy's players at once: the
   1 vs 1 lookups and the open-space certificate of the step's open wins (asked, as the
@@ -62,27 +61,6 @@ from solvers.hj import PAPER_GRIDS, ValueFunction
 
 ACTIVE = 0
 """``AttackerStatus.ACTIVE.code``: the status of an attacker still in the game."""
-
-
-class BatchGreedyDefenders:
-    """``GreedyDefender`` on K copies: every defender runs at full speed straight at the
-    nearest active attacker (the first of equals), and stands still once none is left."""
-
-    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
-        """Nothing to prepare: greedy defenders keep no state."""
-
-    def act_batch(self, states: BatchState) -> np.ndarray:
-        attackers = np.asarray(states.attacker_positions, dtype=np.float64)
-        defenders = np.asarray(states.defender_positions, dtype=np.float64)
-        active = np.asarray(states.attacker_status) == ACTIVE
-        gaps = attackers[:, None, :, :] - defenders[:, :, None, :]              # (K, N, M, 2)
-        distances = np.linalg.norm(gaps, axis=-1)
-        nearest = np.argmin(np.where(active[:, None, :], distances, np.inf), axis=2)
-        k, j = np.indices(nearest.shape)
-        chase, length = gaps[k, j, nearest], distances[k, j, nearest][..., None]
-        actions = np.divide(chase, length, out=np.zeros_like(chase), where=length > 0)
-        actions[~active.any(axis=1)] = 0.0
-        return actions.astype(np.float32)
 
 
 @dataclass

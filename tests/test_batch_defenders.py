@@ -7,12 +7,14 @@ import dataclasses
 
 import numpy as np
 import pytest
+from defenders_reference import ReferenceGreedyDefender
 
 import reachavoid_env
 from policies.attackers import ShortestPathAttacker
-from policies.batch_defenders import BatchGreedyDefenders, BatchHJDefenders
+from policies.batch_defenders import BatchHJDefenders
 from policies.certificate import Basis
-from policies.defenders import GreedyDefender, HJDefenderPolicy
+from policies.defenders import HJDefenderPolicy
+from policies.greedy import BatchGreedyDefenders, GreedyDefender
 from policies.registry import make_batch_policy
 from reachavoid_env import BatchState, PerCopy, PerMap
 
@@ -146,9 +148,25 @@ def test_per_map_needs_every_copy_reset():
 
 
 def test_batched_greedy_plays_as_one_policy_per_copy():
+    """K = 1 against K = 16 of the one greedy, and the greedy of before it was batched (a
+    numpy twin in ``tests/defenders_reference.py``), edges included."""
     scenario = reachavoid_env.builtin_scenario("paper_8v4")
     play_side_by_side(scenario, 16, 200, PerCopy(lambda _: GreedyDefender()),
                       BatchGreedyDefenders())
+    single, twin = PerCopy(lambda _: GreedyDefender()), PerCopy(
+        lambda _: ReferenceGreedyDefender())
+
+    def same_edges(_):
+        for mine, theirs in zip(single.policies, twin.policies, strict=True):
+            assert mine.overlay() == theirs.overlay()
+
+    copies = Copies(scenario, 4, [single, twin])
+    for _ in range(150):
+        state = copies.state()
+        expected, got = twin.act_batch(state), single.act_batch(state)
+        assert np.array_equal(expected.view(np.uint32), got.view(np.uint32))
+        same_edges(None)
+        copies.step(expected)
 
 
 def test_batch_state_gives_each_copy_as_the_env_does():
