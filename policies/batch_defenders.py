@@ -8,15 +8,16 @@ actions its single-game policy gives for that copy's ``GameState``:
   registry's ``hj``). What reads many points runs over every copy's players at once: the
   1 vs 1 lookups and the open-space certificate of the step's open wins (asked, as the
   single policy asks, only where read), the certificate check of the open-space games
-  held, the attackers' shortest paths and races (``policies.intercept.race_points``), the
-  intercept plan (one numba call), the certified defenders' steering and parallel
-  navigation; the decision tables before the program and the controls after it, one numba
-  call each for all copies (``policies.lookups.batch_decision_tables`` /
-  ``batch_decision_controls``, each copy through the single policy's kernel). What each
-  copy decides alone stays per copy, in the single policy's own functions: the kept
-  certified games and the assignment program, solved on CP-SAT only where its inputs
-  changed (each copy has its ``AssignmentSolver``, whose cache answers an unchanged
-  program). No overlay and no ``nominal_captures``: the batch is for training.
+  held, the attackers' shortest paths and races (``policies.intercept.race_copies``), the
+  intercept plan (``policies.intercept.plan_copies``, one numba call), the certified
+  defenders' steering and parallel navigation; the decision tables before the program
+  and the controls after it, one numba call each for all copies
+  (``policies.lookups.batch_decision_tables`` / ``batch_decision_controls``, each copy
+  through the single policy's kernel). What each copy decides alone stays per copy, in
+  the single policy's own functions: the kept certified games and the assignment
+  program, solved on CP-SAT only where its inputs changed (each copy has its
+  ``AssignmentSolver``, whose cache answers an unchanged program). No overlay and no
+  ``nominal_captures``: the batch is for training.
 
 Every batched computation applies the single policy's arithmetic to each row alone
 (elementwise numpy, per-point lookups, reductions along the same axes), which is what
@@ -29,7 +30,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 
 from policies.certificate import (
     Basis,
@@ -42,7 +42,7 @@ from policies.certificate import (
     open_games,
     roles_of,
 )
-from policies.intercept import PATH_STEP, Plan, headings, race_points, traced_points
+from policies.intercept import headings, plan_copies, race_copies
 from policies.lookups import (
     Ragged,
     TubeArrays,
@@ -290,12 +290,15 @@ class BatchHJDefenders:
         """``AssignmentDefender._play_plan`` of every live copy: the races and the
         intercept plan of all copies at once, the games' keepers per copy, then the
         certified defenders' steering."""
-        aims, targets = _plan(*_races(self._field, game), game.active)
-        desired = headings(Plan(targets, aims), game.defenders, game.attackers)
+        plan = plan_copies(race_copies(self._field, game.attackers, game.defenders,
+                                       game.active, game.attacker_speed,
+                                       game.defender_speed, game.capture_radius),
+                           np.ones(game.defenders.shape[:2], dtype=bool), game.active)
+        desired = headings(plan, game.defenders, game.attackers)
         free = np.ones(actions.shape[:2], dtype=bool)
         for c, copy in enumerate(game.copies):
             free[c, [j for match in copy.certified for j in match.defenders]] = False
-            free[c, game_keepers(copy.singles, copy.doubles, targets[c], ~free[c])] = False
+            free[c, game_keepers(copy.singles, copy.doubles, plan.targets[c], ~free[c])] = False
         actions[free] = desired[free]
         self._steer_certified(game, desired, actions)
 
@@ -358,76 +361,3 @@ class _Batch:
     defender_speed: float
     capture_radius: float
     copies: list[_Copy]
-
-
-def _races(paths: DistanceField, game: _Batch) -> tuple[np.ndarray, ...]:
-    """``policies.intercept.race_all`` of every live copy: ``wins``, ``aims``, ``times``
-    ``(L, M, N[, 2])`` and ``threat (L, M)``, the paths of every copy's active attackers
-    traced in one call and raced in one (an inactive attacker's rows never won, at
-    infinite times)."""
-    c, i = np.nonzero(game.active)
-    points, counts = traced_points(paths, game.attackers[c, i])
-    attacker_time = np.arange(points.shape[1]) * PATH_STEP / game.attacker_speed
-    won, best = race_points(points, counts, game.defenders, c, game.defender_speed,
-                            game.capture_radius, attacker_time)
-    copies, m = game.active.shape
-    n = game.defenders.shape[1]
-    wins = np.zeros((copies, m, n), dtype=bool)
-    aims = np.zeros((copies, m, n, 2))
-    times = np.full((copies, m, n), np.inf)
-    threat = np.full((copies, m), np.inf)
-    wins[c, i] = won
-    aims[c, i] = points[np.arange(len(c))[:, None], best]
-    times[c, i] = attacker_time[best]
-    threat[c, i] = attacker_time[np.maximum(counts - 1, 0)]
-    return wins, aims, times, threat
-
-
-@njit(cache=True)
-def _plan(wins, aims, times, threat, active):
-    """``policies.intercept.plan_intercepts`` of every copy (``_races``' tables; every
-    defender free, the active attackers ``(L, M)`` open): ``aims (L, N, 2)`` and
-    ``targets (L, N)``, ties broken as there (the stable threat order, the first
-    defender, the first attacker in that order)."""
-    copies, m, n = wins.shape
-    targets = np.full((copies, n), -1, dtype=np.int64)
-    planned = np.zeros((copies, n, 2))
-    order = np.empty(m, dtype=np.int64)
-    left = np.empty(n, dtype=np.bool_)
-    for c in range(copies):
-        count = 0
-        for i in range(m):  # open attackers by threat, stable (insertion sort)
-            if not active[c, i]:
-                continue
-            at = count
-            while at > 0 and threat[c, i] < threat[c, order[at - 1]]:
-                order[at] = order[at - 1]
-                at -= 1
-            order[at] = i
-            count += 1
-        if count == 0:
-            continue
-        left[:] = True
-        for r in range(count):
-            i = order[r]
-            best = -1
-            for j in range(n):
-                if left[j] and wins[c, i, j] and (best < 0 or times[c, i, j] < times[c, i, best]):
-                    best = j
-            if best >= 0:
-                targets[c, best] = i
-                planned[c, best] = aims[c, i, best]
-                left[best] = False
-        for j in range(n):
-            if not left[j]:
-                continue
-            best = -1
-            for r in range(count):
-                i = order[r]
-                if wins[c, i, j] and (best < 0 or times[c, i, j] < times[c, best, j]):
-                    best = i
-            if best < 0:
-                best = order[0]
-            targets[c, j] = best
-            planned[c, j] = aims[c, best, j]
-    return planned, targets

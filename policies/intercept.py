@@ -129,17 +129,47 @@ class Races(NamedTuple):
     threat: np.ndarray
 
 
-def races(paths: Paths, defenders: np.ndarray, attacker_speed: float,
-          defender_speed: float, capture_radius: float, step: float = PATH_STEP) -> Races:
-    """Race every defender ``(N, 2)`` against every traced attacker path (map units,
-    speeds in map units per second)."""
-    points, counts = paths
-    attacker_time = np.arange(points.shape[1]) * step / attacker_speed
-    wins, best = race_points(points, counts, defenders[None], np.zeros(len(points), np.int64),
-                             defender_speed, capture_radius, attacker_time)
-    aims = points[np.arange(len(points))[:, None], best]
-    return Races(wins, aims, attacker_time[best],
-                 attacker_time[np.maximum(counts - 1, 0)])
+def race_copies(field: DistanceField, attackers: np.ndarray, defenders: np.ndarray,
+                active: np.ndarray, attacker_speed: float, defender_speed: float,
+                capture_radius: float) -> Races:
+    """The ``Races`` of L copies of a game at once: every defender against every active
+    attacker of its copy, the paths of all copies' active attackers traced in one call and
+    raced in one; an inactive attacker's rows are never won, at infinite times.
+
+    Args:
+        field: the map's geodesic distance field.
+        attackers: ``(L, M, 2)`` positions (map units), copies first.
+        defenders: ``(L, N, 2)`` positions (map units).
+        active: ``(L, M)`` bool, the attackers still in the game.
+        attacker_speed, defender_speed: map units per second.
+        capture_radius: map units.
+
+    Returns:
+        ``Races`` with a leading copy axis: ``wins``, ``times`` ``(L, M, N)``, ``aims``
+        ``(L, M, N, 2)``, ``threat`` ``(L, M)``.
+    """
+    c, i = np.nonzero(active)
+    points, counts = traced_points(field, attackers[c, i])
+    attacker_time = np.arange(points.shape[1]) * PATH_STEP / attacker_speed
+    won, best = race_points(points, counts, defenders, c, defender_speed, capture_radius,
+                            attacker_time)
+    copies, m = active.shape
+    n = defenders.shape[1]
+    race = Races(np.zeros((copies, m, n), dtype=bool), np.zeros((copies, m, n, 2)),
+                 np.full((copies, m, n), np.inf), np.full((copies, m), np.inf))
+    race.wins[c, i] = won
+    race.aims[c, i] = points[np.arange(len(c))[:, None], best]
+    race.times[c, i] = attacker_time[best]
+    race.threat[c, i] = attacker_time[np.maximum(counts - 1, 0)]
+    return race
+
+
+def race_all(field: DistanceField, state: GameState) -> Races:
+    """``race_copies`` of the one game ``state`` (``(M, N)`` arrays, no copy axis)."""
+    race = race_copies(field, state.attacker_positions[None], state.defender_positions[None],
+                       state.active_attackers[None], state.attacker_speed,
+                       state.defender_speed, state.capture_radius)
+    return Races(*(array[0] for array in race))
 
 
 @njit(cache=True)
@@ -182,8 +212,8 @@ class Plan(NamedTuple):
 
 
 def plan_intercepts(race: Races, free: np.ndarray, open_: np.ndarray) -> Plan:
-    """The free defenders' plan against the ``open_`` attackers (bool masks ``(N,)`` and
-    ``(M,)``).
+    """The free defenders' plan against the ``open_`` attackers of one game (bool masks
+    ``(N,)`` and ``(M,)``): ``plan_copies`` of that one copy.
 
     Most threatening attacker first (smallest ``race.threat``), each gets the free
     defender that intercepts it earliest; attackers no free defender can intercept are
@@ -191,23 +221,79 @@ def plan_intercepts(race: Races, free: np.ndarray, open_: np.ndarray) -> Plan:
     earliest, or, where it intercepts none, the most threatening open attacker (its aim
     the point it misses by the least time: a guard on that attacker's way in).
     """
-    n = len(free)
-    targets = np.full(n, -1, dtype=np.int64)
-    aims = np.zeros((n, 2))
-    left = free.copy()
-    order = [int(i) for i in np.argsort(race.threat, kind="stable") if open_[i]]
-    if not order:
-        return Plan(targets, aims)
-    for i in order:
-        able = np.flatnonzero(left & race.wins[i])
-        if len(able):
-            j = int(able[np.argmin(race.times[i, able])])
-            targets[j], aims[j], left[j] = i, race.aims[i, j], False
-    for j in np.flatnonzero(left):
-        able = [i for i in order if race.wins[i, j]]
-        i = min(able, key=lambda i: race.times[i, j]) if able else order[0]
-        targets[j], aims[j] = i, race.aims[i, j]
+    plan = plan_copies(Races(*(np.asarray(array)[None] for array in race)),
+                       np.asarray(free, dtype=bool)[None], np.asarray(open_, dtype=bool)[None])
+    return Plan(plan.targets[0], plan.aims[0])
+
+
+def plan_copies(race: Races, free: np.ndarray, open_: np.ndarray) -> Plan:
+    """``plan_intercepts`` of L copies at once (one numba call).
+
+    Args:
+        race: ``Races`` with a leading copy axis (``race_copies``).
+        free: ``(L, N)`` bool, the defenders the plan may send.
+        open_: ``(L, M)`` bool, the attackers it plans against.
+
+    Returns:
+        ``Plan`` with a leading copy axis: ``targets (L, N)`` (-1 for none), ``aims
+        (L, N, 2)`` map units (zero for none). Ties go as in a stable sort of the threat,
+        then to the first defender, then to the first attacker in threat order
+        (``tests/defenders_reference.py`` holds a numpy twin).
+    """
+    targets, aims = _plan(np.ascontiguousarray(race.wins, dtype=np.bool_),
+                          np.ascontiguousarray(race.aims, dtype=np.float64),
+                          np.ascontiguousarray(race.times, dtype=np.float64),
+                          np.ascontiguousarray(race.threat, dtype=np.float64),
+                          np.ascontiguousarray(free, dtype=np.bool_),
+                          np.ascontiguousarray(open_, dtype=np.bool_))
     return Plan(targets, aims)
+
+
+@njit(cache=True)
+def _plan(wins, aims, times, threat, free, open_):
+    """The kernel of ``plan_copies``: ``targets (L, N)`` and ``aims (L, N, 2)``."""
+    copies, m, n = wins.shape
+    targets = np.full((copies, n), -1, dtype=np.int64)
+    planned = np.zeros((copies, n, 2))
+    order = np.empty(m, dtype=np.int64)
+    left = np.empty(n, dtype=np.bool_)
+    for c in range(copies):
+        count = 0
+        for i in range(m):  # open attackers by threat, stable (insertion sort)
+            if not open_[c, i]:
+                continue
+            at = count
+            while at > 0 and threat[c, i] < threat[c, order[at - 1]]:
+                order[at] = order[at - 1]
+                at -= 1
+            order[at] = i
+            count += 1
+        if count == 0:
+            continue
+        left[:] = free[c]
+        for r in range(count):
+            i = order[r]
+            best = -1
+            for j in range(n):
+                if left[j] and wins[c, i, j] and (best < 0 or times[c, i, j] < times[c, i, best]):
+                    best = j
+            if best >= 0:
+                targets[c, best] = i
+                planned[c, best] = aims[c, i, best]
+                left[best] = False
+        for j in range(n):
+            if not left[j]:
+                continue
+            best = -1
+            for r in range(count):
+                i = order[r]
+                if wins[c, i, j] and (best < 0 or times[c, i, j] < times[c, best, j]):
+                    best = i
+            if best < 0:
+                best = order[0]
+            targets[c, j] = best
+            planned[c, j] = aims[c, best, j]
+    return targets, planned
 
 
 def headings(plan: Plan, defenders: np.ndarray, attackers: np.ndarray) -> np.ndarray:
@@ -259,19 +345,3 @@ class InterceptDefender:
 
     def overlay(self) -> Overlay:
         return Overlay(edges=self._edges)
-
-
-def race_all(field: DistanceField, state: GameState) -> Races:
-    """``races`` of every defender of ``state`` against every active attacker (the paths of
-    the active ones traced); an inactive attacker's rows are never won, at infinite
-    times."""
-    active = state.active_attackers
-    attackers = state.attacker_positions
-    race = races(trace_paths(field, attackers[active]), state.defender_positions,
-                 state.attacker_speed, state.defender_speed, state.capture_radius)
-    m, n = len(attackers), len(state.defender_positions)
-    full = Races(np.zeros((m, n), dtype=bool), np.zeros((m, n, 2)), np.full((m, n), np.inf),
-                 np.full(m, np.inf))
-    for name, array in zip(Races._fields, race, strict=True):
-        getattr(full, name)[active] = array
-    return full

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from policies.intercept import Plan, Races
 from reachavoid_env import GameState, Overlay, Scenario
 
 
@@ -37,3 +38,25 @@ class ReferenceGreedyDefender:
 
     def overlay(self) -> Overlay:
         return Overlay(edges=self._edges)
+
+
+def reference_plan(race: Races, free: np.ndarray, open_: np.ndarray) -> Plan:
+    """``policies.intercept.plan_intercepts`` as numpy (one game, ``(M, N)`` races), as it
+    was written before the plan became one numba kernel (``plan_copies``)."""
+    n = len(free)
+    targets = np.full(n, -1, dtype=np.int64)
+    aims = np.zeros((n, 2))
+    left = free.copy()
+    order = [int(i) for i in np.argsort(race.threat, kind="stable") if open_[i]]
+    if not order:
+        return Plan(targets, aims)
+    for i in order:
+        able = np.flatnonzero(left & race.wins[i])
+        if len(able):
+            j = int(able[np.argmin(race.times[i, able])])
+            targets[j], aims[j], left[j] = i, race.aims[i, j], False
+    for j in np.flatnonzero(left):
+        able = [i for i in order if race.wins[i, j]]
+        i = min(able, key=lambda i: race.times[i, j]) if able else order[0]
+        targets[j], aims[j] = i, race.aims[i, j]
+    return Plan(targets, aims)
