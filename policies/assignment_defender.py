@@ -25,10 +25,9 @@ from policies.certificate import (
     open_games,
     roles_of,
 )
-from policies.intercept import Plan, plan_intercepts, race_all
-from policies.intercept import headings as intercept_headings
+from policies.intercept import Plan
 from policies.lookups import DecisionTables, TubeArrays, decision_controls, decision_tables
-from policies.steering import game_keepers, steer
+from policies.steering import PlanGames, Tempo, play_plan
 from policies.strategy import Program, Strategy
 from policies.tube_states import control_headings, pair_states, team_states, team_values
 from policies.tubes import check_tube
@@ -246,7 +245,7 @@ class AssignmentDefender:
         certified = self._certified if self.strategy.certifies else []
         wins = self._open_wins(state)
         held = (np.zeros(len(certified), dtype=bool) if self._open is None
-                else self._open.held(certified, state, wins))
+                else self._open.held([certified], *_one_copy(state), wins[None])[0])
         tables = self._tables(state, state.active_attackers, certified, wins, held)
         kept = kept_games(certified, tables.kept, tables.left, held, tables.values11)
         assignment = self.strategy.program.solve(self.solver, state, tables, self.vf12)
@@ -265,7 +264,8 @@ class AssignmentDefender:
             return np.zeros(shape, dtype=bool)
         values = self.vf11.value(pair_states(state.attacker_positions,
                                              state.defender_positions))
-        return self._open.wins(state, values <= 0.0)
+        asked = (values <= 0.0) & state.active_attackers[:, None]
+        return self._open.wins(*_one_copy(state)[:2], asked[None])[0]
 
     def _ask_new_games(self, decision: Decision, games: list[Match]) -> None:
         """``OpenSpace.wins`` of the 1 vs 1 ``games`` whose 1 vs 1 value lies in (0,
@@ -277,9 +277,11 @@ class AssignmentDefender:
         for game in games:
             if len(game.defenders) == len(game.attackers) == 1:
                 asked[game.attackers[0], game.defenders[0]] = True
-        asked &= (values > 0.0) & (values <= self.tubes.margins.m11)
+        asked &= ((values > 0.0) & (values <= self.tubes.margins.m11)
+                  & decision.state.active_attackers[:, None])
         if asked.any():
-            decision.wins[asked] = self._open.wins(decision.state, asked)[asked]
+            decision.wins[asked] = self._open.wins(*_one_copy(decision.state)[:2],
+                                                   asked[None])[0][asked]
 
     def _play_games(self, decision: Decision, actions: np.ndarray) -> list[Match]:
         """Write the optimal control of every defender alone in a game of the assignment
@@ -312,10 +314,9 @@ class AssignmentDefender:
     def _play_open(self, state: GameState, actions: np.ndarray) -> None:
         """Every defender of an open-space game plays parallel navigation (over whatever
         ``actions`` holds): the strategy its certificate is proved for."""
-        games = [game for game in self._certified if game.basis is Basis.OPEN]
-        if games:
-            actions[[game.defenders[0] for game in games]] = self._open.headings(
-                games, state, self._previous)
+        if self._open is not None:
+            self._open.play([self._certified], *_one_copy(state)[:2], [self._previous],
+                            actions[None])
 
     def _play_teams(self, decision: Decision, actions: np.ndarray) -> None:
         """Both defenders of every team play the 1 vs 2 optimal controls."""
@@ -332,37 +333,21 @@ class AssignmentDefender:
 
     def _play_plan(self, state: GameState, actions: np.ndarray) -> None:
         """Every defender outside a certified game plays the intercept plan of the whole
-        team (``policies.intercept.plan_intercepts``: every defender, every active
-        attacker), except the defender of a game of the program whom the plan sends after
-        the game's attacker (or one of its pair): it keeps the game's optimal control
-        (``policies.steering.game_keepers``); a certified 1 vs 1 tube game's defender plays
-        it as far as the certificate allows (``policies.steering.steer``); the other
-        certified games keep their optimal controls (open-space games are played by
-        ``_play_open``)."""
-        plan = self._plan = plan_intercepts(race_all(self._field, state),
-                                            np.ones(len(actions), dtype=bool),
-                                            state.active_attackers)
-        desired = intercept_headings(plan, state.defender_positions, state.attacker_positions)
-        free = np.ones(len(actions), dtype=bool)
-        free[[j for game in self._certified for j in game.defenders]] = False
+        team, but for the defenders of the program's games that keep the game's control
+        and the certified games' (``policies.steering.play_plan``, this game as its one
+        copy)."""
         roles = roles_of(self._decision.assignment)
-        keepers = game_keepers(roles.singles, roles.doubles, plan.targets, ~free)
+        plan, (keepers,) = play_plan(
+            self._field, state.attacker_positions[None], state.defender_positions[None],
+            state.active_attackers[None], [PlanGames(self._certified, roles.singles,
+                                                     roles.doubles)],
+            self.vf11, self.tubes.margins.m11,
+            Tempo((state.attacker_speed, state.defender_speed), state.capture_radius,
+                  self._dt), actions[None])
+        self._plan = Plan(plan.targets[0], plan.aims[0])
         self._played = self._certified + [
             game for game in roles.games
             if len(game.defenders) == 1 and game.defenders[0] in keepers]
-        free[keepers] = False
-        actions[free] = desired[free]
-        games = [game for game in self._certified if game.basis is Basis.TUBE
-                 and len(game.defenders) == 1 and len(game.attackers) == 1]
-        if not games:
-            return
-        i = np.array([game.attackers[0] for game in games])
-        j = np.array([game.defenders[0] for game in games])
-        steered, heading = steer(self.vf11, state.attacker_positions[i],
-                                 state.defender_positions[j], desired[j],
-                                 self.tubes.margins.m11,
-                                 (state.attacker_speed, state.defender_speed), self._dt)
-        actions[j[steered]] = heading[steered]
 
     def _tables(self, state: GameState, active: np.ndarray, certified: list[Match],
                 wins: np.ndarray, held: np.ndarray | None = None) -> DecisionTables:
@@ -375,3 +360,10 @@ class AssignmentDefender:
         return decision_tables(state.attacker_positions, state.defender_positions, active,
                                games, team_values(self.vf12, state, games), held, wins,
                                *self._tube_arrays)
+
+
+def _one_copy(state: GameState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``state``'s attackers ``(1, M, 2)``, defenders ``(1, N, 2)`` and active attackers
+    ``(1, M)``: the one game as one copy of the batched functions."""
+    return (state.attacker_positions[None], state.defender_positions[None],
+            state.active_attackers[None])

@@ -42,20 +42,18 @@ from policies.certificate import (
     open_games,
     roles_of,
 )
-from policies.intercept import headings, plan_copies, race_copies
 from policies.lookups import (
     Ragged,
     TubeArrays,
     batch_decision_controls,
     batch_decision_tables,
 )
-from policies.steering import game_keepers, steer
+from policies.steering import PlanGames, Tempo, play_plan
 from policies.strategy import CERTIFICATE_CELLS, check_margin_cells
 from policies.tubes import check_tube, tube_1v1, tube_2v1
 from reachavoid_env import BatchState, Scenario
 from reachavoid_env.game_state import checked_copies
 from reachavoid_env.geodesic import DistanceField, distance_field
-from solvers import open_space
 from solvers.assignment import AssignmentSolver
 from solvers.hj import PAPER_GRIDS, ValueFunction
 
@@ -189,13 +187,10 @@ class BatchHJDefenders:
     def _ask(self, game: _Batch, wins: _OpenWins, needed: np.ndarray) -> None:
         """Ask the open-space certificate for the pairs of ``needed`` ``(L, M, N)`` that
         ``HJDefenderPolicy`` asks and that are not asked yet, all copies at once."""
-        c, i, j = np.nonzero(needed & wins.unasked)
-        if c.size:
-            o = self._open
-            wins.table[c, i, j] = open_space.defender_certifies(
-                o.game_map, game.attackers[c, i], game.defenders[c, j], o.speeds, o.certify,
-                o.clearance)
-            wins.unasked[c, i, j] = False
+        asked = needed & wins.unasked
+        if asked.any():
+            wins.table[asked] = self._open.wins(game.attackers, game.defenders, asked)[asked]
+            wins.unasked[asked] = False
 
     def _ask_games(self, game: _Batch, wins: _OpenWins, rows: list[tuple[int, ...]]) -> None:
         """``_ask`` for the pairs ``rows``, each ``(copy, attacker, defender)``."""
@@ -205,33 +200,15 @@ class BatchHJDefenders:
             self._ask(game, wins, needed)
 
     def _held(self, game: _Batch, wins: _OpenWins) -> list[np.ndarray]:
-        """Each copy's ``OpenSpace.held`` of its certified games, the open-space games'
-        certificate asked once for all copies. A tube game's entry (``wins`` at its pair)
-        is read only where its 1 vs 1 value is <= 0 (``decision_tables`` keeps it while
-        the value is > 0; ``kept_games`` reads it at value <= 0), where it is asked."""
-        held = [np.zeros(len(copy.certified) if self._certifies else 0, dtype=bool)
-                for copy in game.copies]
+        """Each copy's ``OpenSpace.held`` of its certified games, asked once for all
+        copies. A tube game's entry (``wins`` at its pair) is read only where its 1 vs 1
+        value is <= 0 (``decision_tables`` keeps it while the value is > 0;
+        ``kept_games`` reads it at value <= 0), where it is asked."""
         if self._open is None:
-            return held
-        opened = []
-        for c, copy in enumerate(game.copies):
-            for g, match in enumerate(copy.certified):
-                left = [i for i in match.attackers if game.active[c, i]]
-                if len(match.defenders) != 1 or len(left) != 1:
-                    continue
-                if match.basis is Basis.OPEN:
-                    opened.append((c, g, left[0], match.defenders[0]))
-                else:
-                    held[c][g] = wins.table[c, left[0], match.defenders[0]]
-        if opened:
-            c, g, i, j = np.array(opened).T
-            o = self._open
-            keep = open_space.defender_certifies(
-                o.game_map, game.attackers[c, i], game.defenders[c, j], o.speeds, o.keep,
-                o.clearance)
-            for row, (copy, g_) in enumerate(zip(c.tolist(), g.tolist(), strict=True)):
-                held[copy][g_] = keep[row]
-        return held
+            return [np.zeros(len(copy.certified) if self._certifies else 0, dtype=bool)
+                    for copy in game.copies]
+        return self._open.held([copy.certified for copy in game.copies], game.attackers,
+                               game.defenders, game.active, wins.table)
 
     def _decide_and_play(self, game: _Batch, wins: _OpenWins, held: list[np.ndarray],
                          actions: np.ndarray) -> None:
@@ -287,52 +264,19 @@ class BatchHJDefenders:
             copy.certified = copy.certified + games
 
     def _play_plan(self, game: _Batch, actions: np.ndarray) -> None:
-        """``AssignmentDefender._play_plan`` of every live copy: the races and the
-        intercept plan of all copies at once, the games' keepers per copy, then the
-        certified defenders' steering."""
-        plan = plan_copies(race_copies(self._field, game.attackers, game.defenders,
-                                       game.active, game.attacker_speed,
-                                       game.defender_speed, game.capture_radius),
-                           np.ones(game.defenders.shape[:2], dtype=bool), game.active)
-        desired = headings(plan, game.defenders, game.attackers)
-        free = np.ones(actions.shape[:2], dtype=bool)
-        for c, copy in enumerate(game.copies):
-            free[c, [j for match in copy.certified for j in match.defenders]] = False
-            free[c, game_keepers(copy.singles, copy.doubles, plan.targets[c], ~free[c])] = False
-        actions[free] = desired[free]
-        self._steer_certified(game, desired, actions)
-
-    def _steer_certified(self, game: _Batch, desired: np.ndarray, actions: np.ndarray) -> None:
-        """``policies.steering.steer`` over every copy's certified 1 vs 1 tube games at
-        once."""
-        rows = [(c, match.attackers[0], match.defenders[0])
-                for c, copy in enumerate(game.copies) for match in copy.certified
-                if match.basis is Basis.TUBE and len(match.defenders) == 1
-                and len(match.attackers) == 1]
-        if not rows:
-            return
-        c, i, j = (np.array(column) for column in zip(*rows, strict=True))
-        steered, heading = steer(self.vf11, game.attackers[c, i], game.defenders[c, j],
-                                 desired[c, j], self.margins[0],
-                                 (game.attacker_speed, game.defender_speed), self._dt)
-        actions[c[steered], j[steered]] = heading[steered]
+        """``AssignmentDefender._play_plan`` of every live copy at once
+        (``policies.steering.play_plan``)."""
+        play_plan(self._field, game.attackers, game.defenders, game.active,
+                  [PlanGames(copy.certified, copy.singles, copy.doubles)
+                   for copy in game.copies], self.vf11, self.margins[0],
+                  Tempo((game.attacker_speed, game.defender_speed), game.capture_radius,
+                        self._dt), actions)
 
     def _play_open(self, game: _Batch, actions: np.ndarray) -> None:
         """``AssignmentDefender._play_open`` of every copy's open-space games at once."""
-        rows = [(c, match.attackers[0], match.defenders[0])
-                for c, copy in enumerate(game.copies) for match in copy.certified
-                if match.basis is Basis.OPEN]
-        if not rows:
-            return
-        c, i, j = (np.array(column) for column in zip(*rows, strict=True))
-        attackers = game.attackers[c, i]
-        velocities = np.zeros_like(attackers)
-        for row, copy in enumerate(c.tolist()):
-            previous = game.copies[copy].previous
-            if previous is not None:
-                velocities[row] = (attackers[row] - previous[i[row]]) / self._dt
-        actions[c, j] = open_space.parallel_navigation(attackers, game.defenders[c, j],
-                                                       velocities, self._open.speeds[1])
+        if self._open is not None:
+            self._open.play([copy.certified for copy in game.copies], game.attackers,
+                            game.defenders, [copy.previous for copy in game.copies], actions)
 
 
 @dataclass(frozen=True)

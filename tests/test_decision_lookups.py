@@ -30,8 +30,11 @@ def open_space_tables(policy, state, certified):
         return np.zeros(shape, dtype=bool), np.zeros(len(certified), dtype=bool)
     values = policy.vf11.value(defenders_module.pair_states(state.attacker_positions,
                                                             state.defender_positions))
-    wins = policy._open.wins(state, values <= policy.tubes.margins.m11)
-    return wins, policy._open.held(certified, state, wins)
+    one = (state.attacker_positions[None], state.defender_positions[None])
+    asked = (values <= policy.tubes.margins.m11) & state.active_attackers[:, None]
+    wins = policy._open.wins(*one, asked[None])[0]
+    return wins, policy._open.held([certified], *one, state.active_attackers[None],
+                                   wins[None])[0]
 
 
 def step_by_step(monkeypatch, vf11, vf21):

@@ -107,7 +107,9 @@ def _check_certificate(policy, state, previous: list[Match]) -> int:
     assert set(certified) <= set(games_of(policy.last_assignment))
     tubes = policy.tubes
     space = policy._open
-    held = None if space is None else space.held(previous, state, policy._open_wins(state))
+    held = None if space is None else space.held(
+        [previous], state.attacker_positions[None], state.defender_positions[None],
+        state.active_attackers[None], policy._open_wins(state)[None])[0]
     still = still_winning(previous, state, values11, tubes, held=held)
     assert set(still) <= set(certified)
     in_band = 0
