@@ -8,7 +8,7 @@ with a clear margin is not given up for drifting into the band). The defenders k
 every certified game (their players are taken out of the next program and ``joined``
 puts the game back), so the certified count falls only when a game's value reaches 0.
 The check and the restriction run inside the batched lookups
-(``policies.lookups.decision_tables``; their step-by-step numpy twins are in
+(``policies.lookups.batch_decision_tables``; their step-by-step numpy twins are in
 ``tests/lookups_reference.py``); ``match_arrays`` and ``kept_games`` carry the games there
 and back.
 
@@ -25,7 +25,7 @@ strategy that proves it, so the promise and the play agree. Each game records wh
 certifies it (``Match.basis``): a game the tube certifies stays a tube game; one only the
 open-space condition certifies is an open-space game. The program sees these wins too:
 where the condition says defender ``j`` wins attacker ``i`` alone, the 1 vs 1 table counts
-a defender win whatever the tube says (``policies.lookups.decision_tables`` ``wins``), so
+a defender win whatever the tube says (``policies.lookups.batch_decision_tables`` ``wins``), so
 the program may assign that single game and the certificate takes it. A team needs no
 rule of its own: the program forms a team only against an attacker that beats both
 defenders alone, so where either member wins alone the program plays that member's single
@@ -139,7 +139,7 @@ def roles_of(assignment: Assignment) -> Roles:
 
 @functools.cache
 def no_team_values(games: int) -> np.ndarray:
-    """The team values (``policies.lookups.decision_tables``) of ``games`` certified
+    """The team values (``policies.lookups.batch_decision_tables``) of ``games`` certified
     games none of which is a team: read for none (read-only)."""
     values = np.full(games, np.nan)
     values.setflags(write=False)
@@ -162,7 +162,7 @@ def match_arrays(games: tuple[Match, ...]) -> Matches:
 def kept_games(certified: list[Match], kept: np.ndarray, left: np.ndarray,
                held: np.ndarray, values11: np.ndarray) -> list[Match]:
     """The ``certified`` games still on (``kept`` and ``left`` from
-    ``policies.lookups.decision_tables``), without the attackers that left, each with
+    ``policies.lookups.batch_decision_tables``), without the attackers that left, each with
     what keeps it: an open-space game stays one while ``held`` (``OpenSpace.held``),
     else its tube value kept it; a tube game stays one while its value ``values11``
     ``(M, N)`` is > 0, else ``held`` kept it (games of more than two players are held by

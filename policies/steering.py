@@ -4,9 +4,8 @@ proposes (``steer``), which defenders of the program's uncertified games keep th
 game's optimal control instead (``game_keepers``), and the plan played by the defenders
 of K copies with both rules (``play_plan``).
 
-Each is the one rule, used by ``policies.assignment_defender`` for one game and by
-``policies.batch_defenders`` for the games of K copies at once (same arrays row by row,
-so both give the same bits).
+Each is the one rule, over the games of K copies at once in
+``policies.batch_defenders`` (one game being one copy).
 """
 
 from __future__ import annotations

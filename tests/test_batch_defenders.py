@@ -1,7 +1,8 @@
-"""Batched defenders (policies.batch_defenders) against one single-game policy per copy
-(reachavoid_env.PerCopy): the same actions, bit for bit, over hundreds of steps of K
-random-start games played forward with those actions; over several maps through
-reachavoid_env.PerMap."""
+"""Batched defenders (policies.batch_defenders, policies.greedy) at K copies against the
+same code at K = 1, one game per copy (reachavoid_env.PerCopy of the single policies,
+which are the batched ones at one copy): the same actions, bit for bit, over hundreds of
+steps of K random-start games played forward with those actions; over several maps
+through reachavoid_env.PerMap."""
 
 import dataclasses
 
@@ -10,12 +11,14 @@ import pytest
 from defenders_reference import ReferenceGreedyDefender
 
 import reachavoid_env
+from policies.assignment_defender import AssignmentDefender
 from policies.attackers import ShortestPathAttacker
-from policies.batch_defenders import BatchHJDefenders
+from policies.batch_defenders import BatchAssignmentDefenders, BatchHJDefenders
 from policies.certificate import Basis
 from policies.defenders import HJDefenderPolicy
 from policies.greedy import BatchGreedyDefenders, GreedyDefender
 from policies.registry import make_batch_policy
+from policies.strategy import Program, Spare, Strategy
 from reachavoid_env import BatchState, PerCopy, PerMap
 
 EPISODE = 400
@@ -114,6 +117,23 @@ def test_batched_hj_plays_as_one_policy_per_copy(coarse_tubes, name, count, step
                                BatchHJDefenders(vf11, vf21, margin_cells=margin), watch)
     assert copies.games > count  # copies restarted mid-run
     assert kinds <= seen
+
+
+@pytest.mark.parametrize("strategy", [
+    Strategy(Program.MIP, 0.0, Spare.STAND),            # paper
+    Strategy(Program.MIP, 1.0, Spare.SHADOW),
+    Strategy(Program.MATCHING, 1.0, Spare.PURSUE),
+])
+def test_every_strategy_plays_as_one_copy_each(coarse_tubes, strategy):
+    """The engine plays every strategy at K copies as at one copy each (the paper's
+    method, the shadowing spares, the matching baseline pursuing)."""
+    vf11, vf21 = coarse_tubes
+    scenario = reachavoid_env.builtin_scenario("paper_6v2")
+    tubes = (vf11, None if strategy.program is Program.MATCHING else vf21, None)
+    copies = play_side_by_side(scenario, 6, 300,
+                               PerCopy(lambda _: AssignmentDefender(*tubes, strategy)),
+                               BatchAssignmentDefenders(*tubes, strategy))
+    assert copies.games > 6
 
 
 def test_per_map_gives_each_copy_its_maps_batched_policy(coarse_tubes):
