@@ -13,20 +13,23 @@ which lies near the target: it guards the attacker's way in.
 ``plan_intercepts`` assigns defenders to attackers by threat: the attacker closest to
 the target (in time) first, to the free defender that intercepts it earliest; attackers
 no free defender can intercept are skipped; defenders left over join the most
-threatening attacker (a second chaser, or a guard on its way in). ``InterceptDefender``
-is that plan as a policy (registry name ``intercept``), the heuristic bar the reference
-defenders must clear; ``policies.defenders`` uses the same plan for the defenders that
-no certified game holds.
+threatening attacker (a second chaser, or a guard on its way in).
+``BatchInterceptDefenders`` is that plan as a policy on K copies, ``InterceptDefender``
+it in one game (registry name ``intercept``), the heuristic bar the reference defenders
+must clear; the assignment defenders (``policies.batch_defenders``) use the same plan
+for the defenders that no certified game holds.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from reachavoid_env import GameState, Overlay, Scenario
+from reachavoid_env import BatchState, GameState, Overlay, Scenario
+from reachavoid_env.game_state import AttackerStatus, Single, checked_copies
 from reachavoid_env.geodesic import DEFAULT_CELLS, DistanceField, distance_field
 from reachavoid_env.jit_cache import check_numba_config
 from reachavoid_env.rules import unit_vectors
@@ -310,38 +313,73 @@ def headings(plan: Plan, defenders: np.ndarray, attackers: np.ndarray) -> np.nda
     return unit_vectors(gaps) * planned[..., None]
 
 
-class InterceptDefender:
-    """Every defender races an attacker to a point of its shortest path (``plan_intercepts``),
-    re-planned every step; defenders left over back up the most threatening attacker.
+class BatchInterceptDefenders:
+    """The time-to-intercept defenders on K copies of a game: in each copy, every defender
+    races an attacker to a point of its shortest path (``plan_copies``), re-planned every
+    step; defenders left over back up the most threatening attacker.
 
-    ``cells`` is the resolution of the geodesic field (``reachavoid_env.geodesic``).
-    ``overlay()`` shows each defender's target as an edge.
+    ``cells`` is the resolution of the geodesic field (``reachavoid_env.geodesic``). The
+    copies share the map and player radius of the first scenario reset (a reset of every
+    copy may change them). ``overlay(copy)`` shows each of copy ``copy``'s defenders'
+    targets as an edge.
     """
 
     def __init__(self, cells: int = DEFAULT_CELLS) -> None:
         self.cells = cells
         self.field: DistanceField | None = None
-        self._edges: tuple[tuple[str, str], ...] = ()
+        self._targets = np.zeros((0, 0), dtype=np.int64)   # (K, N), -1 for none
+        self._copies = 0
+        self._game: tuple | None = None
 
-    def reset(self, scenario: Scenario) -> None:
-        self.field = distance_field(scenario.map, scenario.player_radius, self.cells)
-        self._edges = ()
+    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
+        copies = checked_copies(copies, scenarios)
+        if set(range(self._copies)) <= set(copies.tolist()):
+            self._game = None   # every copy starts again: the map may change
+        for scenario in scenarios:
+            game = (scenario.map, scenario.player_radius)
+            if self._game is None:
+                self._game = game
+                self.field = distance_field(scenario.map, scenario.player_radius, self.cells)
+            elif game != self._game:
+                raise ValueError(f"scenarios: {scenario.name!r} has another map or player "
+                                 f"radius than the copies'")
+        if len(copies):
+            self._copies = max(self._copies, int(copies.max()) + 1)
+        self._targets[copies[copies < len(self._targets)]] = -1
+
+    def act_batch(self, states: BatchState) -> np.ndarray:
+        """Unit headings ``(K, N, 2)`` float32 towards each defender's aim (fractions of
+        the defender's speed); zeros in a copy without active attackers."""
+        if self.field is None:
+            raise RuntimeError("act_batch: call reset_copies first")
+        attackers = np.asarray(states.attacker_positions, dtype=np.float64)
+        defenders = np.asarray(states.defender_positions, dtype=np.float64)
+        active = np.asarray(states.attacker_status) == AttackerStatus.ACTIVE.code
+        plan = plan_copies(race_copies(self.field, attackers, defenders, active,
+                                       states.attacker_speed, states.defender_speed,
+                                       states.capture_radius),
+                           np.ones(defenders.shape[:2], dtype=bool), active)
+        actions = headings(plan, defenders, attackers).astype(np.float32)
+        actions[~active.any(axis=1)] = 0.0
+        self._targets = plan.targets
+        return actions
+
+    def overlay(self, copy: int) -> Overlay:
+        """Copy ``copy``'s edges ``(defender, target)`` of the last step."""
+        targets = self._targets[copy].tolist() if copy < len(self._targets) else []
+        return Overlay(edges=tuple((f"defender_{j}", f"attacker_{i}")
+                                   for j, i in enumerate(targets) if i >= 0))
+
+
+class InterceptDefender(Single):
+    """``BatchInterceptDefenders`` in one game (registry name ``intercept``): every
+    defender races an attacker to a point of its shortest path, re-planned every step;
+    ``overlay()`` shows each defender's target as an edge."""
+
+    def __init__(self, cells: int = DEFAULT_CELLS) -> None:
+        super().__init__(BatchInterceptDefenders(cells))
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
-        if self.field is None:
+        if self.batch.field is None:
             raise RuntimeError("InterceptDefender.act called before reset(scenario)")
-        names = state.defender_names
-        actions = np.zeros((len(names), 2), dtype=np.float32)
-        active = state.active_attackers
-        if active.any():
-            plan = plan_intercepts(race_all(self.field, state),
-                                   np.ones(len(names), dtype=bool), active)
-            actions[:] = headings(plan, state.defender_positions, state.attacker_positions)
-            self._edges = tuple((names[j], f"attacker_{i}")
-                                for j, i in enumerate(plan.targets.tolist()) if i >= 0)
-        else:
-            self._edges = ()
-        return dict(zip(names, actions, strict=True))
-
-    def overlay(self) -> Overlay:
-        return Overlay(edges=self._edges)
+        return super().act(state)

@@ -315,6 +315,8 @@ BATCHED: dict[str, dict[str, NamedPolicy]] = {
                           "policies.batch_defenders:BatchHJDefenders.for_scenario"),
         "greedy": NamedPolicy("greedy on K copies in one call",
                               "policies.greedy:BatchGreedyDefenders", scenario=False),
+        "intercept": NamedPolicy("intercept on K copies in one call",
+                                 "policies.intercept:BatchInterceptDefenders", scenario=False),
     },
     "attackers": {},
 }

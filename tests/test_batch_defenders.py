@@ -17,6 +17,7 @@ from policies.batch_defenders import BatchAssignmentDefenders, BatchHJDefenders
 from policies.certificate import Basis
 from policies.defenders import HJDefenderPolicy
 from policies.greedy import BatchGreedyDefenders, GreedyDefender
+from policies.intercept import BatchInterceptDefenders, InterceptDefender
 from policies.registry import make_batch_policy
 from policies.strategy import Program, Spare, Strategy
 from reachavoid_env import BatchState, PerCopy, PerMap
@@ -189,6 +190,12 @@ def test_batched_greedy_plays_as_one_policy_per_copy():
         copies.step(expected)
 
 
+def test_batched_intercept_plays_as_one_policy_per_copy():
+    scenario = reachavoid_env.builtin_scenario("paper_8v4")
+    play_side_by_side(scenario, 12, 200, PerCopy(lambda _: InterceptDefender()),
+                      BatchInterceptDefenders())
+
+
 def test_batch_state_gives_each_copy_as_the_env_does():
     envs = [reachavoid_env.parallel_env(scenario="paper_6v2", starts="random")
             for _ in range(3)]
@@ -224,7 +231,9 @@ def test_registry_builds_the_batched_class_where_there_is_one():
     scenario = reachavoid_env.builtin_scenario("paper_8v4")
     assert isinstance(make_batch_policy("defenders", "greedy", scenario),
                       BatchGreedyDefenders)
-    fallback = make_batch_policy("defenders", "intercept", scenario)
+    assert isinstance(make_batch_policy("defenders", "intercept", scenario),
+                      BatchInterceptDefenders)
+    fallback = make_batch_policy("defenders", "idle", scenario)
     assert isinstance(fallback, PerCopy) and fallback.side == "defenders"
     assert isinstance(make_batch_policy("attackers", "shortest-path", scenario), PerCopy)
 
