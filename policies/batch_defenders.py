@@ -26,7 +26,7 @@ to each row alone, so copy ``k`` plays exactly (bit for bit) what it plays alone
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -428,8 +428,8 @@ class _OpenWins:
 class _Batch:
     """The live copies of one step (``L`` copies with an attacker in the game):
     positions ``(L, M, 2)`` and ``(L, N, 2)``, ``active`` ``(L, M)``, the step's
-    ``states`` and the live copies' ``index`` in them, and each copy's
-    ``DefenderCopy``."""
+    ``states`` and the live copies' ``index`` in them, each copy's ``DefenderCopy``, and
+    the copies' ``GameState`` as far as ``made``."""
 
     attackers: np.ndarray
     defenders: np.ndarray
@@ -437,6 +437,7 @@ class _Batch:
     states: BatchState
     index: np.ndarray
     copies: list[DefenderCopy]
+    made: dict[int, GameState] = field(default_factory=dict)
 
     @property
     def speeds(self) -> tuple[float, float]:
@@ -445,10 +446,9 @@ class _Batch:
 
     def state(self, c: int) -> GameState:
         """Live copy ``c``'s ``GameState`` (made when first asked)."""
-        made = self.__dict__.setdefault("_states", {})
-        if c not in made:
-            made[c] = self.states.game_state(int(self.index[c]))
-        return made[c]
+        if c not in self.made:
+            self.made[c] = self.states.game_state(int(self.index[c]))
+        return self.made[c]
 
 
 class BatchHJDefenders(BatchAssignmentDefenders):
