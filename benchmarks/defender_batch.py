@@ -9,7 +9,7 @@ one process, runs alternating (``--repeats`` rounds):
 - ``per-copy hj``: ``reachavoid_env.PerCopy`` of ``HJDefenderPolicy`` (one single-game
   policy per copy: what the code before the batched defenders does);
 - ``batched hj``: ``policies.batch_defenders.BatchHJDefenders``;
-- ``batched greedy``: ``policies.batch_defenders.BatchGreedyDefenders``.
+- ``batched greedy``: ``policies.greedy.BatchGreedyDefenders``.
 
 Each figure is game steps (copies times steps) per CPU second of the whole loop (``all``),
 and the defenders' share alone (``defenders``: CPU seconds in ``act_batch`` per step);
@@ -35,8 +35,9 @@ import numpy as np
 from harness import CPU, once, timed
 
 import reachavoid_env
-from policies.batch_defenders import BatchGreedyDefenders, BatchHJDefenders
+from policies.batch_defenders import BatchHJDefenders
 from policies.defenders import HJDefenderPolicy
+from policies.greedy import BatchGreedyDefenders
 from reachavoid_env import BatchState, PerCopy
 from solvers.hj.settings import TRAINING_GRIDS
 

@@ -8,7 +8,7 @@ with a clear margin is not given up for drifting into the band). The defenders k
 every certified game (their players are taken out of the next program and ``joined``
 puts the game back), so the certified count falls only when a game's value reaches 0.
 The check and the restriction run inside the batched lookups
-(``policies.lookups.decision_tables``; their step-by-step numpy twins are in
+(``policies.lookups.batch_decision_tables``; their step-by-step numpy twins are in
 ``tests/lookups_reference.py``); ``match_arrays`` and ``kept_games`` carry the games there
 and back.
 
@@ -25,7 +25,7 @@ strategy that proves it, so the promise and the play agree. Each game records wh
 certifies it (``Match.basis``): a game the tube certifies stays a tube game; one only the
 open-space condition certifies is an open-space game. The program sees these wins too:
 where the condition says defender ``j`` wins attacker ``i`` alone, the 1 vs 1 table counts
-a defender win whatever the tube says (``policies.lookups.decision_tables`` ``wins``), so
+a defender win whatever the tube says (``policies.lookups.batch_decision_tables`` ``wins``), so
 the program may assign that single game and the certificate takes it. A team needs no
 rule of its own: the program forms a team only against an attacker that beats both
 defenders alone, so where either member wins alone the program plays that member's single
@@ -36,13 +36,14 @@ from __future__ import annotations
 
 import enum
 import functools
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
 from policies.lookups import Matches
-from reachavoid_env import GameMap, GameState, Scenario
+from reachavoid_env import GameMap, Scenario
 from solvers import open_space
 from solvers.assignment import Assignment
 from solvers.hj import ValueFunction
@@ -138,7 +139,7 @@ def roles_of(assignment: Assignment) -> Roles:
 
 @functools.cache
 def no_team_values(games: int) -> np.ndarray:
-    """The team values (``policies.lookups.decision_tables``) of ``games`` certified
+    """The team values (``policies.lookups.batch_decision_tables``) of ``games`` certified
     games none of which is a team: read for none (read-only)."""
     values = np.full(games, np.nan)
     values.setflags(write=False)
@@ -161,7 +162,7 @@ def match_arrays(games: tuple[Match, ...]) -> Matches:
 def kept_games(certified: list[Match], kept: np.ndarray, left: np.ndarray,
                held: np.ndarray, values11: np.ndarray) -> list[Match]:
     """The ``certified`` games still on (``kept`` and ``left`` from
-    ``policies.lookups.decision_tables``), without the attackers that left, each with
+    ``policies.lookups.batch_decision_tables``), without the attackers that left, each with
     what keeps it: an open-space game stays one while ``held`` (``OpenSpace.held``),
     else its tube value kept it; a tube game stays one while its value ``values11``
     ``(M, N)`` is > 0, else ``held`` kept it (games of more than two players are held by
@@ -232,53 +233,76 @@ class OpenSpace:
         return cls(scenario.map, (va, vd), scenario.player_radius, OPEN_CERTIFY_STEPS * step,
                    OPEN_KEEP_STEPS * step, scenario.dt)
 
-    def wins(self, state: GameState, asked: np.ndarray) -> np.ndarray:
-        """``(M, N)`` bool: defender ``j`` wins alone against the active attacker ``i`` by
-        the open-space condition at the certify margin, checked where ``asked`` ``(M, N)``
-        (false elsewhere)."""
-        attackers, defenders = state.attacker_positions, state.defender_positions
+    def wins(self, attackers: np.ndarray, defenders: np.ndarray,
+             asked: np.ndarray) -> np.ndarray:
+        """Whether defender ``j`` wins alone against attacker ``i`` by the open-space
+        condition at the certify margin, in each of L copies.
+
+        Args:
+            attackers: ``(L, M, 2)`` positions (map units), copies first.
+            defenders: ``(L, N, 2)`` positions (map units).
+            asked: ``(L, M, N)`` bool, the pairs to check (the caller leaves out the
+                attackers out of the game).
+
+        Returns:
+            ``(L, M, N)`` bool, false where not asked.
+        """
         wins = np.zeros(asked.shape, dtype=bool)
-        i, j = np.nonzero(asked & state.active_attackers[:, None])
-        if i.size:
-            wins[i, j] = open_space.defender_certifies(
-                self.game_map, attackers[i], defenders[j], self.speeds, self.certify,
+        c, i, j = np.nonzero(asked)
+        if c.size:
+            wins[c, i, j] = open_space.defender_certifies(
+                self.game_map, attackers[c, i], defenders[c, j], self.speeds, self.certify,
                 self.clearance)
         return wins
 
-    def held(self, certified: list[Match], state: GameState, wins: np.ndarray) -> np.ndarray:
-        """``(G,)`` bool: which ``certified`` games of one defender against one active
-        attacker the open-space condition holds: an open-space game at the keep margin,
-        a tube game at the certify margin (``wins``, this step's table)."""
-        held = np.zeros(len(certified), dtype=bool)
-        active = state.active_attackers
+    def held(self, certified: Sequence[Sequence[Match]], attackers: np.ndarray,
+             defenders: np.ndarray, active: np.ndarray, wins: np.ndarray) -> list[np.ndarray]:
+        """Which of each copy's ``certified`` games of one defender against one active
+        attacker the open-space condition holds: an open-space game at the keep margin
+        (checked for all copies at once), a tube game at the certify margin (``wins``
+        ``(L, M, N)``, this step's table). Positions as ``wins``, ``active`` ``(L, M)``;
+        one bool array ``(G_c,)`` per copy."""
+        held = [np.zeros(len(games), dtype=bool) for games in certified]
         opened = []
-        for g, game in enumerate(certified):
-            left = [i for i in game.attackers if active[i]]
-            if len(game.defenders) != 1 or len(left) != 1:
-                continue
-            if game.basis is Basis.OPEN:
-                opened.append((g, left[0], game.defenders[0]))
-            else:
-                held[g] = wins[left[0], game.defenders[0]]
+        for c, games in enumerate(certified):
+            for g, game in enumerate(games):
+                left = [i for i in game.attackers if active[c, i]]
+                if len(game.defenders) != 1 or len(left) != 1:
+                    continue
+                if game.basis is Basis.OPEN:
+                    opened.append((c, g, left[0], game.defenders[0]))
+                else:
+                    held[c][g] = wins[c, left[0], game.defenders[0]]
         if opened:
-            g, i, j = np.array(opened).T
-            held[g] = open_space.defender_certifies(
-                self.game_map, state.attacker_positions[i], state.defender_positions[j],
-                self.speeds, self.keep, self.clearance)
+            c, g, i, j = np.array(opened).T
+            keep = open_space.defender_certifies(
+                self.game_map, attackers[c, i], defenders[c, j], self.speeds, self.keep,
+                self.clearance)
+            for row, (copy, game) in enumerate(zip(c.tolist(), g.tolist(), strict=True)):
+                held[copy][game] = keep[row]
         return held
 
-    def headings(self, games: list[Match], state: GameState,
-                 previous: np.ndarray | None) -> np.ndarray:
-        """``(G, 2)`` the parallel-navigation headings of the defenders of the 1 vs 1
-        ``games``, each attacker's velocity that of its last step (from its ``previous``
-        positions ``(M, 2)``; none: zero, pure pursuit)."""
-        i = np.array([game.attackers[0] for game in games], dtype=np.int64)
-        j = np.array([game.defenders[0] for game in games], dtype=np.int64)
-        attackers = state.attacker_positions[i]
-        velocities = (np.zeros_like(attackers) if previous is None
-                      else (attackers - previous[i]) / self.dt)
-        return open_space.parallel_navigation(attackers, state.defender_positions[j],
-                                              velocities, self.speeds[1])
+    def play(self, certified: Sequence[Sequence[Match]], attackers: np.ndarray,
+             defenders: np.ndarray, previous: Sequence[np.ndarray | None],
+             actions: np.ndarray) -> None:
+        """Every defender of each copy's open-space games (``Basis.OPEN`` among its
+        ``certified``) plays parallel navigation into ``actions`` ``(L, N, 2)`` (over
+        whatever it holds), each attacker's velocity that of its last step (from the
+        copy's ``previous`` positions ``(M, 2)``; none: zero, pure pursuit). Positions
+        as ``wins``."""
+        rows = [(c, game.attackers[0], game.defenders[0])
+                for c, games in enumerate(certified) for game in games
+                if game.basis is Basis.OPEN]
+        if not rows:
+            return
+        c, i, j = (np.array(column) for column in zip(*rows, strict=True))
+        moving = attackers[c, i]
+        velocities = np.zeros_like(moving)
+        for row, copy in enumerate(c.tolist()):
+            if previous[copy] is not None:
+                velocities[row] = (moving[row] - previous[copy][i[row]]) / self.dt
+        actions[c, j] = open_space.parallel_navigation(moving, defenders[c, j], velocities,
+                                                       self.speeds[1])
 
 
 def joined(rest: Assignment, fixed: list[Match], num_defenders: int) -> Assignment:

@@ -1,4 +1,5 @@
-"""Scripted and solver-backed defender policies.
+"""Scripted and solver-backed defender policies (``GreedyDefender`` comes from
+``policies.greedy``).
 
 Each follows ``reachavoid_env.Policy``: ``reset(scenario)`` then ``act(state)``, which
 returns a float32 ``(2,)`` action in ``[-1, 1]`` (a velocity as a fraction of the
@@ -11,9 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 from policies.assignment_defender import AssignmentDefender
+from policies.greedy import GreedyDefender
 from policies.strategy import CERTIFICATE_CELLS, Program, Spare, Strategy
 from policies.tubes import tube_1v1, tube_1v2, tube_2v1
-from reachavoid_env import GameState, Overlay, Scenario
+from reachavoid_env import GameState, Scenario
 from solvers.hj import PAPER_GRIDS, ValueFunction
 
 __all__ = ["GreedyDefender", "HJDefenderPolicy", "HJPairsDefenderPolicy", "IdleDefender",
@@ -28,39 +30,6 @@ class IdleDefender:
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
         return {name: np.zeros(2, dtype=np.float32) for name in state.defender_names}
-
-
-class GreedyDefender:
-    """Every defender runs at full speed straight at the nearest active attacker.
-
-    Defenders stand still once no attacker is left. ``overlay()`` shows each defender's
-    current quarry as an edge.
-    """
-
-    def __init__(self) -> None:
-        self._edges: tuple[tuple[str, str], ...] = ()
-
-    def reset(self, scenario: Scenario) -> None:
-        self._edges = ()
-
-    def act(self, state: GameState) -> dict[str, np.ndarray]:
-        active = np.flatnonzero(state.active_attackers)
-        names = state.defender_names
-        if len(active) == 0:
-            self._edges = ()
-            return {name: np.zeros(2, dtype=np.float32) for name in names}
-        gaps = state.attacker_positions[active][None, :, :] - state.defender_positions[:, None, :]
-        distances = np.linalg.norm(gaps, axis=-1)
-        nearest = np.argmin(distances, axis=1)
-        rows = np.arange(len(names))
-        chase, length = gaps[rows, nearest], distances[rows, nearest][:, None]
-        actions = np.divide(chase, length, out=np.zeros_like(chase), where=length > 0)
-        self._edges = tuple((name, f"attacker_{active[k]}") for name, k in zip(names, nearest,
-                                                                                 strict=True))
-        return {name: actions[j].astype(np.float32) for j, name in enumerate(names)}
-
-    def overlay(self) -> Overlay:
-        return Overlay(edges=self._edges)
 
 
 class HJDefenderPolicy(AssignmentDefender):

@@ -13,20 +13,23 @@ which lies near the target: it guards the attacker's way in.
 ``plan_intercepts`` assigns defenders to attackers by threat: the attacker closest to
 the target (in time) first, to the free defender that intercepts it earliest; attackers
 no free defender can intercept are skipped; defenders left over join the most
-threatening attacker (a second chaser, or a guard on its way in). ``InterceptDefender``
-is that plan as a policy (registry name ``intercept``), the heuristic bar the reference
-defenders must clear; ``policies.defenders`` uses the same plan for the defenders that
-no certified game holds.
+threatening attacker (a second chaser, or a guard on its way in).
+``BatchInterceptDefenders`` is that plan as a policy on K copies, ``InterceptDefender``
+it in one game (registry name ``intercept``), the heuristic bar the reference defenders
+must clear; the assignment defenders (``policies.batch_defenders``) use the same plan
+for the defenders that no certified game holds.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from reachavoid_env import GameState, Overlay, Scenario
+from reachavoid_env import BatchState, GameState, Overlay, Scenario
+from reachavoid_env.game_state import AttackerStatus, Single, checked_copies
 from reachavoid_env.geodesic import DEFAULT_CELLS, DistanceField, distance_field
 from reachavoid_env.jit_cache import check_numba_config
 from reachavoid_env.rules import unit_vectors
@@ -129,17 +132,47 @@ class Races(NamedTuple):
     threat: np.ndarray
 
 
-def races(paths: Paths, defenders: np.ndarray, attacker_speed: float,
-          defender_speed: float, capture_radius: float, step: float = PATH_STEP) -> Races:
-    """Race every defender ``(N, 2)`` against every traced attacker path (map units,
-    speeds in map units per second)."""
-    points, counts = paths
-    attacker_time = np.arange(points.shape[1]) * step / attacker_speed
-    wins, best = race_points(points, counts, defenders[None], np.zeros(len(points), np.int64),
-                             defender_speed, capture_radius, attacker_time)
-    aims = points[np.arange(len(points))[:, None], best]
-    return Races(wins, aims, attacker_time[best],
-                 attacker_time[np.maximum(counts - 1, 0)])
+def race_copies(field: DistanceField, attackers: np.ndarray, defenders: np.ndarray,
+                active: np.ndarray, attacker_speed: float, defender_speed: float,
+                capture_radius: float) -> Races:
+    """The ``Races`` of L copies of a game at once: every defender against every active
+    attacker of its copy, the paths of all copies' active attackers traced in one call and
+    raced in one; an inactive attacker's rows are never won, at infinite times.
+
+    Args:
+        field: the map's geodesic distance field.
+        attackers: ``(L, M, 2)`` positions (map units), copies first.
+        defenders: ``(L, N, 2)`` positions (map units).
+        active: ``(L, M)`` bool, the attackers still in the game.
+        attacker_speed, defender_speed: map units per second.
+        capture_radius: map units.
+
+    Returns:
+        ``Races`` with a leading copy axis: ``wins``, ``times`` ``(L, M, N)``, ``aims``
+        ``(L, M, N, 2)``, ``threat`` ``(L, M)``.
+    """
+    c, i = np.nonzero(active)
+    points, counts = traced_points(field, attackers[c, i])
+    attacker_time = np.arange(points.shape[1]) * PATH_STEP / attacker_speed
+    won, best = race_points(points, counts, defenders, c, defender_speed, capture_radius,
+                            attacker_time)
+    copies, m = active.shape
+    n = defenders.shape[1]
+    race = Races(np.zeros((copies, m, n), dtype=bool), np.zeros((copies, m, n, 2)),
+                 np.full((copies, m, n), np.inf), np.full((copies, m), np.inf))
+    race.wins[c, i] = won
+    race.aims[c, i] = points[np.arange(len(c))[:, None], best]
+    race.times[c, i] = attacker_time[best]
+    race.threat[c, i] = attacker_time[np.maximum(counts - 1, 0)]
+    return race
+
+
+def race_all(field: DistanceField, state: GameState) -> Races:
+    """``race_copies`` of the one game ``state`` (``(M, N)`` arrays, no copy axis)."""
+    race = race_copies(field, state.attacker_positions[None], state.defender_positions[None],
+                       state.active_attackers[None], state.attacker_speed,
+                       state.defender_speed, state.capture_radius)
+    return Races(*(array[0] for array in race))
 
 
 @njit(cache=True)
@@ -182,8 +215,8 @@ class Plan(NamedTuple):
 
 
 def plan_intercepts(race: Races, free: np.ndarray, open_: np.ndarray) -> Plan:
-    """The free defenders' plan against the ``open_`` attackers (bool masks ``(N,)`` and
-    ``(M,)``).
+    """The free defenders' plan against the ``open_`` attackers of one game (bool masks
+    ``(N,)`` and ``(M,)``): ``plan_copies`` of that one copy.
 
     Most threatening attacker first (smallest ``race.threat``), each gets the free
     defender that intercepts it earliest; attackers no free defender can intercept are
@@ -191,23 +224,79 @@ def plan_intercepts(race: Races, free: np.ndarray, open_: np.ndarray) -> Plan:
     earliest, or, where it intercepts none, the most threatening open attacker (its aim
     the point it misses by the least time: a guard on that attacker's way in).
     """
-    n = len(free)
-    targets = np.full(n, -1, dtype=np.int64)
-    aims = np.zeros((n, 2))
-    left = free.copy()
-    order = [int(i) for i in np.argsort(race.threat, kind="stable") if open_[i]]
-    if not order:
-        return Plan(targets, aims)
-    for i in order:
-        able = np.flatnonzero(left & race.wins[i])
-        if len(able):
-            j = int(able[np.argmin(race.times[i, able])])
-            targets[j], aims[j], left[j] = i, race.aims[i, j], False
-    for j in np.flatnonzero(left):
-        able = [i for i in order if race.wins[i, j]]
-        i = min(able, key=lambda i: race.times[i, j]) if able else order[0]
-        targets[j], aims[j] = i, race.aims[i, j]
+    plan = plan_copies(Races(*(np.asarray(array)[None] for array in race)),
+                       np.asarray(free, dtype=bool)[None], np.asarray(open_, dtype=bool)[None])
+    return Plan(plan.targets[0], plan.aims[0])
+
+
+def plan_copies(race: Races, free: np.ndarray, open_: np.ndarray) -> Plan:
+    """``plan_intercepts`` of L copies at once (one numba call).
+
+    Args:
+        race: ``Races`` with a leading copy axis (``race_copies``).
+        free: ``(L, N)`` bool, the defenders the plan may send.
+        open_: ``(L, M)`` bool, the attackers it plans against.
+
+    Returns:
+        ``Plan`` with a leading copy axis: ``targets (L, N)`` (-1 for none), ``aims
+        (L, N, 2)`` map units (zero for none). Ties go as in a stable sort of the threat,
+        then to the first defender, then to the first attacker in threat order
+        (``tests/defenders_reference.py`` holds a numpy twin).
+    """
+    targets, aims = _plan(np.ascontiguousarray(race.wins, dtype=np.bool_),
+                          np.ascontiguousarray(race.aims, dtype=np.float64),
+                          np.ascontiguousarray(race.times, dtype=np.float64),
+                          np.ascontiguousarray(race.threat, dtype=np.float64),
+                          np.ascontiguousarray(free, dtype=np.bool_),
+                          np.ascontiguousarray(open_, dtype=np.bool_))
     return Plan(targets, aims)
+
+
+@njit(cache=True)
+def _plan(wins, aims, times, threat, free, open_):
+    """The kernel of ``plan_copies``: ``targets (L, N)`` and ``aims (L, N, 2)``."""
+    copies, m, n = wins.shape
+    targets = np.full((copies, n), -1, dtype=np.int64)
+    planned = np.zeros((copies, n, 2))
+    order = np.empty(m, dtype=np.int64)
+    left = np.empty(n, dtype=np.bool_)
+    for c in range(copies):
+        count = 0
+        for i in range(m):  # open attackers by threat, stable (insertion sort)
+            if not open_[c, i]:
+                continue
+            at = count
+            while at > 0 and threat[c, i] < threat[c, order[at - 1]]:
+                order[at] = order[at - 1]
+                at -= 1
+            order[at] = i
+            count += 1
+        if count == 0:
+            continue
+        left[:] = free[c]
+        for r in range(count):
+            i = order[r]
+            best = -1
+            for j in range(n):
+                if left[j] and wins[c, i, j] and (best < 0 or times[c, i, j] < times[c, i, best]):
+                    best = j
+            if best >= 0:
+                targets[c, best] = i
+                planned[c, best] = aims[c, i, best]
+                left[best] = False
+        for j in range(n):
+            if not left[j]:
+                continue
+            best = -1
+            for r in range(count):
+                i = order[r]
+                if wins[c, i, j] and (best < 0 or times[c, i, j] < times[c, best, j]):
+                    best = i
+            if best < 0:
+                best = order[0]
+            targets[c, j] = best
+            planned[c, j] = aims[c, best, j]
+    return targets, planned
 
 
 def headings(plan: Plan, defenders: np.ndarray, attackers: np.ndarray) -> np.ndarray:
@@ -224,54 +313,73 @@ def headings(plan: Plan, defenders: np.ndarray, attackers: np.ndarray) -> np.nda
     return unit_vectors(gaps) * planned[..., None]
 
 
-class InterceptDefender:
-    """Every defender races an attacker to a point of its shortest path (``plan_intercepts``),
-    re-planned every step; defenders left over back up the most threatening attacker.
+class BatchInterceptDefenders:
+    """The time-to-intercept defenders on K copies of a game: in each copy, every defender
+    races an attacker to a point of its shortest path (``plan_copies``), re-planned every
+    step; defenders left over back up the most threatening attacker.
 
-    ``cells`` is the resolution of the geodesic field (``reachavoid_env.geodesic``).
-    ``overlay()`` shows each defender's target as an edge.
+    ``cells`` is the resolution of the geodesic field (``reachavoid_env.geodesic``). The
+    copies share the map and player radius of the first scenario reset (a reset of every
+    copy may change them). ``overlay(copy)`` shows each of copy ``copy``'s defenders'
+    targets as an edge.
     """
 
     def __init__(self, cells: int = DEFAULT_CELLS) -> None:
         self.cells = cells
         self.field: DistanceField | None = None
-        self._edges: tuple[tuple[str, str], ...] = ()
+        self._targets = np.zeros((0, 0), dtype=np.int64)   # (K, N), -1 for none
+        self._copies = 0
+        self._game: tuple | None = None
 
-    def reset(self, scenario: Scenario) -> None:
-        self.field = distance_field(scenario.map, scenario.player_radius, self.cells)
-        self._edges = ()
+    def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
+        copies = checked_copies(copies, scenarios)
+        if set(range(self._copies)) <= set(copies.tolist()):
+            self._game = None   # every copy starts again: the map may change
+        for scenario in scenarios:
+            game = (scenario.map, scenario.player_radius)
+            if self._game is None:
+                self._game = game
+                self.field = distance_field(scenario.map, scenario.player_radius, self.cells)
+            elif game != self._game:
+                raise ValueError(f"scenarios: {scenario.name!r} has another map or player "
+                                 f"radius than the copies'")
+        if len(copies):
+            self._copies = max(self._copies, int(copies.max()) + 1)
+        self._targets[copies[copies < len(self._targets)]] = -1
+
+    def act_batch(self, states: BatchState) -> np.ndarray:
+        """Unit headings ``(K, N, 2)`` float32 towards each defender's aim (fractions of
+        the defender's speed); zeros in a copy without active attackers."""
+        if self.field is None:
+            raise RuntimeError("act_batch: call reset_copies first")
+        attackers = np.asarray(states.attacker_positions, dtype=np.float64)
+        defenders = np.asarray(states.defender_positions, dtype=np.float64)
+        active = np.asarray(states.attacker_status) == AttackerStatus.ACTIVE.code
+        plan = plan_copies(race_copies(self.field, attackers, defenders, active,
+                                       states.attacker_speed, states.defender_speed,
+                                       states.capture_radius),
+                           np.ones(defenders.shape[:2], dtype=bool), active)
+        actions = headings(plan, defenders, attackers).astype(np.float32)
+        actions[~active.any(axis=1)] = 0.0
+        self._targets = plan.targets
+        return actions
+
+    def overlay(self, copy: int) -> Overlay:
+        """Copy ``copy``'s edges ``(defender, target)`` of the last step."""
+        targets = self._targets[copy].tolist() if copy < len(self._targets) else []
+        return Overlay(edges=tuple((f"defender_{j}", f"attacker_{i}")
+                                   for j, i in enumerate(targets) if i >= 0))
+
+
+class InterceptDefender(Single):
+    """``BatchInterceptDefenders`` in one game (registry name ``intercept``): every
+    defender races an attacker to a point of its shortest path, re-planned every step;
+    ``overlay()`` shows each defender's target as an edge."""
+
+    def __init__(self, cells: int = DEFAULT_CELLS) -> None:
+        super().__init__(BatchInterceptDefenders(cells))
 
     def act(self, state: GameState) -> dict[str, np.ndarray]:
-        if self.field is None:
+        if self.batch.field is None:
             raise RuntimeError("InterceptDefender.act called before reset(scenario)")
-        names = state.defender_names
-        actions = np.zeros((len(names), 2), dtype=np.float32)
-        active = state.active_attackers
-        if active.any():
-            plan = plan_intercepts(race_all(self.field, state),
-                                   np.ones(len(names), dtype=bool), active)
-            actions[:] = headings(plan, state.defender_positions, state.attacker_positions)
-            self._edges = tuple((names[j], f"attacker_{i}")
-                                for j, i in enumerate(plan.targets.tolist()) if i >= 0)
-        else:
-            self._edges = ()
-        return dict(zip(names, actions, strict=True))
-
-    def overlay(self) -> Overlay:
-        return Overlay(edges=self._edges)
-
-
-def race_all(field: DistanceField, state: GameState) -> Races:
-    """``races`` of every defender of ``state`` against every active attacker (the paths of
-    the active ones traced); an inactive attacker's rows are never won, at infinite
-    times."""
-    active = state.active_attackers
-    attackers = state.attacker_positions
-    race = races(trace_paths(field, attackers[active]), state.defender_positions,
-                 state.attacker_speed, state.defender_speed, state.capture_radius)
-    m, n = len(attackers), len(state.defender_positions)
-    full = Races(np.zeros((m, n), dtype=bool), np.zeros((m, n, 2)), np.full((m, n), np.inf),
-                 np.full(m, np.inf))
-    for name, array in zip(Races._fields, race, strict=True):
-        getattr(full, name)[active] = array
-    return full
+        return super().act(state)

@@ -1,10 +1,11 @@
 """Batched tube lookups of one defender decision: two numba calls, one before the
 assignment program and one after it.
 
-``decision_tables`` reads the whole 1 vs 1 table of a step, checks the certified games
-and builds the program's tables, reading the 2 vs 1 value of exactly the triples these
-need; ``decision_controls`` every 1 vs 1 and 2 vs 1 defender control of the step with
-its fallback heading, and the certificate slacks of the step's new games. The
+``batch_decision_tables`` reads the whole 1 vs 1 table of a step, checks the certified
+games and builds the program's tables, reading the 2 vs 1 value of exactly the triples
+these need; ``batch_decision_controls`` every 1 vs 1 and 2 vs 1 defender control of the
+step with its fallback heading, and the certificate slacks of the step's new games. Each
+takes K copies of a game (``Ragged`` rows), one game being one copy. The
 certificate's rule, what a game's value is, has its one home here: ``match_value``,
 read by both over games carried as ``Matches``. Both evaluate
 each point with the interpolation kernels' own per-point helpers
@@ -228,30 +229,6 @@ def _decision_tables(attackers, defenders, active, certified, team_values, held,
                           busy)
 
 
-def decision_tables(attackers: np.ndarray, defenders: np.ndarray, active: np.ndarray,
-                    certified: Matches, team_values: np.ndarray, held: np.ndarray,
-                    wins: np.ndarray, tube11: TubeArrays, tube21: TubeArrays | None
-                    ) -> DecisionTables:
-    """Everything one decision reads of the tubes before its program, in one call.
-
-    ``values11 (M, N)``: the 1 vs 1 value of every attacker (positions ``(M, 2)``,
-    ``active`` ``(M,)``) against every defender (``(N, 2)``). The last decision's
-    ``certified`` games (``G`` of them), ``team_values (G,)`` their 1 vs 2 values (read
-    for teams only): ``left (G, 2)`` which of each game's attackers are still active (the
-    second: false where the game has one), ``kept (G,)`` the games still on (an attacker
-    left, and ``match_value`` over those left, with zero margins, > 0, or the game
-    ``held`` ``(G,)`` by the open-space certificate). The program without the kept games'
-    players: ``beats (M, N)`` (``values11 <= 0`` except where the open-space certificate
-    ``wins (M, N)`` says the defender wins, every attacker beating a ``busy`` defender),
-    ``active``, ``busy (N,)``, and ``beats_2v1 (M, M, N)``: the 2 vs 1 table where (c5)
-    binds, the pairs of attackers that a defender beats one by one (false elsewhere).
-    ``values21 (M, M, N)``: the 2 vs 1 values read for these (state order ``i < k``, both
-    entries filled), NaN elsewhere. Without ``tube21`` no
-    2 vs 1 value is read: no certified game may be a pair."""
-    return _decision_tables(attackers, defenders, active, certified, team_values, held, wins,
-                            tube11, tube11 if tube21 is None else tube21, tube21 is not None)
-
-
 @njit(cache=True, inline="always")
 def _heading(gx, gy, fx, fy, out):
     """``(gx, gy)`` scaled to length 1, or where it is no longer than the floor the
@@ -316,25 +293,6 @@ def _decision_controls(attackers, defenders, singles, doubles, games, team_value
                         tube21)
 
 
-def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
-                      doubles: np.ndarray, games: Matches, team_values: np.ndarray,
-                      margins: np.ndarray,
-                      values11: np.ndarray, values21: np.ndarray, tube11: TubeArrays,
-                      tube21: TubeArrays | None, actions: np.ndarray) -> np.ndarray:
-    """Everything one decision reads of the tubes after its program, in one call.
-
-    Writes into ``actions (N, 2)`` (float32) the optimal heading of every defender of
-    ``singles`` (int64 rows ``(attacker, defender)``: its 1 vs 1 control) and ``doubles``
-    (rows ``(first, second, defender)``: its 2 vs 1 control); where the control vanishes,
-    the heading straight at its attacker (the nearer of the two, the first on a tie).
-    Returns the certificate slack (``match_value``) of each of ``games`` with their
-    ``team_values``, ``margins`` ``(3,)`` and the step's tables ``values11``, ``values21``
-    (its missing 2 vs 1 values looked up and stored)."""
-    return _decision_controls(attackers, defenders, singles, doubles, games, team_values,
-                              margins, values11, values21, tube11,
-                              tube11 if tube21 is None else tube21, actions)
-
-
 class Ragged(NamedTuple):
     """Rows of several copies in one array: copy ``c``'s are ``rows[offsets[c]:offsets[c + 1]]``."""
 
@@ -381,12 +339,26 @@ def batch_decision_tables(attackers: np.ndarray, defenders: np.ndarray, active: 
                           certified: tuple[Ragged, Ragged], team_values: np.ndarray,
                           held: np.ndarray, wins: np.ndarray, tube11: TubeArrays,
                           tube21: TubeArrays | None) -> DecisionTables:
-    """``decision_tables`` of ``L`` copies of a game in one call, each copy's exactly the
-    single call's: positions ``(L, M, 2)``, ``(L, N, 2)``, ``active (L, M)``, ``wins (L,
-    M, N)``; each copy's certified games as the ``Matches`` columns ``certified``
-    (``(defenders, attackers)``, ragged over the copies, same offsets), with their
-    ``team_values`` and ``held`` (ragged alike, rows only). Returns the tables with a
-    leading copy axis, ``kept`` and ``left`` ragged as the games."""
+    """Everything one decision reads of the tubes before its program, in one call for
+    ``L`` copies of a game (each copy through the same kernel, as if alone).
+
+    Positions ``(L, M, 2)`` and ``(L, N, 2)``, ``active (L, M)``. ``values11 (L, M,
+    N)``: the 1 vs 1 value of every attacker against every defender. The last decision's
+    ``certified`` games, as the ``Matches`` columns ``(defenders, attackers)`` ragged over
+    the copies (same offsets), ``team_values`` their 1 vs 2 values (read for teams only)
+    and ``held`` by the open-space certificate (ragged alike, rows only): ``left (G,
+    2)`` which of each game's attackers are still active (the second: false where the
+    game has one), ``kept (G,)`` the games still on (an attacker left, and
+    ``match_value`` over those left, with zero margins, > 0, or the game ``held``). The
+    program without the kept games' players: ``beats (L, M, N)`` (``values11 <= 0``
+    except where the open-space certificate ``wins (L, M, N)`` says the defender wins,
+    every attacker beating a ``busy (L, N)`` defender), ``active (L, M)``, and
+    ``beats_2v1 (L, M, M, N)``: the 2 vs 1 table where (c5) binds, the pairs of
+    attackers that a defender beats one by one (false elsewhere). ``values21 (L, M, M,
+    N)``: the 2 vs 1 values read for these (state order ``i < k``, both entries filled),
+    NaN elsewhere. Without ``tube21`` no 2 vs 1 value is read: no certified game may be
+    a pair. Returns the tables with a leading copy axis, ``kept`` and ``left`` ragged as
+    the games."""
     games_d, games_a = certified
     return _batch_tables(attackers, defenders, active, games_d.rows, games_a.rows,
                          games_d.offsets, team_values, held, wins, tube11,
@@ -413,11 +385,18 @@ def batch_decision_controls(attackers: np.ndarray, defenders: np.ndarray, single
                             team_values: np.ndarray, margins: np.ndarray,
                             values11: np.ndarray, values21: np.ndarray, tube11: TubeArrays,
                             tube21: TubeArrays | None, actions: np.ndarray) -> np.ndarray:
-    """``decision_controls`` of ``L`` copies in one call, each copy's exactly the single
-    call's: ``singles``, ``doubles`` and the ``games`` columns ragged over the copies,
-    ``team_values`` ragged as ``games``; ``values11``, ``values21``, ``actions`` with a
-    leading copy axis (``values21`` and ``actions`` written as the single call writes
-    them). Returns the games' slacks, ragged as ``games``."""
+    """Everything one decision reads of the tubes after its program, in one call for
+    ``L`` copies (each copy through the same kernel, as if alone).
+
+    Writes into ``actions (L, N, 2)`` (float32) the optimal heading of every defender of
+    ``singles`` (int64 rows ``(attacker, defender)``: its 1 vs 1 control) and ``doubles``
+    (rows ``(first, second, defender)``: its 2 vs 1 control), both ragged over the
+    copies; where the control vanishes, the heading straight at its attacker (the nearer
+    of the two, the first on a tie). Returns the certificate slack (``match_value``) of
+    each of ``games`` (the ``Matches`` columns, ragged) with their ``team_values``
+    (ragged alike), ``margins`` ``(3,)`` and the step's tables ``values11 (L, M, N)``,
+    ``values21 (L, M, M, N)`` (its missing 2 vs 1 values looked up and stored), ragged
+    as ``games``."""
     games_d, games_a = games
     return _batch_controls(attackers, defenders, singles.rows, singles.offsets, doubles.rows,
                            doubles.offsets, games_d.rows, games_a.rows, games_d.offsets,

@@ -149,7 +149,7 @@ DEFENDERS: dict[str, NamedPolicy] = {
                                  "defenders), played with numpy from shipped weights",
                                  "policies.mappo:learned_mappo"),
     "greedy": NamedPolicy("chase the nearest active attacker",
-                          "policies.defenders:GreedyDefender", scenario=False),
+                          "policies.greedy:GreedyDefender", scenario=False),
     "idle": NamedPolicy("stand still", "policies.defenders:IdleDefender", scenario=False),
 }
 
@@ -314,7 +314,9 @@ BATCHED: dict[str, dict[str, NamedPolicy]] = {
         "hj": NamedPolicy("hj on K copies in one call",
                           "policies.batch_defenders:BatchHJDefenders.for_scenario"),
         "greedy": NamedPolicy("greedy on K copies in one call",
-                              "policies.batch_defenders:BatchGreedyDefenders", scenario=False),
+                              "policies.greedy:BatchGreedyDefenders", scenario=False),
+        "intercept": NamedPolicy("intercept on K copies in one call",
+                                 "policies.intercept:BatchInterceptDefenders", scenario=False),
     },
     "attackers": {},
 }

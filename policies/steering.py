@@ -1,18 +1,24 @@
 """Where the intercept plan's headings reach into the games (the plan proposes, the
 games filter): how far a certified 1 vs 1 game's defender may take the heading the plan
-proposes (``steer``), and which defenders of the program's uncertified games keep the
-game's optimal control instead (``game_keepers``).
+proposes (``steer``), which defenders of the program's uncertified games keep the
+game's optimal control instead (``game_keepers``), and the plan played by the defenders
+of K copies with both rules (``play_plan``).
 
-Each is the one rule, used by ``policies.assignment_defender`` for one game and by
-``policies.batch_defenders`` for the games of K copies at once (same arrays row by row,
-so both give the same bits).
+Each is the one rule, over the games of K copies at once in
+``policies.batch_defenders`` (one game being one copy).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import NamedTuple
+
 import numpy as np
 
+from policies.certificate import Basis, Match
+from policies.intercept import Plan, headings, plan_copies, race_copies
 from policies.lookups import HEADING_FLOOR
+from reachavoid_env.geodesic import DistanceField
 from reachavoid_env.rules import unit_vectors
 from solvers.hj import ValueFunction
 
@@ -137,3 +143,68 @@ def game_keepers(singles: np.ndarray, doubles: np.ndarray, targets: np.ndarray,
     chased = targets[pair]
     keeps_pair = ((chased == doubles[:, 0]) | (chased == doubles[:, 1])) & ~busy[pair]
     return np.concatenate([single[keeps_single], pair[keeps_pair]])
+
+
+class PlanGames(NamedTuple):
+    """One copy's games as the plan meets them: the ``certified`` games of the step and
+    the program's 1 vs 1 and pair games (``Roles.singles`` ``(S, 2)``, ``Roles.doubles``
+    ``(D, 3)``)."""
+
+    certified: Sequence[Match]
+    singles: np.ndarray
+    doubles: np.ndarray
+
+
+class Tempo(NamedTuple):
+    """The game's pace: ``speeds`` ``(v_A, v_D)`` map units per second, the
+    ``capture_radius`` (map units) and the step ``dt`` (seconds)."""
+
+    speeds: tuple[float, float]
+    capture_radius: float
+    dt: float
+
+
+def play_plan(field: DistanceField, attackers: np.ndarray, defenders: np.ndarray,
+              active: np.ndarray, games: Sequence[PlanGames], vf11: ValueFunction,
+              margin: float, tempo: Tempo,
+              actions: np.ndarray) -> tuple[Plan, list[np.ndarray]]:
+    """The team's intercept plan in each of L copies, played: every defender outside a
+    certified game takes the plan's heading, but for the ``game_keepers``; a certified
+    1 vs 1 tube game's defender takes it as far as ``steer`` allows; the other certified
+    games keep the controls ``actions`` holds.
+
+    Args:
+        field: the map's geodesic distance field.
+        attackers: ``(L, M, 2)`` positions (map units), copies first.
+        defenders: ``(L, N, 2)`` positions (map units).
+        active: ``(L, M)`` bool, the attackers in the game (the plan's open attackers).
+        games: each copy's ``PlanGames``.
+        vf11: the 1 vs 1 tube.
+        margin: its certificate margin (map units).
+        tempo: speeds, capture radius and step.
+        actions: ``(L, N, 2)`` float32 headings, written in place.
+
+    Returns:
+        The ``Plan`` (``targets (L, N)``, ``aims (L, N, 2)``) and each copy's keepers.
+    """
+    plan = plan_copies(race_copies(field, attackers, defenders, active, *tempo.speeds,
+                                   tempo.capture_radius),
+                       np.ones(defenders.shape[:2], dtype=bool), active)
+    desired = headings(plan, defenders, attackers)
+    free = np.ones(actions.shape[:2], dtype=bool)
+    keepers = []
+    for c, (certified, singles, doubles) in enumerate(games):
+        free[c, [j for match in certified for j in match.defenders]] = False
+        keepers.append(game_keepers(singles, doubles, plan.targets[c], ~free[c]))
+        free[c, keepers[-1]] = False
+    actions[free] = desired[free]
+    rows = [(c, match.attackers[0], match.defenders[0])
+            for c, copy in enumerate(games) for match in copy.certified
+            if match.basis is Basis.TUBE and len(match.defenders) == 1
+            and len(match.attackers) == 1]
+    if rows:
+        c, i, j = (np.array(column) for column in zip(*rows, strict=True))
+        steered, heading = steer(vf11, attackers[c, i], defenders[c, j], desired[c, j],
+                                 margin, tempo.speeds, tempo.dt)
+        actions[c[steered], j[steered]] = heading[steered]
+    return plan, keepers

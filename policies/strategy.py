@@ -1,7 +1,8 @@
 """How an assignment defender plays, as one frozen record of small strategy objects.
 
-``Strategy`` gathers the choices that ``policies.assignment_defender.AssignmentDefender``
-plays by (as ``solvers.hj.SolverSettings`` gathers a solve's):
+``Strategy`` gathers the choices that the assignment defenders
+(``policies.batch_defenders.BatchAssignmentDefenders``) play by (as
+``solvers.hj.SolverSettings`` gathers a solve's):
 
 - ``program`` (decide): which assignment program each step solves (``Program``);
 - ``margin_cells`` (keep): the certificate margin; games that clear it are kept
@@ -55,18 +56,17 @@ class Program(str, enum.Enum):
         """A fresh solver of this program (its cache answers an unchanged program)."""
         return AssignmentSolver(self.value)
 
-    def solve(self, solver: AssignmentSolver, state: GameState, tables: DecisionTables,
-              vf12: ValueFunction | None) -> Assignment:
+    def solve(self, solver: AssignmentSolver, tables: DecisionTables,
+              teams: np.ndarray | None = None) -> Assignment:
         """The assignment of the program's active attackers (``tables.active``) from its
         1 vs 1 table ``tables.beats`` (attacker ``i`` beats defender ``j``) and, for the
-        MIP, its 2 vs 1 table and, given ``vf12``, the 1 vs 2 table where a team could
-        form (``team_table``); ``tables.busy`` defenders take nothing."""
+        MIP, its 2 vs 1 table and, given ``teams``, the 1 vs 2 table ``(M, N, N)`` where
+        a team could form (``team_table``); ``tables.busy`` defenders take nothing."""
         if self is Program.MATCHING:
             return solver.solve(tables.beats, None, tables.active)
-        if vf12 is None:
+        if teams is None:
             return solver.solve(tables.beats, tables.beats_2v1, tables.active)
-        return solver.solve(tables.beats, tables.beats_2v1, tables.active,
-                            beats_1v2=team_table(vf12, state, tables))
+        return solver.solve(tables.beats, tables.beats_2v1, tables.active, beats_1v2=teams)
 
 
 def team_table(vf12: ValueFunction, state: GameState, tables: DecisionTables) -> np.ndarray:
@@ -139,7 +139,7 @@ class Spare(str, enum.Enum):
 
 @dataclass(frozen=True)
 class Strategy:
-    """How an ``AssignmentDefender`` plays (module docstring): its ``program``, its
+    """How an assignment defender plays (module docstring): its ``program``, its
     certificate margin ``margin_cells`` (grid cells of each tube) and what its ``spare``
     defenders do. Names are taken for the enums."""
 

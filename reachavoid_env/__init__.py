@@ -37,6 +37,7 @@ if TYPE_CHECKING:
         PerMap,
         Policy,
         PolicyMismatch,
+        Single,
         merged_overlay,
     )
     from reachavoid_env.observations import ObservationConfig
@@ -73,6 +74,7 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "ShapeError",
+    "Single",
     "builtin_map",
     "builtin_names",
     "builtin_scenario",
@@ -94,7 +96,8 @@ ENV_ID = "reachavoid/ReachAvoid-v1"
 __getattr__, __dir__ = lazy.attributes(__name__, {
     "GameMap": "reachavoid_env.game_map",
     **dict.fromkeys(["AttackerStatus", "BatchPolicy", "BatchState", "GameState", "Overlay",
-                     "PerCopy", "PerMap", "Policy", "PolicyMismatch", "merged_overlay"],
+                     "PerCopy", "PerMap", "Policy", "PolicyMismatch", "Single",
+                     "merged_overlay"],
                     "reachavoid_env.game_state"),
     **dict.fromkeys(["Scenario", "ScenarioError", "builtin_map", "builtin_names",
                      "builtin_scenario", "load_scenario", "save_scenario"],

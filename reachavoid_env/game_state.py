@@ -407,3 +407,45 @@ class PerMap:
                 actions = np.zeros_like(acted)
             actions[here] = acted[here]
         return actions
+
+
+class Single:
+    """A ``BatchPolicy`` played as an ordinary ``Policy``: one game, copy 0 of ``batch``.
+
+    ``reset(scenario)`` resets copy 0; ``act(state)`` gives copy 0's rows of
+    ``batch.act_batch`` keyed by agent name: every defender (``side="defenders"``) or every
+    active attacker (``side="attackers"``), float32 ``(2,)`` each. ``overlay()`` is
+    ``batch.overlay(0)`` where the batched policy draws (``None`` otherwise); any other
+    attribute is read from ``batch``, but for ``BatchPolicy``'s own methods: a ``Single``
+    is a ``Policy``, never taken for a ``BatchPolicy`` (whose copies it would share).
+    """
+
+    _UNSHARED = frozenset({"batch", "side", "reset_copies", "act_batch"})
+
+    def __init__(self, batch: BatchPolicy, side: str = "defenders") -> None:
+        if side not in ("defenders", "attackers"):
+            raise ValueError(f"side: expected 'defenders' or 'attackers', got {side!r}")
+        self.batch = batch
+        self.side = side
+
+    def reset(self, scenario: Scenario) -> None:
+        self.batch.reset_copies(np.zeros(1, dtype=np.int64), [scenario])
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]:
+        batch = BatchState.of([state])
+        if state.velocities is not None:
+            batch = batch._replace(velocities=state.velocities[None])
+        rows = self.batch.act_batch(batch)[0]
+        if self.side == "defenders":
+            return dict(zip(state.defender_names, rows, strict=True))
+        return {name: rows[i] for i, name in enumerate(state.attacker_names)
+                if state.attacker_status[i] is AttackerStatus.ACTIVE}
+
+    def overlay(self) -> Overlay | None:
+        overlay = getattr(self.batch, "overlay", None)
+        return overlay(0) if callable(overlay) else None
+
+    def __getattr__(self, name: str) -> Any:
+        if name in self._UNSHARED or name.startswith("__"):
+            raise AttributeError(name)   # not forwarded (or, while copying, not set yet)
+        return getattr(self.batch, name)

@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from policies import lookups
+from policies.batch_defenders import BatchAssignmentDefenders
 from policies.certificate import Margins, Match, Tubes
-from policies.lookups import DecisionTables, Matches
+from policies.lookups import DecisionTables, Matches, Ragged, TubeArrays
 from policies.tube_states import control_headings
 from reachavoid_env import GameState
 from solvers.hj import ValueFunction
@@ -102,7 +104,8 @@ def restrict(beats: np.ndarray, active: np.ndarray, fixed: list[Match]
 
 def decision_tables(state: GameState, certified: list[Match], tubes: Tubes,
                     wins: np.ndarray, held: np.ndarray | None = None) -> DecisionTables:
-    """``lookups.decision_tables`` the step-by-step way: the 1 vs 1 table from the tube's
+    """``lookups.batch_decision_tables`` of one game (``one_game_tables``) the
+    step-by-step way: the 1 vs 1 table from the tube's
     ``value``, ``still_winning`` and ``restrict``, the open-space ``wins (M, N)`` counted
     as defender wins, and the 2 vs 1 value of every candidate pair of the restricted
     program in one lookup."""
@@ -141,7 +144,8 @@ def decision_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.
                       margins: np.ndarray, values11: np.ndarray, values21: np.ndarray,
                       vf11: ValueFunction, vf21: ValueFunction | None,
                       actions: np.ndarray) -> np.ndarray:
-    """``lookups.decision_controls`` from the tubes' ``defender_control`` and ``value``."""
+    """``lookups.batch_decision_controls`` of one game (``one_game_controls``) from the
+    tubes' ``defender_control`` and ``value``."""
     _defendercontrol_headings(attackers, defenders, singles, doubles, vf11, vf21, actions)
     slacks = np.empty(len(games.defenders))
     for g, ((j, k), (i, other)) in enumerate(zip(games.defenders, games.attackers,
@@ -183,3 +187,61 @@ def assert_same_tables(ours: DecisionTables, theirs: DecisionTables) -> None:
     for name, mine, expected in zip(ours._fields, ours, theirs, strict=True):
         assert mine.dtype == expected.dtype and mine.shape == expected.shape, name
         assert np.array_equal(mine, expected, equal_nan=True), name
+
+
+def one_game_tables(attackers: np.ndarray, defenders: np.ndarray, active: np.ndarray,
+                    certified: Matches, team_values: np.ndarray, held: np.ndarray,
+                    wins: np.ndarray, tube11: TubeArrays,
+                    tube21: TubeArrays | None) -> DecisionTables:
+    """``lookups.batch_decision_tables`` of one game (one copy), without the copy axis."""
+    tables = lookups.batch_decision_tables(
+        attackers[None], defenders[None], active[None],
+        (Ragged.of([certified.defenders]), Ragged.of([certified.attackers])), team_values,
+        held, wins[None], tube11, tube21)
+    return DecisionTables(*(table if name in ("kept", "left") else table[0]
+                            for name, table in zip(DecisionTables._fields, tables,
+                                                   strict=True)))
+
+
+def one_game_controls(attackers: np.ndarray, defenders: np.ndarray, singles: np.ndarray,
+                      doubles: np.ndarray, games: Matches, team_values: np.ndarray,
+                      margins: np.ndarray, values11: np.ndarray, values21: np.ndarray,
+                      tube11: TubeArrays, tube21: TubeArrays | None,
+                      actions: np.ndarray) -> np.ndarray:
+    """``lookups.batch_decision_controls`` of one game (one copy): ``values21 (M, M, N)``
+    and ``actions (N, 2)`` written in place."""
+    return lookups.batch_decision_controls(
+        attackers[None], defenders[None], Ragged.of([singles]), Ragged.of([doubles]),
+        (Ragged.of([games.defenders]), Ragged.of([games.attackers])), team_values, margins,
+        values11[None], values21[None], tube11, tube21, actions[None])
+
+
+class StepByStepDefenders(BatchAssignmentDefenders):
+    """The engine with each copy's tables made step by step (``decision_tables``)."""
+
+    def _tables(self, game, certified, held, wins):
+        tables = [decision_tables(game.state(c), certified[c], self.tubes, wins[c], held[c])
+                  for c in range(len(certified))]
+        return DecisionTables(*(
+            np.concatenate(columns) if name in ("kept", "left") else np.stack(columns)
+            for name, columns in zip(DecisionTables._fields, zip(*tables, strict=True),
+                                     strict=True)))
+
+
+def step_by_step_controls(vf11: ValueFunction, vf21: ValueFunction | None):
+    """A stand-in for ``lookups.batch_decision_controls`` that plays each copy through
+    ``decision_controls`` (the tubes' own calls)."""
+    def controls(attackers, defenders, singles, doubles, games, team_values, margins,
+                 values11, values21, tube11, tube21, actions):
+        game_defenders, game_attackers = games
+        slacks = []
+        for c in range(len(attackers)):
+            rows = [slice(*ragged.offsets[c:c + 2]) for ragged in (singles, doubles,
+                                                                   game_defenders)]
+            slacks.append(decision_controls(
+                attackers[c], defenders[c], singles.rows[rows[0]], doubles.rows[rows[1]],
+                Matches(game_defenders.rows[rows[2]], game_attackers.rows[rows[2]]),
+                team_values[rows[2]], margins, values11[c], values21[c], vf11, vf21,
+                actions[c]))
+        return np.concatenate(slacks)
+    return controls

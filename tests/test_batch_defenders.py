@@ -1,19 +1,25 @@
-"""Batched defenders (policies.batch_defenders) against one single-game policy per copy
-(reachavoid_env.PerCopy): the same actions, bit for bit, over hundreds of steps of K
-random-start games played forward with those actions; over several maps through
-reachavoid_env.PerMap."""
+"""Batched defenders (policies.batch_defenders, policies.greedy) at K copies against the
+same code at K = 1, one game per copy (reachavoid_env.PerCopy of the single policies,
+which are the batched ones at one copy): the same actions, bit for bit, over hundreds of
+steps of K random-start games played forward with those actions; over several maps
+through reachavoid_env.PerMap."""
 
 import dataclasses
 
 import numpy as np
 import pytest
+from defenders_reference import ReferenceGreedyDefender
 
 import reachavoid_env
+from policies.assignment_defender import AssignmentDefender
 from policies.attackers import ShortestPathAttacker
-from policies.batch_defenders import BatchGreedyDefenders, BatchHJDefenders
+from policies.batch_defenders import BatchAssignmentDefenders, BatchHJDefenders
 from policies.certificate import Basis
-from policies.defenders import GreedyDefender, HJDefenderPolicy
+from policies.defenders import HJDefenderPolicy
+from policies.greedy import BatchGreedyDefenders, GreedyDefender
+from policies.intercept import BatchInterceptDefenders, InterceptDefender
 from policies.registry import make_batch_policy
+from policies.strategy import Program, Spare, Strategy
 from reachavoid_env import BatchState, PerCopy, PerMap
 
 EPISODE = 400
@@ -114,6 +120,23 @@ def test_batched_hj_plays_as_one_policy_per_copy(coarse_tubes, name, count, step
     assert kinds <= seen
 
 
+@pytest.mark.parametrize("strategy", [
+    Strategy(Program.MIP, 0.0, Spare.STAND),            # paper
+    Strategy(Program.MIP, 1.0, Spare.SHADOW),
+    Strategy(Program.MATCHING, 1.0, Spare.PURSUE),
+])
+def test_every_strategy_plays_as_one_copy_each(coarse_tubes, strategy):
+    """The engine plays every strategy at K copies as at one copy each (the paper's
+    method, the shadowing spares, the matching baseline pursuing)."""
+    vf11, vf21 = coarse_tubes
+    scenario = reachavoid_env.builtin_scenario("paper_6v2")
+    tubes = (vf11, None if strategy.program is Program.MATCHING else vf21, None)
+    copies = play_side_by_side(scenario, 6, 300,
+                               PerCopy(lambda _: AssignmentDefender(*tubes, strategy)),
+                               BatchAssignmentDefenders(*tubes, strategy))
+    assert copies.games > 6
+
+
 def test_per_map_gives_each_copy_its_maps_batched_policy(coarse_tubes):
     """Copies restart on maps drawn from three (the paper's geometry under three names, so
     one pair of tubes serves them): one batched policy per map, each acting for its copies
@@ -146,9 +169,31 @@ def test_per_map_needs_every_copy_reset():
 
 
 def test_batched_greedy_plays_as_one_policy_per_copy():
+    """K = 1 against K = 16 of the one greedy, and the greedy of before it was batched (a
+    numpy twin in ``tests/defenders_reference.py``), edges included."""
     scenario = reachavoid_env.builtin_scenario("paper_8v4")
     play_side_by_side(scenario, 16, 200, PerCopy(lambda _: GreedyDefender()),
                       BatchGreedyDefenders())
+    single, twin = PerCopy(lambda _: GreedyDefender()), PerCopy(
+        lambda _: ReferenceGreedyDefender())
+
+    def same_edges(_):
+        for mine, theirs in zip(single.policies, twin.policies, strict=True):
+            assert mine.overlay() == theirs.overlay()
+
+    copies = Copies(scenario, 4, [single, twin])
+    for _ in range(150):
+        state = copies.state()
+        expected, got = twin.act_batch(state), single.act_batch(state)
+        assert np.array_equal(expected.view(np.uint32), got.view(np.uint32))
+        same_edges(None)
+        copies.step(expected)
+
+
+def test_batched_intercept_plays_as_one_policy_per_copy():
+    scenario = reachavoid_env.builtin_scenario("paper_8v4")
+    play_side_by_side(scenario, 12, 200, PerCopy(lambda _: InterceptDefender()),
+                      BatchInterceptDefenders())
 
 
 def test_batch_state_gives_each_copy_as_the_env_does():
@@ -186,7 +231,9 @@ def test_registry_builds_the_batched_class_where_there_is_one():
     scenario = reachavoid_env.builtin_scenario("paper_8v4")
     assert isinstance(make_batch_policy("defenders", "greedy", scenario),
                       BatchGreedyDefenders)
-    fallback = make_batch_policy("defenders", "intercept", scenario)
+    assert isinstance(make_batch_policy("defenders", "intercept", scenario),
+                      BatchInterceptDefenders)
+    fallback = make_batch_policy("defenders", "idle", scenario)
     assert isinstance(fallback, PerCopy) and fallback.side == "defenders"
     assert isinstance(make_batch_policy("attackers", "shortest-path", scenario), PerCopy)
 

@@ -10,37 +10,41 @@ import pytest
 
 import reachavoid_env
 from policies import HJDefenderPolicy, RandomAttacker, ShortestPathAttacker, lookups
-from policies import assignment_defender as defenders_module
+from policies import batch_defenders as engine_module
+from policies.certificate import match_arrays, no_team_values
+from policies.tube_states import pair_states
 
 
-class StepByStepDefender(HJDefenderPolicy):
-    """``HJDefenderPolicy`` with the reference tables (its headings: ``step_by_step``)."""
-
-    def _tables(self, state, active, certified, wins, held=None):
-        return reference.decision_tables(state, certified, self.tubes, wins, held)
+def step_by_step_defenders(vf11, vf21, margin):
+    """``HJDefenderPolicy`` whose engine makes its tables step by step (its headings:
+    ``step_by_step``)."""
+    policy = HJDefenderPolicy(vf11, vf21, margin_cells=margin)
+    policy.batch = reference.StepByStepDefenders(vf11, vf21, None, policy.strategy)
+    return policy
 
 
 def open_space_tables(policy, state, certified):
     """Open-space ``wins`` asked at every pair whose 1 vs 1 value is up to the margin
-    (the policy asks a subset: ``_open_wins`` and ``_ask_new_games``; both lookups take
-    the same table) and the ``held`` of ``_decide`` with them (none where the policy has
-    no open-space certificate)."""
+    (the policy asks a subset: where the program's tables and the new 1 vs 1 games read
+    them; both lookups take the same table) and the ``held`` of the certified games with
+    them (none where the policy has no open-space certificate)."""
     shape = len(state.attacker_positions), len(state.defender_positions)
     if policy._open is None:
         return np.zeros(shape, dtype=bool), np.zeros(len(certified), dtype=bool)
-    values = policy.vf11.value(defenders_module.pair_states(state.attacker_positions,
-                                                            state.defender_positions))
-    wins = policy._open.wins(state, values <= policy.tubes.margins.m11)
-    return wins, policy._open.held(certified, state, wins)
+    values = policy.vf11.value(pair_states(state.attacker_positions,
+                                           state.defender_positions))
+    one = (state.attacker_positions[None], state.defender_positions[None])
+    asked = (values <= policy.tubes.margins.m11) & state.active_attackers[:, None]
+    wins = policy._open.wins(*one, asked[None])[0]
+    return wins, policy._open.held([certified], *one, state.active_attackers[None],
+                                   wins[None])[0]
 
 
 def step_by_step(monkeypatch, vf11, vf21):
     """Route the policies' controls and slacks through the reference
-    (``decision_controls``)."""
-    def controls(*arrays):
-        *inputs, _, _, actions = arrays
-        return reference.decision_controls(*inputs, vf11, vf21, actions)
-    monkeypatch.setattr(defenders_module, "decision_controls", controls)
+    (``decision_controls``, copy by copy)."""
+    monkeypatch.setattr(engine_module, "batch_decision_controls",
+                        reference.step_by_step_controls(vf11, vf21))
 
 
 def play(seed: int, attackers, decide) -> None:
@@ -77,7 +81,10 @@ def test_tables_and_headings_match_step_by_step(coarse_tubes, seed, attackers, m
             policy.reset(scenario)
         certified = policy.certified_games if margin > 0 else []
         wins, held = open_space_tables(policy, state, certified)
-        ours = policy._tables(state, state.active_attackers, certified, wins, held)
+        games = match_arrays(tuple(certified))
+        ours = reference.one_game_tables(
+            state.attacker_positions, state.defender_positions, state.active_attackers,
+            games, no_team_values(len(certified)), held, wins, *policy._tubes)
         expected = reference.decision_tables(state, certified, policy.tubes, wins, held)
         reference.assert_same_tables(ours, expected)
         opened += bool(wins.any())
@@ -98,7 +105,7 @@ def test_tables_and_headings_match_step_by_step(coarse_tubes, seed, attackers, m
             mine, expected = (np.zeros((n, 2), np.float32) for _ in range(2))
             table, expected_table = ours.values21.copy(), ours.values21.copy()
             asked = games if g == 0 else lookups.Matches(*(part[:0] for part in games))
-            slack = lookups.decision_controls(
+            slack = reference.one_game_controls(
                 state.attacker_positions, state.defender_positions, singles, doubles, asked,
                 team_values, margins, ours.values11, table, *tubes, mine)
             expected_slack = reference.decision_controls(
@@ -123,8 +130,8 @@ def test_actions_match_step_by_step(coarse_tubes, monkeypatch, seed, attackers, 
     solver counts."""
     vf11, vf21 = coarse_tubes
     fast = HJDefenderPolicy(vf11, vf21, margin_cells=margin)
-    slow = StepByStepDefender(vf11, vf21, margin_cells=margin)
-    batched = defenders_module.decision_controls
+    slow = step_by_step_defenders(vf11, vf21, margin)
+    batched = engine_module.batch_decision_controls
 
     def decide(scenario, step, state):
         if step == 0:
@@ -133,7 +140,7 @@ def test_actions_match_step_by_step(coarse_tubes, monkeypatch, seed, attackers, 
         ours = fast.act(state)
         with monkeypatch.context() as patch:
             step_by_step(patch, vf11, vf21)
-            assert defenders_module.decision_controls is not batched
+            assert engine_module.batch_decision_controls is not batched
             theirs = slow.act(state)
         assert ours.keys() == theirs.keys()
         for name in ours:

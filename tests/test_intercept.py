@@ -1,17 +1,19 @@
-"""The time-to-intercept defenders (``policies.intercept``): the path tracer against a
-numpy twin, the races and the plan on hand-made cases, and a played game."""
+"""The time-to-intercept defenders (``policies.intercept``): the path tracer and the plan
+against numpy twins, the races and the plan on hand-made cases, and a played game."""
 
 from __future__ import annotations
 
 import numpy as np
+from defenders_reference import reference_plan
 
 import reachavoid_env
 from policies.intercept import (
     PATH_STEP,
     InterceptDefender,
     Races,
+    plan_copies,
     plan_intercepts,
-    races,
+    race_copies,
     trace_paths,
 )
 from policies.registry import make_policy
@@ -60,7 +62,8 @@ def test_races_and_the_plan_take_the_most_threatening_attacker_first():
     field = distance_field(scenario.map, scenario.player_radius)
     attackers = np.array([[0.3, 0.2], [-0.8, 0.8]])    # near the target, far from it
     defenders = np.array([[0.5, 0.5], [-0.7, 0.7]])
-    race = races(trace_paths(field, attackers), defenders, 1.0, 1.5, 0.1)
+    race = Races(*(array[0] for array in race_copies(
+        field, attackers[None], defenders[None], np.ones((1, 2), dtype=bool), 1.0, 1.5, 0.1)))
     assert race.threat[0] < race.threat[1]
     assert race.wins[0, 0] and race.wins[1, 1] and not race.wins[0, 1]
     plan = plan_intercepts(race, np.ones(2, dtype=bool), np.ones(2, dtype=bool))
@@ -82,3 +85,28 @@ def test_intercept_defenders_play_the_paper_games():
         result = run_episode(env, make_policy("attackers", "shortest-path", scenario),
                              defenders, seed=0)
         assert result.captured_count == captured, name
+
+
+def test_the_plan_of_many_copies_is_the_numpy_twins_of_each():
+    """``plan_copies`` (one numba kernel) against the numpy plan of before, copy by copy,
+    on random races full of ties (threats, times), free defenders and open attackers."""
+    rng = np.random.default_rng(0)
+    copies, m, n = 400, 5, 4
+    race = Races(rng.random((copies, m, n)) < 0.5, rng.random((copies, m, n, 2)),
+                 rng.integers(0, 3, (copies, m, n)).astype(float),
+                 rng.integers(0, 3, (copies, m)).astype(float))
+    free = rng.random((copies, n)) < 0.8
+    open_ = rng.random((copies, m)) < 0.7
+    plan = plan_copies(race, free, open_)
+    for c in range(copies):
+        one = Races(*(array[c] for array in race))
+        expected = reference_plan(one, free[c], open_[c])
+        single = plan_intercepts(one, free[c], open_[c])
+        for got in (single, plan_copies(Races(*(a[c:c + 1] for a in race)), free[c:c + 1],
+                                        open_[c:c + 1])):
+            got = type(got)(*(array.reshape(expected_array.shape) for array, expected_array
+                              in zip(got, expected, strict=True)))
+            assert np.array_equal(got.targets, expected.targets), c
+            assert np.array_equal(got.aims.view(np.uint64), expected.aims.view(np.uint64)), c
+        assert np.array_equal(plan.targets[c], expected.targets)
+        assert np.array_equal(plan.aims[c].view(np.uint64), expected.aims.view(np.uint64))

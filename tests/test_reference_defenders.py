@@ -7,8 +7,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from lookups_reference import one_game_controls, still_winning
 from lookups_reference import slack as game_slack
-from lookups_reference import still_winning
 
 import reachavoid_env
 from policies import (
@@ -19,7 +19,7 @@ from policies import (
     RandomAttacker,
     ShortestPathAttacker,
 )
-from policies.certificate import Basis, Match, games_of
+from policies.certificate import Basis, Match, games_of, match_arrays, no_team_values, roles_of
 from policies.steering import ATTACKER_MOVES, game_keepers, held_one_step, steer
 from policies.strategy import Program, Spare, Strategy
 from policies.tube_states import pair_states
@@ -69,7 +69,7 @@ def test_worked_example_is_not_certified(coarse_tubes):
     # nothing certified, and the pair is played all the same: the plan sends the defender
     # after one of the pair, so it keeps the pair's optimal control (a pair that splits
     # beats the plan); the overlay draws the pair game, not a race
-    assert reference._plan.targets[0] in (0, 1)
+    assert reference.plan.targets[0] in (0, 1)
     overlay = reference.overlay()
     assert [(e.defender, e.kind) for e in overlay.kinded_edges] == [
         ("defender_0", EdgeKind.PAIR)] * 2
@@ -107,7 +107,12 @@ def _check_certificate(policy, state, previous: list[Match]) -> int:
     assert set(certified) <= set(games_of(policy.last_assignment))
     tubes = policy.tubes
     space = policy._open
-    held = None if space is None else space.held(previous, state, policy._open_wins(state))
+    if space is not None:
+        one = state.attacker_positions[None], state.defender_positions[None]
+        asked = (values11 <= 0.0) & state.active_attackers[:, None]
+        wins = space.wins(*one, asked[None])
+    held = None if space is None else space.held(
+        [previous], *one, state.active_attackers[None], wins)[0]
     still = still_winning(previous, state, values11, tubes, held=held)
     assert set(still) <= set(certified)
     in_band = 0
@@ -295,7 +300,11 @@ def test_certified_game_takes_the_plan_only_as_far_as_its_value_allows(coarse_tu
         gap = state.defender_positions[j] - state.attacker_positions[i]
         away[j] = gap / np.linalg.norm(gap, axis=1)[:, None]     # the worst proposal
         optimal = actions.copy()
-        policy._play_games(policy._decision, optimal)             # the games' optimal controls
+        roles = roles_of(policy.last_assignment)                 # the games' optimal controls
+        tables = policy.copies[0].decision.tables
+        one_game_controls(state.attacker_positions, state.defender_positions, roles.singles,
+                          roles.doubles, match_arrays(()), no_team_values(0), policy.margins,
+                          tables.values11, tables.values21.copy(), *policy._tubes, optimal)
         steered = optimal.copy()
         margin = policy.tubes.margins.m11
         speeds = (state.attacker_speed, state.defender_speed)

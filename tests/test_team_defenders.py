@@ -14,7 +14,6 @@ from policies import (
     HJDefenderPolicy,
     HJPairsDefenderPolicy,
     ShortestPathAttacker,
-    lookups,
 )
 from policies.certificate import match_arrays
 from policies.registry import make_policy, resolve
@@ -162,18 +161,22 @@ def test_certified_teams_match_the_step_by_step_tables(equal_tubes, attackers):
         state = env.unwrapped.game_state()
         certified = policy.certified_games
         none = np.zeros((len(state.attacker_positions), len(state.defender_positions)), bool)
-        ours = policy._tables(state, state.active_attackers, certified, none)
+        games = match_arrays(tuple(certified))
+        ours = reference.one_game_tables(
+            state.attacker_positions, state.defender_positions, state.active_attackers,
+            games, team_values(policy.vf12, state, games), np.zeros(len(certified), bool),
+            none, *policy._tubes)
         expected = reference.decision_tables(state, certified, policy.tubes, none)
         reference.assert_same_tables(ours, expected)
         teams = [game for game in certified if len(game.defenders) == 2]
         if teams:
             team_steps += 1
             games = match_arrays(tuple(teams))
-            slack = lookups.decision_controls(
+            slack = reference.one_game_controls(
                 state.attacker_positions, state.defender_positions, np.empty((0, 2), np.int64),
                 np.empty((0, 3), np.int64), games, team_values(policy.vf12, state, games),
-                policy._margins, ours.values11, ours.values21.copy(),
-                *policy._tube_arrays, np.zeros((len(state.defender_positions), 2), np.float32))
+                policy.margins, ours.values11, ours.values21.copy(),
+                *policy._tubes, np.zeros((len(state.defender_positions), 2), np.float32))
             assert np.array_equal(slack, reference.slack(policy.tubes, teams, state,
                                                          ours.values11))
         actions = {**attackers.act(state), **policy.act(state)}
