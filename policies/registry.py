@@ -317,11 +317,14 @@ BATCHED: dict[str, dict[str, NamedPolicy]] = {
                               "policies.greedy:BatchGreedyDefenders", scenario=False),
         "intercept": NamedPolicy("intercept on K copies in one call",
                                  "policies.intercept:BatchInterceptDefenders", scenario=False),
+        **{name: DEFENDERS[name] for name in ("hj-pairs", "paper", "matching")},
     },
     "attackers": {},
 }
 """Names with a batched class (``reachavoid_env.BatchPolicy``), acting on every copy as
-the single policy of that name does, bit for bit."""
+the single policy of that name does, bit for bit; a factory here that builds a
+``reachavoid_env.Single`` (the assignment engine at one copy: ``hj-pairs``, ``paper``,
+``matching``) gives its engine."""
 
 
 def make_batch_policy(side: str, source: str | Factory, scenario: Scenario,
@@ -331,9 +334,11 @@ def make_batch_policy(side: str, source: str | Factory, scenario: Scenario,
     ``reachavoid_env.PerCopy`` of the single policy (built per copy and map)."""
     spec = PolicySpec.of(side, source, **options)
     batched = BATCHED[side].get(source) if isinstance(source, str) else None
+    from reachavoid_env import PerCopy, Single
+
     if batched is not None and all(batched.takes(option) for option in options):
-        return batched.build(scenario, **options)
-    from reachavoid_env import PerCopy
+        policy = batched.build(scenario, **options)
+        return policy.batch if isinstance(policy, Single) else policy
 
     return PerCopy(spec, side)
 

@@ -18,9 +18,9 @@ from policies.certificate import Basis
 from policies.defenders import HJDefenderPolicy
 from policies.greedy import BatchGreedyDefenders, GreedyDefender
 from policies.intercept import BatchInterceptDefenders, InterceptDefender
-from policies.registry import make_batch_policy
+from policies.registry import BATCHED, DEFENDERS, NamedPolicy, make_batch_policy
 from policies.strategy import Program, Spare, Strategy
-from reachavoid_env import BatchState, PerCopy, PerMap
+from reachavoid_env import BatchState, PerCopy, PerMap, Single
 
 EPISODE = 400
 """Steps after which a copy starts a new game (a new random start)."""
@@ -236,6 +236,19 @@ def test_registry_builds_the_batched_class_where_there_is_one():
     fallback = make_batch_policy("defenders", "idle", scenario)
     assert isinstance(fallback, PerCopy) and fallback.side == "defenders"
     assert isinstance(make_batch_policy("attackers", "shortest-path", scenario), PerCopy)
+
+
+def test_a_batched_name_whose_factory_builds_a_single_gives_its_engine(monkeypatch):
+    """``hj-pairs``, ``paper`` and ``matching`` are the assignment engine at one copy
+    (``Single``): ``make_batch_policy`` hands out the engine itself."""
+    engine = BatchGreedyDefenders()
+    choice = NamedPolicy("a Single", lambda scenario: Single(engine))
+    monkeypatch.setitem(DEFENDERS, "engine-test", choice)
+    monkeypatch.setitem(BATCHED["defenders"], "engine-test", choice)
+    scenario = reachavoid_env.builtin_scenario("paper_8v4")
+    assert make_batch_policy("defenders", "engine-test", scenario) is engine
+    for name in ("hj-pairs", "paper", "matching"):
+        assert BATCHED["defenders"][name] is DEFENDERS[name]
 
 
 def test_batched_hj_refuses_copies_of_another_game(coarse_tubes):
