@@ -39,7 +39,8 @@ import numpy as np
 import torch
 from harness import timed
 
-from policies.training import defender_factory, defender_options
+from reachavoid.training.flags import defender_options
+from reachavoid.training.views import defender_factory
 
 ROOT = Path(__file__).resolve().parent.parent
 

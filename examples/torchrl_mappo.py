@@ -10,7 +10,7 @@ attacker is):
 
 A captured or arrived attacker stays in the group with ``mask`` False, zero observation
 and reward, and ``done`` True; its steps are left out of the loss
-(``policies.mappo_training.ppo_epochs``).
+(``reachavoid.training.mappo.ppo_epochs``).
 """
 
 from __future__ import annotations
@@ -29,8 +29,12 @@ from torchrl.envs import EnvBase
 from torchrl.modules import MultiAgentMLP, ProbabilisticActor, TanhNormal
 from torchrl.objectives import ClipPPOLoss, ValueEstimators
 
-from policies.mappo_training import LOSSES, ppo_epochs
-from policies.training import add_defender_arguments, add_reward_arguments, attackers_from_args
+from reachavoid.training.flags import (
+    add_defender_arguments,
+    add_reward_arguments,
+    attackers_from_args,
+)
+from reachavoid.training.mappo import LOSSES, ppo_epochs
 from reachavoid_env import AttackerStatus
 from reachavoid_env.integrations.torchrl import torchrl_env
 

@@ -53,20 +53,22 @@ from policies.learned import (
     read_sb3,
     training_record,
 )
-from policies.training import (
+from reachavoid.evaluation import bootstrap_interval, wilson_interval, write_csv
+from reachavoid.paths import UsageError, check_outputs, writable_folder
+from reachavoid.training.flags import (
     Bounds,
     add_defender_arguments,
     add_reward_arguments,
-    attacker_factory,
     check_ranges,
-    defender_factory,
     defender_options,
-    make_attacker_env,
-    make_attacker_vector_env,
     reward_options,
 )
-from reachavoid.evaluation import bootstrap_interval, wilson_interval, write_csv
-from reachavoid.paths import UsageError, check_outputs, writable_folder
+from reachavoid.training.views import (
+    attacker_factory,
+    defender_factory,
+    make_attacker_env,
+    make_attacker_vector_env,
+)
 from reachavoid_env import AttackerStatus, Scenario, load_scenario
 from reachavoid_env.files import atomic_write, forget_expected, write_json
 from reachavoid_env.integrations.vector import sb3_vec_env
@@ -231,7 +233,7 @@ def random_act(seed: int) -> Act:
 
 
 def scripted_act(name: str) -> Act:
-    """The scripted attacker ``name`` (``policies.training.ATTACKERS``) in the learner's
+    """The scripted attacker ``name`` (``policies.registry.ATTACKERS``) in the learner's
     place."""
     factory = attacker_factory(name)
     built: dict[str, Any] = {}

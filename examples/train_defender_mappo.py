@@ -3,7 +3,7 @@ their actor as the weights file the registry plays (``policies/mappo.py``).
 
     python examples/train_defender_mappo.py --out policies/weights/learned_mappo.npz
 
-The recipe is ``policies.mappo_training.train_defenders``: one shared actor, a
+The recipe is ``reachavoid.training.mappo.train_defenders``: one shared actor, a
 centralised critic, the default suite's games in turn (random starts, shortest-path
 attackers, and random ones in 6v2). It prints one line per iteration and, with
 ``--report``, writes every iteration's record as JSON. The same ``--seed`` on the same
@@ -21,9 +21,9 @@ from dataclasses import asdict
 from typing import Any
 
 from policies.mappo import save_weights
-from policies.mappo_training import GAMES, TrainConfig, games_of, train_defenders
-from policies.training import Bounds, check_ranges
 from reachavoid.paths import UsageError, check_outputs
+from reachavoid.training.flags import Bounds, check_ranges
+from reachavoid.training.mappo import GAMES, TrainConfig, games_of, train_defenders
 from reachavoid_env.files import atomic_write, forget_expected
 from reachavoid_env.vector import MAX_COPIES
 

@@ -20,15 +20,12 @@ import reachavoid_env
 from policies import GreedyDefender, IdleDefender
 from policies.learned import TRAINING_ATTRIBUTE, ObservationPolicy, load_sb3, training_record
 from policies.registry import make_policy, resolve
-from policies.training import (
-    gym_id,
-    make_attackers_parallel_env,
-    pettingzoo_id,
-)
 from reachavoid import cli
 from reachavoid.rollout import run_episode
+from reachavoid.training.views import make_attackers_parallel_env
 from reachavoid_env import builtin_names, builtin_scenario
 from reachavoid_env.observations import GLOBAL, ObservationConfig, observe
+from reachavoid_env.training_ids import gym_id, pettingzoo_id
 from reachavoid_env.video import RecordEpisode
 
 
@@ -136,7 +133,7 @@ def model_path(tmp_path_factory):
     pytest.importorskip("stable_baselines3")
     from stable_baselines3 import PPO
 
-    from policies.training import make_attacker_env
+    from reachavoid.training.views import make_attacker_env
 
     env = make_attacker_env("paper_1v1", defenders="greedy", starts="random",
                             action_repeat=10, shaping=1.0, timeout_reward=-1.0)

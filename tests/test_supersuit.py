@@ -13,7 +13,7 @@ pytest.importorskip("stable_baselines3")
 from checks import example  # noqa: E402
 
 import reachavoid_env  # noqa: E402
-from policies.training import make_attackers_parallel_env  # noqa: E402
+from reachavoid.training.views import make_attackers_parallel_env  # noqa: E402
 from reachavoid_env.integrations.supersuit import sb3_vec_env  # noqa: E402
 
 # attacker_0 runs east into the target (arrives on step 10); attacker_1 runs east while

@@ -122,7 +122,7 @@ def test_mappo_example_trains_with_finite_losses():
 def test_vector_attackers_env_passes_specs_and_resets_ended_copies_alone():
     from torchrl.envs.utils import check_env_specs
 
-    from policies.training import make_attackers_vector_env
+    from reachavoid.training.views import make_attackers_vector_env
     from reachavoid_env.integrations.torchrl import VectorGroupEnv
 
     view = make_attackers_vector_env("paper_6v2", defenders="greedy", num_envs=4,
@@ -141,7 +141,7 @@ def test_vector_attackers_env_passes_specs_and_resets_ended_copies_alone():
 
 
 def test_vector_defenders_learn_as_the_defender_group():
-    from policies.training import make_defenders_vector_env
+    from reachavoid.training.views import make_defenders_vector_env
     from reachavoid_env.integrations.torchrl import VectorGroupEnv
 
     env = VectorGroupEnv(make_defenders_vector_env("paper_6v2", num_envs=3, max_cycles=40,

@@ -23,16 +23,14 @@ from policies import (
     StraightAttacker,
 )
 from policies.registry import ATTACKERS, DEFENDERS, PolicySpec
-from policies.training import (
-    GYM_ID,
-    PETTINGZOO_ID,
+from reachavoid.training.views import (
     attacker_factory,
     defender_factory,
-    gym_id,
     make_attacker_env,
     make_attackers_parallel_env,
 )
 from reachavoid_env import builtin_names, builtin_scenario
+from reachavoid_env.training_ids import GYM_ID, PETTINGZOO_ID, gym_id
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 
 # Tubes coarse enough to solve in seconds (conftest.py points the cache at a throwaway
@@ -99,7 +97,7 @@ def test_gymnasium_ids_are_registered_for_every_builtin():
         for starts in ("scenario", "random"):
             spec = gymnasium.spec(gym_id(name, starts))
             assert spec.kwargs == {"scenario": name, "starts": starts}
-            assert spec.entry_point == "policies.training:make_attacker_env"
+            assert spec.entry_point == "reachavoid.training.views:make_attacker_env"
     assert gym_id("paper_6v2", "random") == "reachavoid/Attacker-paper_6v2-random-v1"
 
 
@@ -135,7 +133,7 @@ def test_make_vec(mode):
 
 def test_module_colon_id_loads_the_ids_in_a_fresh_interpreter():
     code = ("import gymnasium; env = gymnasium.make("
-            "'policies:reachavoid/Attacker-paper_1v1-v0', defenders='greedy'); "
+            "'reachavoid_env:reachavoid/Attacker-paper_1v1-v0', defenders='greedy'); "
             "print(env.reset(seed=0)[0].shape)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=ROOT, timeout=120, check=True)

@@ -1,7 +1,7 @@
 """MAPPO for the defenders with TorchRL (``rl`` extra): the recipe of ``learned-mappo``'s
 weights (``policies/mappo.py``; ``examples/train_defender_mappo.py`` runs it).
 
-    from policies.mappo_training import TrainConfig, train_defenders
+    from reachavoid.training.mappo import TrainConfig, train_defenders
     weights, history = train_defenders(TrainConfig(iterations=120))
 
 One actor shared by every defender reads the padded layout (``policies.mappo``), so one
@@ -34,7 +34,7 @@ from torchrl.objectives import ClipPPOLoss, ValueEstimators
 
 from policies.mappo import ActorWeights, check_players, pad_observations, padded_size
 from policies.registry import ATTACKERS, PolicySpec, make_batch_policy
-from policies.training import make_defenders_vector_env
+from reachavoid.training.views import make_defenders_vector_env
 from reachavoid_env import PolicyMismatch, builtin_names, builtin_scenario
 from reachavoid_env.integrations.torchrl import VectorGroupEnv
 from reachavoid_env.observations import ObservationConfig
