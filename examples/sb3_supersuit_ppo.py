@@ -73,6 +73,7 @@ def main(argv: Sequence[str] | None = None) -> tuple[PPO, list[dict[str, Any]]]:
     for row in records.rows:
         print(", ".join(f"{key} {value:.4g}" for key, value in row.items()
                         if isinstance(value, float)), flush=True)
+    print(f"timesteps {model.num_timesteps}, slots {model.n_envs}")
     return model, records.rows
 
 

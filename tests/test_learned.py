@@ -207,13 +207,13 @@ def test_play_and_bench_take_a_model(model_path, tmp_path, capsys):
 
 
 def test_the_observation_loop_plays_a_model_on_random_starts(model_path, tmp_path):
-    from checks import example
+    from checks import run_example
 
-    loop = example("multi_agent_loop")
-    results = loop.main(["--scenario", "paper_1v1", "--defenders", "greedy", "--policy",
-                         str(model_path), "--episodes", "2", "--video",
-                         str(tmp_path / "loop.mp4")])
-    assert results[0] != results[1]                     # two seeds, two random starts
+    lines = run_example("multi_agent_loop", "--scenario", "paper_1v1", "--defenders", "greedy",
+                        "--policy", str(model_path), "--episodes", "2", "--video",
+                        str(tmp_path / "loop.mp4"))
+    episodes = [line.split(": ", 1)[1] for line in lines if line.startswith("episode ")]
+    assert len(episodes) == 2 and episodes[0] != episodes[1]   # two seeds, two random starts
     assert (tmp_path / "loop.mp4").stat().st_size > 0
 
 

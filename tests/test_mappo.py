@@ -141,9 +141,8 @@ def test_weights_that_expand_hugely_are_refused_before_loading(tmp_path):
 
 def test_the_recipe_checks_every_flag_and_output_before_any_work(tmp_path, capsys):
     pytest.importorskip("torchrl")
-    from checks import example
+    from reachavoid.training import mappo as recipe
 
-    recipe = example("train_defender_mappo")
     mine = tmp_path / "mine.npz"
     mine.write_bytes(b"my weights")
     out = ["--out", str(tmp_path / "w.npz")]

@@ -10,7 +10,7 @@ import pytest
 torch = pytest.importorskip("torch")
 pytest.importorskip("torchrl")
 
-from checks import example  # noqa: E402
+from checks import records, run_example  # noqa: E402
 from torchrl.envs.utils import check_env_specs  # noqa: E402
 
 import reachavoid_env  # noqa: E402
@@ -106,13 +106,15 @@ def test_readable_infos_are_refused():
 
 
 def test_mappo_example_trains_with_finite_losses():
-    mappo = example("torchrl_mappo")
-    history = mappo.main(["--defenders", "idle", "--iterations", "2", "--frames", "300",
-                          "--minibatch", "150", "--epochs", "2", "--shaping", "0",
-                          "--timeout-reward", "0"])
+    from reachavoid.training.mappo import LOSSES
+
+    lines = run_example("torchrl_mappo", "--defenders", "idle", "--iterations", "2", "--frames",
+                        "300", "--minibatch", "150", "--epochs", "2", "--shaping", "0",
+                        "--timeout-reward", "0")
+    history = [record for record in records(lines) if "iteration" in record]
     assert [record["frames"] for record in history] == [300, 300]
     for record in history:
-        assert all(math.isfinite(record[key]) for key in mappo.LOSSES)
+        assert all(math.isfinite(record[key]) for key in LOSSES)
         # Without shaping or time-out reward the live agents' rewards are arrivals minus
         # captures.
         assert record["reward_sum"] == record["arrived"] - record["captured"]

@@ -27,7 +27,7 @@ on its copies in one call; ``--supersuit``: the
 attacker-only env through SuperSuit's chain, ``reachavoid_env.integrations.supersuit``):
 one vector slot per attacker and game copy, all slots one policy: 16 copies by default
 (the measured runs of ``BENCHMARKS.md``); fewer leave the vector env little to batch.
-As in ``train_attacker_sb3.py`` (the one-attacker recipe), one agent step holds the
+As in ``single`` (the one-attacker recipe), one agent step holds the
 action for ``--action-repeat 10`` game steps (0.05 s), the reward has the potential-based
 progress term (``--shaping 1``) and still being in play at the time limit scores
 ``--timeout-reward -1`` like a capture. The defenders'
