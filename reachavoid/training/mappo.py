@@ -291,13 +291,7 @@ def train_defenders(config: TrainConfig = TrainConfig(),
         history.append(record)
         if log is not None:
             log(record)
-    loss_module = ClipPPOLoss(actor, critic, clip_epsilon=0.2, entropy_coeff=config.entropy,
-                              normalize_advantage=True, reduction="none")
-    loss_module.set_keys(reward=(GROUP, "reward"), action=(GROUP, "action"),
-                         value=(GROUP, "state_value"), done=(GROUP, "done"),
-                         terminated=(GROUP, "terminated"),
-                         sample_log_prob=(GROUP, "action_log_prob"))
-    loss_module.make_value_estimator(ValueEstimators.GAE, gamma=0.99, lmbda=0.95)
+    loss_module = ppo_loss(actor, critic, GROUP, config.entropy, normalize_advantage=True)
     optimiser = torch.optim.Adam(loss_module.parameters(), lr=config.lr)
     frames = config.copies * config.steps
     collectors = [Collector(make_env(game, config, config.seed + 1000 * index), actor,
@@ -330,6 +324,21 @@ def _update(loss_module: ClipPPOLoss, optimiser: torch.optim.Optimizer,
     reward = batch["next", GROUP, "reward"].squeeze(-1)
     return {"reward": float(masked_mean(reward, live)),
             "episodes": int(batch["next", "done"].sum()), **losses}
+
+
+def ppo_loss(actor: ProbabilisticActor, critic: TensorDictModule, group: str,
+             entropy: float, normalize_advantage: bool = False) -> ClipPPOLoss:
+    """Clipped PPO (clip 0.2, entropy weight ``entropy``, per-agent terms: ``ppo_epochs``
+    averages them over the live agents) on the keys of ``group``, with GAE targets (gamma
+    0.99, lambda 0.95)."""
+    loss_module = ClipPPOLoss(actor, critic, clip_epsilon=0.2, entropy_coeff=entropy,
+                              normalize_advantage=normalize_advantage, reduction="none")
+    loss_module.set_keys(reward=(group, "reward"), action=(group, "action"),
+                         value=(group, "state_value"), done=(group, "done"),
+                         terminated=(group, "terminated"),
+                         sample_log_prob=(group, "action_log_prob"))
+    loss_module.make_value_estimator(ValueEstimators.GAE, gamma=0.99, lmbda=0.95)
+    return loss_module
 
 
 def ppo_epochs(loss_module: ClipPPOLoss, optimiser: torch.optim.Optimizer,
