@@ -34,7 +34,7 @@ from result_file import write_result
 
 def one_run(library: str, copies: int, copies_per_map: int, warmup: int, steps: int) -> dict:
     """Time the view (module docstring) in this process; its figures."""
-    from policies.training import make_attackers_vector_env
+    from reachavoid.training.views import make_attackers_vector_env
 
     options = {} if copies_per_map == 1 else {"copies_per_map": copies_per_map}
     view = make_attackers_vector_env(

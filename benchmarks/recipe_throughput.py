@@ -26,10 +26,8 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import importlib.util
 import os
 import statistics
-import sys
 import tempfile
 from pathlib import Path
 from types import ModuleType
@@ -39,22 +37,22 @@ import numpy as np
 import torch
 from harness import timed
 
-from policies.training import defender_factory, defender_options
-
-ROOT = Path(__file__).resolve().parent.parent
+from reachavoid.training.flags import defender_options
+from reachavoid.training.views import defender_factory
 
 
 class Recipe(NamedTuple):
-    """A recipe: its example's name, the flag of its old path, agent steps per run, and
-    the module that holds it when that is a package's (the example only runs it)."""
+    """A recipe: its example's name (the example only runs it), the flag of its old path,
+    agent steps per run, and the module that holds it."""
 
     example: str
     old_flag: str
     timesteps: int
-    module: str | None = None
+    module: str
 
 
-RECIPES = {"sb3": Recipe("train_attacker_sb3", "--single-envs", 4096),
+RECIPES = {"sb3": Recipe("train_attacker_sb3", "--single-envs", 4096,
+                         "reachavoid.training.single"),
            "team": Recipe("train_attacker_team", "--supersuit", 6144,
                           "reachavoid.training.recipe")}
 """Default agent steps: one PPO rollout of the one-attacker recipe (16 copies x 256 steps;
@@ -74,16 +72,8 @@ class Run(NamedTuple):
 
 
 def load_recipe(recipe: Recipe) -> ModuleType:
-    """The module of ``recipe``: its package's, or ``examples/<name>.py`` as a module."""
-    if recipe.module is not None:
-        return importlib.import_module(recipe.module)
-    name = recipe.example
-    spec = importlib.util.spec_from_file_location(f"example_{name}",
-                                                  ROOT / "examples" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    """The module of ``recipe``."""
+    return importlib.import_module(recipe.module)
 
 
 def recipe_inputs(name: str, module: ModuleType, args: argparse.Namespace) -> Any:

@@ -23,7 +23,7 @@ def single_view_rate(steps: int, warmup: int) -> float:
     """Game steps per second of the single-game attacker-only view with ``hj``, timed over
     ``steps`` game steps after ``warmup`` untimed ones (every name it uses exists since
     803c18f, so an earlier checkout runs it too)."""
-    from policies.training import make_attackers_parallel_env
+    from reachavoid.training.views import make_attackers_parallel_env
 
     env = make_attackers_parallel_env(SCENARIO, defenders="hj", defender_options=GRIDS,
                                       max_cycles=EPISODE_STEPS)

@@ -45,7 +45,7 @@ import numpy as np
 from harness import CPU, WALL, once, timed
 
 from policies.registry import DEFENDERS
-from policies.training import attacker_factory, defender_factory
+from reachavoid.training.views import attacker_factory, defender_factory
 from reachavoid_env import ReachAvoidEnv, Scenario, load_scenario
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 from solvers.hj.settings import TRAINING_GRIDS

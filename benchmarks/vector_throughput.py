@@ -82,7 +82,7 @@ def mpe_rate(steps: int) -> float:
 
 def _view(defenders: str, copies: int, warmup: int) -> tuple[object, np.ndarray]:
     """The attacker-only vector view after ``warmup`` vector steps, and its actions."""
-    from policies.training import make_attackers_vector_env
+    from reachavoid.training.views import make_attackers_vector_env
 
     view = make_attackers_vector_env(SCENARIO, defenders=defenders, num_envs=copies,
                                      defender_options=GRIDS if defenders == "hj" else None,

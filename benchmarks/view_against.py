@@ -1,6 +1,6 @@
 """The attacker-only vector view with ``hj`` (what a training run steps), this tree against
 another checkout, side by side: game steps per CPU second of
-``policies.training.make_attackers_vector_env`` at K copies, random attacker actions drawn
+``reachavoid.training.views.make_attackers_vector_env`` at K copies, random attacker actions drawn
 beforehand, timed after a warm-up (a training run's copies are at every stage of their
 episodes), for each scenario. Each side runs in a fresh process with its tree first on the
 path (``harness.Job``), in alternating rounds (``harness.side_by_side``); pin it to one
@@ -26,7 +26,7 @@ def view_rate(scenario: str, copies: int, steps: int, warmup: int) -> float:
     """Game steps per CPU second of the attacker-only vector view of ``scenario`` with the
     batched ``hj`` (31^4 / 15^6 tubes) at ``copies`` copies, over ``steps`` vector steps
     after ``warmup`` untimed ones (names that exist since 42401d9)."""
-    from policies.training import make_attackers_vector_env
+    from reachavoid.training.views import make_attackers_vector_env
 
     view = make_attackers_vector_env(scenario, defenders="hj", num_envs=copies,
                                      defender_options=GRIDS, max_cycles=EPISODE_STEPS)

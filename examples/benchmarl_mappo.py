@@ -4,7 +4,7 @@ the attackers alone learn against scripted defenders.
 Needs the ``benchmarl`` extra in a virtual environment of its own (BenchMARL pins
 torchrl < 0.12): ``pip install -e '.[benchmarl]'``. ``--task game`` (the default) is
 ``reachavoid_env.integrations.benchmarl.ReachAvoidTask.REACH_AVOID``, both teams learning;
-``--task attackers`` is ``policies.benchmarl_task.ScriptedDefendersTask.ATTACKERS``, the
+``--task attackers`` is ``reachavoid.training.benchmarl_task.ScriptedDefendersTask.ATTACKERS``, the
 attackers of ``--envs`` copies stepped together learning against ``--defenders`` (``hj`` on
 ``--grid1`` / ``--grid2`` tubes by default):
 
@@ -29,8 +29,8 @@ from benchmarl.experiment import Callback, Experiment, ExperimentConfig
 from benchmarl.models import MlpConfig
 from tensordict import TensorDictBase
 
-from policies.benchmarl_task import ScriptedDefendersTask
-from policies.training import add_defender_arguments, defender_options
+from reachavoid.training.benchmarl_task import ScriptedDefendersTask
+from reachavoid.training.flags import add_defender_arguments, defender_options
 from reachavoid_env.integrations.benchmarl import ReachAvoidTask
 
 

@@ -30,9 +30,10 @@ import pettingzoo
 import policies  # noqa: F401  (registers reachavoid/Attackers-v1)
 from policies.attackers import target_centres
 from policies.learned import load_sb3
-from policies.training import PETTINGZOO_ID, add_defender_arguments, defender_options
+from reachavoid.training.flags import add_defender_arguments, defender_options
 from reachavoid_env import AttackerStatus, Scenario, load_scenario
 from reachavoid_env.environment import STARTS
+from reachavoid_env.training_ids import PETTINGZOO_ID
 from reachavoid_env.video import RecordEpisode
 
 Hook = Callable[[np.ndarray], np.ndarray]

@@ -20,7 +20,8 @@ from ray.rllib.algorithms.ppo import PPOConfig
 from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv
 from ray.tune.registry import register_env
 
-from policies.training import add_defender_arguments, defender_options, make_attackers_parallel_env
+from reachavoid.training.flags import add_defender_arguments, defender_options
+from reachavoid.training.views import make_attackers_parallel_env
 
 ENV_NAME = "reachavoid_attackers"
 

@@ -22,7 +22,11 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.logger import KVWriter, Logger
 from stable_baselines3.common.vec_env import VecEnv
 
-from policies.training import add_defender_arguments, add_reward_arguments, attackers_from_args
+from reachavoid.training.flags import (
+    add_defender_arguments,
+    add_reward_arguments,
+    attackers_from_args,
+)
 from reachavoid_env.integrations.supersuit import sb3_vec_env
 
 
@@ -69,6 +73,7 @@ def main(argv: Sequence[str] | None = None) -> tuple[PPO, list[dict[str, Any]]]:
     for row in records.rows:
         print(", ".join(f"{key} {value:.4g}" for key, value in row.items()
                         if isinstance(value, float)), flush=True)
+    print(f"timesteps {model.num_timesteps}, slots {model.n_envs}")
     return model, records.rows
 
 

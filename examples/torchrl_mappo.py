@@ -10,7 +10,7 @@ attacker is):
 
 A captured or arrived attacker stays in the group with ``mask`` False, zero observation
 and reward, and ``done`` True; its steps are left out of the loss
-(``policies.mappo_training.ppo_epochs``).
+(``reachavoid.training.mappo.ppo_epochs``).
 """
 
 from __future__ import annotations
@@ -27,10 +27,13 @@ from torch import nn
 from torchrl.collectors import Collector
 from torchrl.envs import EnvBase
 from torchrl.modules import MultiAgentMLP, ProbabilisticActor, TanhNormal
-from torchrl.objectives import ClipPPOLoss, ValueEstimators
 
-from policies.mappo_training import LOSSES, ppo_epochs
-from policies.training import add_defender_arguments, add_reward_arguments, attackers_from_args
+from reachavoid.training.flags import (
+    add_defender_arguments,
+    add_reward_arguments,
+    attackers_from_args,
+)
+from reachavoid.training.mappo import LOSSES, ppo_epochs, ppo_loss
 from reachavoid_env import AttackerStatus
 from reachavoid_env.integrations.torchrl import torchrl_env
 
@@ -94,13 +97,7 @@ def train(args: argparse.Namespace) -> list[dict[str, Any]]:
     torch.set_num_threads(1)    # tiny networks: more threads only contend for the cores
     env = make_env(args)
     actor, critic = build_modules(env)
-    loss_module = ClipPPOLoss(actor, critic, clip_epsilon=0.2, entropy_coeff=1e-3,
-                              reduction="none")
-    loss_module.set_keys(reward=(GROUP, "reward"), action=(GROUP, "action"),
-                         value=(GROUP, "state_value"), done=(GROUP, "done"),
-                         terminated=(GROUP, "terminated"),
-                         sample_log_prob=(GROUP, "action_log_prob"))
-    loss_module.make_value_estimator(ValueEstimators.GAE, gamma=0.99, lmbda=0.95)
+    loss_module = ppo_loss(actor, critic, GROUP, entropy=1e-3)
     optimiser = torch.optim.Adam(loss_module.parameters(), lr=args.lr)
     collector = Collector(env, actor, frames_per_batch=args.frames,
                           total_frames=args.frames * args.iterations)

@@ -1,10 +1,9 @@
 """Defender and attacker policies (design.md section 3).
 
-The names below load their modules on first use (PEP 562). The attacker-training envs'
-ids (factories in ``policies.training``) are registered by ``reachavoid_env``
-(``reachavoid_env.training_ids``) when Gymnasium or PettingZoo is imported, so
-``gymnasium.make("policies:reachavoid/Attacker-v1")`` and a plain ``import reachavoid_env``
-both find them. The package imports neither library (the command line's path).
+The names below load their modules on first use (PEP 562); the package imports neither
+Gymnasium nor PettingZoo (the command line's path). The training envs that name these
+policies, and their registered ids, are the application's (``reachavoid.training.views``,
+``reachavoid_env.training_ids``).
 """
 
 from __future__ import annotations
@@ -28,7 +27,6 @@ if TYPE_CHECKING:
         IdleDefender,
         MatchingDefenderPolicy,
     )
-    from policies.training import make_attacker_env, make_attackers_parallel_env
 
 __all__ = [
     "GreedyDefender",
@@ -41,8 +39,6 @@ __all__ = [
     "RandomAttacker",
     "ShortestPathAttacker",
     "StraightAttacker",
-    "make_attacker_env",
-    "make_attackers_parallel_env",
 ]
 
 __getattr__, __dir__ = lazy.attributes(__name__, {
@@ -51,5 +47,4 @@ __getattr__, __dir__ = lazy.attributes(__name__, {
                     "policies.attackers"),
     **dict.fromkeys(["GreedyDefender", "HJDefenderPolicy", "HJPairsDefenderPolicy",
                      "IdleDefender", "MatchingDefenderPolicy"], "policies.defenders"),
-    **dict.fromkeys(["make_attacker_env", "make_attackers_parallel_env"], "policies.training"),
 })

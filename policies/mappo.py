@@ -24,7 +24,7 @@ The weights (``WEIGHTS``, package data) are an ``.npz`` of float32 arrays read w
 every layer, the last one's outputs the action's mean before its ``tanh``), and ``meta``
 ``[FORMAT, lidar_rays, action_repeat]``. ``load_weights`` checks the sizes the file expands
 to (``MAX_WEIGHTS_BYTES``) before reading it, then every array; a missing, damaged or
-oversized file is a one-line ``ValueError``. ``policies/mappo_training.py`` makes them
+oversized file is a one-line ``ValueError``. ``reachavoid/training/mappo.py`` makes them
 (``examples/train_defender_mappo.py``, ``docs/training.md``).
 """
 

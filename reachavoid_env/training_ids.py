@@ -2,9 +2,11 @@
 as both this package and the library are imported (``reachavoid_env.lazy.after_import``),
 so ``import reachavoid_env`` is all a training script needs before ``gymnasium.make``.
 
-The entry points are strings into ``policies.training`` (the layer that names the scripted
-policies): nothing of it is imported until an env is made. Ids (``policies.training`` has
-the factories' keywords):
+The entry points are strings into ``reachavoid.training.views`` (the application's training
+views, which name the scripted policies): registering imports nothing above this package,
+and nothing of the application is imported until an env is made. Registration lives here,
+in the lowest layer, so that the ids exist without importing ``policies`` or ``reachavoid``.
+Ids (``reachavoid.training.views`` has the factories' keywords):
 
 - Gymnasium (one learning attacker): ``reachavoid/Attacker-v1`` (``scenario=`` keyword),
   ``reachavoid/Attacker-<builtin>-v1`` and ``reachavoid/Attacker-<builtin>-random-v1``
@@ -66,7 +68,7 @@ def register_gymnasium(gymnasium: Any) -> None:
     """
     for env_id, kwargs in _ids(GYM_ID, gym_id).items():
         if env_id not in gymnasium.registry:
-            gymnasium.register(id=env_id, entry_point="policies.training:make_attacker_env",
+            gymnasium.register(id=env_id, entry_point="reachavoid.training.views:make_attacker_env",
                                kwargs=kwargs)
 
 
@@ -82,4 +84,4 @@ def register_pettingzoo(pettingzoo: Any) -> None:
     for env_id, kwargs in _ids(PETTINGZOO_ID, pettingzoo_id).items():
         if env_id not in pettingzoo.parallel_registry:
             pettingzoo.register("parallel", env_id, kwargs=kwargs,
-                                entry_point="policies.training:make_attackers_parallel_env")
+                                entry_point="reachavoid.training.views:make_attackers_parallel_env")

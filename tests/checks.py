@@ -64,6 +64,29 @@ def checked(check, *args, **kwargs) -> None:
     assert messages == []
 
 
+def run_example(name: str, *args: str, timeout: float = 600) -> list[str]:
+    """Run ``examples/<name>.py ARGS`` as a command (examples are imported by nothing);
+    it must succeed. Its standard output's lines."""
+    done = subprocess.run([sys.executable, str(ROOT / "examples" / f"{name}.py"), *args],
+                          capture_output=True, text=True, timeout=timeout, cwd=ROOT,
+                          env={**ENV, "PYTHONPATH": str(ROOT)})
+    assert done.returncode == 0, done.stderr[-2000:]
+    return done.stdout.strip().splitlines()
+
+
+def records(lines: list[str]) -> list[dict[str, float]]:
+    """The lines ``key value, key value, ...`` of ``lines`` (what the training examples
+    print per iteration or rollout) as dicts of numbers."""
+    rows = []
+    for line in lines:
+        pairs = [item.rsplit(" ", 1) for item in line.split(", ")]
+        try:
+            rows.append({key: float(value) for key, value in pairs})
+        except ValueError:
+            continue
+    return rows
+
+
 def example(name: str) -> ModuleType:
     """Import ``examples/<name>.py`` as the module ``example_<name>`` (in ``sys.modules``,
     so that its classes pickle)."""

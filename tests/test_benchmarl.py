@@ -45,7 +45,7 @@ def test_mappo_experiment_runs_a_few_thousand_frames(tmp_path):
 def test_attackers_task_is_the_batched_attacker_view_against_scripted_defenders():
     from torchrl.envs.utils import check_env_specs
 
-    from policies.benchmarl_task import ScriptedDefendersTask
+    from reachavoid.training.benchmarl_task import ScriptedDefendersTask
 
     task = ScriptedDefendersTask.ATTACKERS.get_task(
         {"scenario": "paper_6v2", "defenders": "greedy", "max_cycles": 50, "action_repeat": 2})
@@ -61,7 +61,7 @@ def test_attackers_task_is_the_batched_attacker_view_against_scripted_defenders(
 
 
 def test_attackers_task_refuses_an_unknown_key_when_made():
-    from policies.benchmarl_task import ScriptedDefendersTask
+    from reachavoid.training.benchmarl_task import ScriptedDefendersTask
 
     with pytest.raises(ValueError, match=r"^config\.defender: not a key of the ATTACKERS "
                                          r"task \(keys: scenario, defenders, "):

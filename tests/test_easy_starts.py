@@ -1,13 +1,14 @@
 """Easy starts for a curriculum: ``Scenario.starts``' ``attacker_reach``, the vector env's
 ``start_reach`` (through the training view and Stable-Baselines3's ``set_attr``) and the
-schedule ``policies.training.StartCurriculum``."""
+schedule ``reachavoid.training.curriculum.StartCurriculum``."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from policies.training import StartCurriculum, make_attackers_vector_env
+from reachavoid.training.curriculum import StartCurriculum
+from reachavoid.training.views import make_attackers_vector_env
 from reachavoid_env import load_scenario
 from reachavoid_env.checks import FieldError
 from reachavoid_env.scenario import ScenarioError

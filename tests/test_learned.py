@@ -20,15 +20,12 @@ import reachavoid_env
 from policies import GreedyDefender, IdleDefender
 from policies.learned import TRAINING_ATTRIBUTE, ObservationPolicy, load_sb3, training_record
 from policies.registry import make_policy, resolve
-from policies.training import (
-    gym_id,
-    make_attackers_parallel_env,
-    pettingzoo_id,
-)
 from reachavoid import cli
 from reachavoid.rollout import run_episode
+from reachavoid.training.views import make_attackers_parallel_env
 from reachavoid_env import builtin_names, builtin_scenario
 from reachavoid_env.observations import GLOBAL, ObservationConfig, observe
+from reachavoid_env.training_ids import gym_id, pettingzoo_id
 from reachavoid_env.video import RecordEpisode
 
 
@@ -136,7 +133,7 @@ def model_path(tmp_path_factory):
     pytest.importorskip("stable_baselines3")
     from stable_baselines3 import PPO
 
-    from policies.training import make_attacker_env
+    from reachavoid.training.views import make_attacker_env
 
     env = make_attacker_env("paper_1v1", defenders="greedy", starts="random",
                             action_repeat=10, shaping=1.0, timeout_reward=-1.0)
@@ -210,13 +207,13 @@ def test_play_and_bench_take_a_model(model_path, tmp_path, capsys):
 
 
 def test_the_observation_loop_plays_a_model_on_random_starts(model_path, tmp_path):
-    from checks import example
+    from checks import run_example
 
-    loop = example("multi_agent_loop")
-    results = loop.main(["--scenario", "paper_1v1", "--defenders", "greedy", "--policy",
-                         str(model_path), "--episodes", "2", "--video",
-                         str(tmp_path / "loop.mp4")])
-    assert results[0] != results[1]                     # two seeds, two random starts
+    lines = run_example("multi_agent_loop", "--scenario", "paper_1v1", "--defenders", "greedy",
+                        "--policy", str(model_path), "--episodes", "2", "--video",
+                        str(tmp_path / "loop.mp4"))
+    episodes = [line.split(": ", 1)[1] for line in lines if line.startswith("episode ")]
+    assert len(episodes) == 2 and episodes[0] != episodes[1]   # two seeds, two random starts
     assert (tmp_path / "loop.mp4").stat().st_size > 0
 
 

@@ -141,9 +141,8 @@ def test_weights_that_expand_hugely_are_refused_before_loading(tmp_path):
 
 def test_the_recipe_checks_every_flag_and_output_before_any_work(tmp_path, capsys):
     pytest.importorskip("torchrl")
-    from checks import example
+    from reachavoid.training import mappo as recipe
 
-    recipe = example("train_defender_mappo")
     mine = tmp_path / "mine.npz"
     mine.write_bytes(b"my weights")
     out = ["--out", str(tmp_path / "w.npz")]
@@ -172,7 +171,7 @@ def test_the_recipe_checks_every_flag_and_output_before_any_work(tmp_path, capsy
 
 def test_the_exported_actor_acts_as_the_trained_one_in_mean():
     torch = pytest.importorskip("torch")
-    from policies.mappo_training import TrainConfig, build_modules, export
+    from reachavoid.training.mappo import TrainConfig, build_modules, export
 
     config = TrainConfig(hidden=8)
     net, *_ = build_modules(config)
@@ -184,7 +183,7 @@ def test_the_exported_actor_acts_as_the_trained_one_in_mean():
 
 def test_the_recipe_trains_writes_and_plays_at_a_tiny_size(tmp_path):
     pytest.importorskip("torchrl")
-    from policies.mappo_training import Game, TrainConfig, train_defenders
+    from reachavoid.training.mappo import Game, TrainConfig, train_defenders
 
     config = TrainConfig(games=(Game("paper_2v1", "shortest-path"), Game("paper_6v2", "random")),
                          iterations=2, copies=2, steps=8, minibatch=8, hidden=8,

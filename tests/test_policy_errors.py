@@ -112,7 +112,7 @@ def test_a_model_with_weights_not_finite_is_one_line(tmp_path, capsys):
     import torch
     from stable_baselines3 import PPO
 
-    from policies.training import make_attacker_env
+    from reachavoid.training.views import make_attacker_env
 
     model = PPO("MlpPolicy", make_attacker_env("paper_1v1", defenders="greedy"),
                 device="cpu")

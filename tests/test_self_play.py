@@ -1,15 +1,15 @@
-"""Self-play with past policies (policies.self_play.PastSelves): the snapshots see exactly
-the observations the env gives the attackers, each copy plays the snapshot it drew for
-its whole episode, decisions are held for ``action_repeat`` steps, and the recipe's
-``--past-selves`` trains one attacker per copy beside them."""
+"""Self-play with past policies (``reachavoid.training.self_play.PastSelves``): the
+snapshots see exactly the observations the env gives the attackers, each copy plays the
+snapshot it drew for its whole episode, decisions are held for ``action_repeat`` steps, and
+the recipe's ``--past-selves`` trains one attacker per copy beside them."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from policies.self_play import PastSelves
-from policies.training import make_attacker_vector_env
+from reachavoid.training.self_play import PastSelves
+from reachavoid.training.views import make_attacker_vector_env
 from reachavoid_env import ObservationConfig, ReachAvoidVectorEnv
 
 

@@ -10,10 +10,10 @@ import pytest
 pytest.importorskip("supersuit")
 pytest.importorskip("stable_baselines3")
 
-from checks import example  # noqa: E402
+from checks import records, run_example  # noqa: E402
 
 import reachavoid_env  # noqa: E402
-from policies.training import make_attackers_parallel_env  # noqa: E402
+from reachavoid.training.views import make_attackers_parallel_env  # noqa: E402
 from reachavoid_env.integrations.supersuit import sb3_vec_env  # noqa: E402
 
 # attacker_0 runs east into the target (arrives on step 10); attacker_1 runs east while
@@ -77,10 +77,10 @@ def test_seed_seeds_the_next_reset_of_every_copy():
 
 
 def test_ppo_learns_on_the_vectorised_attackers_against_hj_defenders():
-    sb3 = example("sb3_supersuit_ppo")
-    model, rows = sb3.main(["--scenario", "paper_2v1", "--defenders", "hj", "--grid1", "25",
-                            "--grid2", "13", "--timesteps", "512", "--n-steps", "64"])
-    assert model.num_timesteps >= 512 and model.n_envs == 2 * 2   # 2 copies x 2 attackers
+    rows = records(run_example("sb3_supersuit_ppo", "--scenario", "paper_2v1", "--defenders",
+                               "hj", "--grid1", "25", "--grid2", "13", "--timesteps", "512",
+                               "--n-steps", "64"))
+    assert rows[-1]["timesteps"] >= 512 and rows[-1]["slots"] == 2 * 2  # 2 copies x 2 attackers
     trained = [row for row in rows if "train/loss" in row]
     assert trained
     for row in trained:

@@ -10,7 +10,7 @@ import pytest
 torch = pytest.importorskip("torch")
 pytest.importorskip("torchrl")
 
-from checks import example  # noqa: E402
+from checks import records, run_example  # noqa: E402
 from torchrl.envs.utils import check_env_specs  # noqa: E402
 
 import reachavoid_env  # noqa: E402
@@ -106,13 +106,15 @@ def test_readable_infos_are_refused():
 
 
 def test_mappo_example_trains_with_finite_losses():
-    mappo = example("torchrl_mappo")
-    history = mappo.main(["--defenders", "idle", "--iterations", "2", "--frames", "300",
-                          "--minibatch", "150", "--epochs", "2", "--shaping", "0",
-                          "--timeout-reward", "0"])
+    from reachavoid.training.mappo import LOSSES
+
+    lines = run_example("torchrl_mappo", "--defenders", "idle", "--iterations", "2", "--frames",
+                        "300", "--minibatch", "150", "--epochs", "2", "--shaping", "0",
+                        "--timeout-reward", "0")
+    history = [record for record in records(lines) if "iteration" in record]
     assert [record["frames"] for record in history] == [300, 300]
     for record in history:
-        assert all(math.isfinite(record[key]) for key in mappo.LOSSES)
+        assert all(math.isfinite(record[key]) for key in LOSSES)
         # Without shaping or time-out reward the live agents' rewards are arrivals minus
         # captures.
         assert record["reward_sum"] == record["arrived"] - record["captured"]
@@ -122,7 +124,7 @@ def test_mappo_example_trains_with_finite_losses():
 def test_vector_attackers_env_passes_specs_and_resets_ended_copies_alone():
     from torchrl.envs.utils import check_env_specs
 
-    from policies.training import make_attackers_vector_env
+    from reachavoid.training.views import make_attackers_vector_env
     from reachavoid_env.integrations.torchrl import VectorGroupEnv
 
     view = make_attackers_vector_env("paper_6v2", defenders="greedy", num_envs=4,
@@ -141,7 +143,7 @@ def test_vector_attackers_env_passes_specs_and_resets_ended_copies_alone():
 
 
 def test_vector_defenders_learn_as_the_defender_group():
-    from policies.training import make_defenders_vector_env
+    from reachavoid.training.views import make_defenders_vector_env
     from reachavoid_env.integrations.torchrl import VectorGroupEnv
 
     env = VectorGroupEnv(make_defenders_vector_env("paper_6v2", num_envs=3, max_cycles=40,

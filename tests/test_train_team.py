@@ -180,7 +180,7 @@ def test_training_curve_counts_how_every_attacker_ended(tmp_path):
     from pettingzoo.utils import BaseParallelWrapper
     from stable_baselines3 import PPO
 
-    from policies.training import make_attackers_parallel_env
+    from reachavoid.training.views import make_attackers_parallel_env
     from reachavoid_env import load_scenario
     from reachavoid_env.integrations.supersuit import sb3_vec_env
 

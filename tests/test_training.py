@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import pickle
+import re
 import subprocess
 import sys
 import warnings
@@ -12,7 +13,7 @@ import gymnasium
 import numpy as np
 import pettingzoo
 import pytest
-from checks import ROOT, example
+from checks import ROOT, run_example
 from gymnasium.utils.env_checker import check_env
 
 from policies import (
@@ -23,16 +24,14 @@ from policies import (
     StraightAttacker,
 )
 from policies.registry import ATTACKERS, DEFENDERS, PolicySpec
-from policies.training import (
-    GYM_ID,
-    PETTINGZOO_ID,
+from reachavoid.training.views import (
     attacker_factory,
     defender_factory,
-    gym_id,
     make_attacker_env,
     make_attackers_parallel_env,
 )
 from reachavoid_env import builtin_names, builtin_scenario
+from reachavoid_env.training_ids import GYM_ID, PETTINGZOO_ID, gym_id
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 
 # Tubes coarse enough to solve in seconds (conftest.py points the cache at a throwaway
@@ -99,7 +98,7 @@ def test_gymnasium_ids_are_registered_for_every_builtin():
         for starts in ("scenario", "random"):
             spec = gymnasium.spec(gym_id(name, starts))
             assert spec.kwargs == {"scenario": name, "starts": starts}
-            assert spec.entry_point == "policies.training:make_attacker_env"
+            assert spec.entry_point == "reachavoid.training.views:make_attacker_env"
     assert gym_id("paper_6v2", "random") == "reachavoid/Attacker-paper_6v2-random-v1"
 
 
@@ -135,7 +134,7 @@ def test_make_vec(mode):
 
 def test_module_colon_id_loads_the_ids_in_a_fresh_interpreter():
     code = ("import gymnasium; env = gymnasium.make("
-            "'policies:reachavoid/Attacker-paper_1v1-v0', defenders='greedy'); "
+            "'reachavoid_env:reachavoid/Attacker-paper_1v1-v0', defenders='greedy'); "
             "print(env.reset(seed=0)[0].shape)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=ROOT, timeout=120, check=True)
@@ -163,26 +162,29 @@ def test_pettingzoo_id():
 
 
 # ------------------------------------------------------------------ examples
-def test_multi_agent_loop_example(capsys):
-    loop = example("multi_agent_loop")
-    results = loop.main(["--scenario", "paper_6v2", "--defenders", "hj", "--grid1", "11",
-                         "--grid2", "8", "--episodes", "1"])
-    assert set(results[0]["outcome"]) == {f"attacker_{i}" for i in range(6)}
-    assert "episode 0:" in capsys.readouterr().out
+def outcome_counts(line: str) -> dict[str, int]:
+    """The counts of ``multi_agent_loop``'s line of an episode."""
+    return {name: int(count)
+            for name, count in re.findall(r"(arrived|captured|timed out) (\d+)", line)}
+
+
+def test_multi_agent_loop_example():
+    lines = run_example("multi_agent_loop", "--scenario", "paper_6v2", "--defenders", "hj",
+                        "--grid1", "11", "--grid2", "8", "--episodes", "1")
+    (line,) = [line for line in lines if line.startswith("episode 0:")]
+    assert sum(outcome_counts(line).values()) == 6      # every attacker's outcome
 
 
 def test_toward_target_hook_reads_positions_from_observations():
-    loop = example("multi_agent_loop")
-    env = make_attackers_parallel_env("paper_1v1", defenders="idle")
-    hooks = {"attacker_0": loop.toward_target(env.game.base_scenario)}
-    result = loop.play(env, hooks, seed=0)
-    assert result["outcome"] == {"attacker_0": "arrived"}
-    assert result["returns"]["attacker_0"] == 1.0
+    lines = run_example("multi_agent_loop", "--scenario", "paper_1v1", "--defenders", "idle",
+                        "--starts", "scenario", "--episodes", "1")
+    (line,) = [line for line in lines if line.startswith("episode 0:")]
+    assert outcome_counts(line) == {"arrived": 1, "captured": 0, "timed out": 0}
 
 
 def test_train_attacker_example_runs_against_hj_defenders(tmp_path):
     pytest.importorskip("stable_baselines3")
-    train = example("train_attacker_sb3")
+    from reachavoid.training import single as train
     report = train.main(["--grid1", "11", "--grid2", "8", "--timesteps", "256", "--envs", "1",
                          "--episodes", "2", "--no-video", "--out", str(tmp_path)])
     assert report["defenders"] == "hj" and report["grids"] == [11, 8]
@@ -195,7 +197,7 @@ def test_train_attacker_example_replaces_a_users_model_only_with_force(tmp_path,
     """Its outputs follow the command's rule, checked before any work; ``--evaluate-only``
     reads no model others can change (a model file is code)."""
     pytest.importorskip("stable_baselines3")
-    train = example("train_attacker_sb3")
+    from reachavoid.training import single as train
     (tmp_path / "model.zip").write_text("mine")
     shared = tmp_path / "shared"
     shared.mkdir()
@@ -217,12 +219,12 @@ def test_train_attacker_example_replaces_a_users_model_only_with_force(tmp_path,
 
 
 def test_train_attacker_example_beats_random(tmp_path):
-    """PPO smoke run (a few thousand steps) through the example, as written. The defenders
+    """PPO smoke run (a few thousand steps) through the recipe the example runs. The defenders
     stand still, so that so short a run learns something a test can check."""
     pytest.importorskip("stable_baselines3")
     from stable_baselines3 import PPO
 
-    train = example("train_attacker_sb3")
+    from reachavoid.training import single as train
     report = train.main(["--defenders", "idle", "--timesteps", "8192", "--envs", "2",
                          "--timeout-reward", "0", "--episodes", "20", "--seed", "0",
                          "--out", str(tmp_path)])

@@ -188,7 +188,7 @@ def test_bad_arguments_name_their_field(kwargs, message):
 def test_discrete_actions_in_every_view():
     """The vector env, its training view and both attacker views take ``Discrete(9)``
     actions with ``continuous_actions=False`` and play them as ``actions.TABLE``'s rows."""
-    from policies.training import (
+    from reachavoid.training.views import (
         make_attacker_env,
         make_attackers_parallel_env,
         make_attackers_vector_env,
@@ -228,7 +228,7 @@ def test_discrete_actions_in_every_view():
 def test_discrete_actions_through_the_vector_integrations():
     """Stable-Baselines3's and Gymnasium's vector forms and TorchRL's batched env of a
     view with discrete actions take integers."""
-    from policies.training import make_attacker_vector_env, make_attackers_vector_env
+    from reachavoid.training.views import make_attacker_vector_env, make_attackers_vector_env
     from reachavoid_env.integrations.vector import GymVectorEnv, sb3_vec_env
 
     view = make_attackers_vector_env(CROWDED, defenders="idle", num_envs=2,

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from policies.training import (
+from reachavoid.training.views import (
     make_attacker_env,
     make_attacker_vector_env,
     make_attackers_parallel_env,

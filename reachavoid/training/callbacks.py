@@ -16,8 +16,8 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnvWrapper
 
 from policies.learned import Predict
-from policies.self_play import PastSelves
-from policies.training import StartCurriculum
+from reachavoid.training.curriculum import StartCurriculum
+from reachavoid.training.self_play import PastSelves
 from reachavoid_env import AttackerStatus
 from reachavoid_env.files import atomic_write
 from reachavoid_env.rules import unit_vectors

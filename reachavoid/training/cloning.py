@@ -15,8 +15,8 @@ import torch
 from stable_baselines3 import PPO
 from tqdm import tqdm
 
-from policies.training import reward_options
 from reachavoid.training.config import Maps, game
+from reachavoid.training.flags import reward_options
 from reachavoid.training.teams import Team, learned_team, scripted_team
 from reachavoid_env import AttackerStatus
 

@@ -13,19 +13,18 @@ from typing import TYPE_CHECKING, Any
 
 from policies.learned import DEFAULT_OBSERVATION, check_model_file, read_sb3
 from policies.registry import ATTACKERS
-from policies.self_play import MAX_POOL
-from policies.training import (
+from reachavoid.paths import UsageError, check_outputs, writable_folder
+from reachavoid.training.curriculum import add_curriculum_arguments, start_curriculum
+from reachavoid.training.flags import (
     Bounds,
-    add_curriculum_arguments,
     add_defender_arguments,
     add_reward_arguments,
     check_ranges,
     defender_options,
-    make_attackers_parallel_env,
     scenario_argument,
-    start_curriculum,
 )
-from reachavoid.paths import UsageError, check_outputs, writable_folder
+from reachavoid.training.self_play import MAX_POOL
+from reachavoid.training.views import make_attackers_parallel_env
 from reachavoid_env import Scenario
 from reachavoid_env.checks import FieldError
 from reachavoid_env.maps import load_library

@@ -20,14 +20,14 @@ to it), so a policy can carry over to maps it was not trained on; with ``--teamm
 --opponents O`` it sees the T nearest teammates and O nearest defenders instead of every
 player, one observation size for any team sizes, so it can carry over to another game
 (a 2 vs 1 team trained with ``--teammates 1 --opponents 1`` plays 6 vs 2). Training runs
-on the vector env (``policies.training.make_attackers_vector_env``, ``--copies`` games
+on the vector env (``views.make_attackers_vector_env``, ``--copies`` games
 stepped together, the defenders acting on every copy in one call; over a map library with
 ``--copies-per-map G`` the copies take their maps G at a time, so each map's defenders act
 on its copies in one call; ``--supersuit``: the
 attacker-only env through SuperSuit's chain, ``reachavoid_env.integrations.supersuit``):
 one vector slot per attacker and game copy, all slots one policy: 16 copies by default
 (the measured runs of ``BENCHMARKS.md``); fewer leave the vector env little to batch.
-As in ``train_attacker_sb3.py`` (the one-attacker recipe), one agent step holds the
+As in ``single`` (the one-attacker recipe), one agent step holds the
 action for ``--action-repeat 10`` game steps (0.05 s), the reward has the potential-based
 progress term (``--shaping 1``) and still being in play at the time limit scores
 ``--timeout-reward -1`` like a capture. The defenders'
@@ -68,10 +68,10 @@ averages them into a shorter vector, and a short action is a slow attacker.
 episodes start every attacker within D map units of the target, and the reach grows
 linearly to the map's diagonal over the first ``--easy-fraction`` (default 0.5) of the
 training (of ``--timesteps``, or of ``--max-minutes`` when that share is larger); then
-anywhere (``policies.training.StartCurriculum``, set before every rollout).
+anywhere (``curriculum.StartCurriculum``, set before every rollout).
 **Self-play with past policies** (``--past-selves POOL``, vector env only): one attacker
 per copy learns and its teammates play frozen snapshots of the learner
-(``policies.self_play.PastSelves``): the policy PPO starts from, then one taken after every
+(``self_play.PastSelves``): the policy PPO starts from, then one taken after every
 rollout; each episode draws one of the newest POOL for all the teammates of its copy
 (deterministic actions, held ``--action-repeat`` steps, headings with ``--full-speed``).
 An agent step is then one game decision of the learner, not one per attacker.
@@ -123,14 +123,6 @@ from stable_baselines3.common.callbacks import CallbackList
 from stable_baselines3.common.vec_env import VecMonitor
 
 from policies.learned import TRAINING_ATTRIBUTE, training_record
-from policies.self_play import PastSelves
-from policies.training import (
-    defender_factory,
-    defender_options,
-    make_attacker_vector_env,
-    make_attackers_vector_env,
-    reward_options,
-)
 from reachavoid.evaluation import write_csv
 from reachavoid.training.callbacks import (
     EasyStarts,
@@ -142,7 +134,14 @@ from reachavoid.training.callbacks import (
 )
 from reachavoid.training.cloning import clone
 from reachavoid.training.config import Maps, game, load_model, parse_args, team_maps
+from reachavoid.training.flags import defender_options, reward_options
+from reachavoid.training.self_play import PastSelves
 from reachavoid.training.teams import evaluate, paired_difference, record
+from reachavoid.training.views import (
+    defender_factory,
+    make_attacker_vector_env,
+    make_attackers_vector_env,
+)
 from reachavoid_env.files import atomic_write, forget_expected, write_json
 from reachavoid_env.integrations.supersuit import sb3_vec_env as supersuit_vec_env
 from reachavoid_env.integrations.vector import sb3_vec_env

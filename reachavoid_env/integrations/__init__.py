@@ -7,7 +7,7 @@
 - ``reachavoid_env.integrations.benchmarl``: ``ReachAvoidTask``, a BenchMARL task for the
   game, and ``VectorGroupClass``, BenchMARL tasks over the vector training views
   (``benchmarl`` extra, in a virtual environment of its own; the task with scripted
-  defenders is ``policies.benchmarl_task``).
+  defenders is ``reachavoid.training.benchmarl_task``).
 
 ``import reachavoid_env`` imports none of them, so the core package needs none of these
 libraries.

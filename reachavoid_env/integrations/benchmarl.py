@@ -23,7 +23,7 @@ agents that leave are masked.
 (``vector_views.LearnerVectorEnv``): one side learns, as one group, and the other side is
 scripted inside the env; BenchMARL's ``num_envs`` is the view's number of copies (a batched
 env, so BenchMARL does not wrap it in a ``SerialEnv``). A subclass says which view
-(``view(num_envs)``); the view with scripted defenders is ``policies.benchmarl_task``'s
+(``view(num_envs)``); the view with scripted defenders is ``reachavoid.training.benchmarl_task``'s
 ``ScriptedDefendersTask.ATTACKERS`` (scripted policies live above this package).
 """
 

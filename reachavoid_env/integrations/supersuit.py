@@ -2,7 +2,7 @@
 SuperSuit (``rl`` extra).
 
     >>> from stable_baselines3 import PPO
-    >>> from policies.training import make_attackers_parallel_env    # (the user's code)
+    >>> from reachavoid.training.views import make_attackers_parallel_env    # (the user's code)
     >>> from reachavoid_env.integrations.supersuit import sb3_vec_env
     >>> envs = sb3_vec_env(make_attackers_parallel_env("paper_6v2"), copies=4)
     >>> PPO("MlpPolicy", envs, seed=0).learn(100_000)

@@ -107,7 +107,7 @@ def torchrl_env(env: ParallelEnv | AECEnv, *, seed: int | None = None, device: A
 
 class VectorGroupEnv(EnvBase):
     """The learners of a vector training view (``vector_views.LearnerVectorEnv`` made with
-    ``autoreset=False``; ``policies.training.make_attackers_vector_env(...,
+    ``autoreset=False``; ``reachavoid.training.views.make_attackers_vector_env(...,
     autoreset=False)``) as a batched TorchRL env: batch size ``(K,)``, one group (``group``:
     ``"attacker"`` or ``"defender"``, the learners' side) with ``observation``
     ``(K, L, D)``, ``action`` ``(K, L, 2)`` (``(K, L)`` integers for a view with discrete

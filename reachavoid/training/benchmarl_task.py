@@ -1,14 +1,14 @@
 """A BenchMARL task in which the attackers learn against scripted defenders (``benchmarl``
 extra, in a virtual environment of its own).
 
-    from policies.benchmarl_task import ScriptedDefendersTask
+    from reachavoid.training.benchmarl_task import ScriptedDefendersTask
 
     task = ScriptedDefendersTask.ATTACKERS.get_task(
         {"scenario": "paper_6v2", "defenders": "hj",
          "defender_options": {"grid1": 31, "grid2": 15}, "shaping": 1.0})
     # Experiment(task=task, algorithm_config=MappoConfig.get_from_yaml(), ...).run()
 
-The env is ``policies.training.make_attackers_vector_env(..., num_envs=K,
+The env is ``reachavoid.training.views.make_attackers_vector_env(..., num_envs=K,
 autoreset=False)`` through ``reachavoid_env.integrations.torchrl.VectorGroupEnv``:
 BenchMARL's ``num_envs`` (``on_policy_n_envs_per_worker``) copies of the game stepped
 together, the defenders of every copy moved by one batched scripted policy (``hj``,
@@ -26,7 +26,7 @@ from typing import Any
 
 from benchmarl.environments.common import Task
 
-from policies.training import make_attackers_vector_env
+from reachavoid.training.views import make_attackers_vector_env
 from reachavoid_env.checks import FieldError
 from reachavoid_env.integrations.benchmarl import VectorGroupClass
 from reachavoid_env.vector_views import LearnerVectorEnv

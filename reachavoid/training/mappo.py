@@ -1,8 +1,11 @@
 """MAPPO for the defenders with TorchRL (``rl`` extra): the recipe of ``learned-mappo``'s
-weights (``policies/mappo.py``; ``examples/train_defender_mappo.py`` runs it).
+weights (``policies/mappo.py``), and its command line (``main(argv) -> history``, ``run``;
+``examples/train_defender_mappo.py`` runs it).
 
-    from policies.mappo_training import TrainConfig, train_defenders
+    from reachavoid.training.mappo import TrainConfig, train_defenders
     weights, history = train_defenders(TrainConfig(iterations=120))
+
+    python examples/train_defender_mappo.py --out policies/weights/learned_mappo.npz
 
 One actor shared by every defender reads the padded layout (``policies.mappo``), so one
 network learns from every game of ``GAMES`` at once: each iteration collects a batch from
@@ -12,14 +15,18 @@ each defender's value reads its own padded observation and the mean over its tea
 (the live defenders'), so it sees the whole game whatever the team's size. Rewards are the
 defenders' (captures minus arrivals) with the attackers' progress to the target as
 shaping (``shaping``). Everything is seeded: the same seed on the same machine and
-library versions gives the same weights, bit for bit.
+library versions gives the same weights, bit for bit. The command line prints one line per
+iteration and, with ``--report``, writes every iteration's record as JSON; every flag and
+output is checked before any work, and an existing file is replaced only with ``--force``.
 """
 
 from __future__ import annotations
 
+import argparse
+import json
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any, NamedTuple
 
 import gymnasium
@@ -32,12 +39,22 @@ from torchrl.collectors import Collector
 from torchrl.modules import ProbabilisticActor, TanhNormal
 from torchrl.objectives import ClipPPOLoss, ValueEstimators
 
-from policies.mappo import ActorWeights, check_players, pad_observations, padded_size
+from policies.mappo import (
+    ActorWeights,
+    check_players,
+    pad_observations,
+    padded_size,
+    save_weights,
+)
 from policies.registry import ATTACKERS, PolicySpec, make_batch_policy
-from policies.training import make_defenders_vector_env
+from reachavoid.paths import UsageError, check_outputs
+from reachavoid.training.flags import Bounds, check_ranges
+from reachavoid.training.views import make_defenders_vector_env
 from reachavoid_env import PolicyMismatch, builtin_names, builtin_scenario
+from reachavoid_env.files import atomic_write, forget_expected
 from reachavoid_env.integrations.torchrl import VectorGroupEnv
 from reachavoid_env.observations import ObservationConfig
+from reachavoid_env.vector import MAX_COPIES
 from reachavoid_env.vector_views import LearnerVectorEnv
 
 GROUP = "defender"
@@ -274,13 +291,7 @@ def train_defenders(config: TrainConfig = TrainConfig(),
         history.append(record)
         if log is not None:
             log(record)
-    loss_module = ClipPPOLoss(actor, critic, clip_epsilon=0.2, entropy_coeff=config.entropy,
-                              normalize_advantage=True, reduction="none")
-    loss_module.set_keys(reward=(GROUP, "reward"), action=(GROUP, "action"),
-                         value=(GROUP, "state_value"), done=(GROUP, "done"),
-                         terminated=(GROUP, "terminated"),
-                         sample_log_prob=(GROUP, "action_log_prob"))
-    loss_module.make_value_estimator(ValueEstimators.GAE, gamma=0.99, lmbda=0.95)
+    loss_module = ppo_loss(actor, critic, GROUP, config.entropy, normalize_advantage=True)
     optimiser = torch.optim.Adam(loss_module.parameters(), lr=config.lr)
     frames = config.copies * config.steps
     collectors = [Collector(make_env(game, config, config.seed + 1000 * index), actor,
@@ -313,6 +324,21 @@ def _update(loss_module: ClipPPOLoss, optimiser: torch.optim.Optimizer,
     reward = batch["next", GROUP, "reward"].squeeze(-1)
     return {"reward": float(masked_mean(reward, live)),
             "episodes": int(batch["next", "done"].sum()), **losses}
+
+
+def ppo_loss(actor: ProbabilisticActor, critic: TensorDictModule, group: str,
+             entropy: float, normalize_advantage: bool = False) -> ClipPPOLoss:
+    """Clipped PPO (clip 0.2, entropy weight ``entropy``, per-agent terms: ``ppo_epochs``
+    averages them over the live agents) on the keys of ``group``, with GAE targets (gamma
+    0.99, lambda 0.95)."""
+    loss_module = ClipPPOLoss(actor, critic, clip_epsilon=0.2, entropy_coeff=entropy,
+                              normalize_advantage=normalize_advantage, reduction="none")
+    loss_module.set_keys(reward=(group, "reward"), action=(group, "action"),
+                         value=(group, "state_value"), done=(group, "done"),
+                         terminated=(group, "terminated"),
+                         sample_log_prob=(group, "action_log_prob"))
+    loss_module.make_value_estimator(ValueEstimators.GAE, gamma=0.99, lmbda=0.95)
+    return loss_module
 
 
 def ppo_epochs(loss_module: ClipPPOLoss, optimiser: torch.optim.Optimizer,
@@ -363,3 +389,73 @@ def games_of(names: Sequence[str]) -> tuple[Game, ...]:
             raise ValueError(f"games: {name!r}: {str(err).split(': ', 1)[1]}") from None
         games.append(Game(scenario, attackers or "shortest-path"))
     return tuple(games)
+
+
+RANGES: dict[str, Bounds] = {
+    "iterations": (1, 10**6), "copies": (1, MAX_COPIES), "steps": (1, 10**6),
+    "action_repeat": (1, 1000), "epochs": (1, 10**4), "minibatch": (1, 10**9),
+    "hidden": (1, 4096), "seed": (0, 2**32 - 1), "shaping": (None, None),
+    "lr": (0.0, None, True), "entropy": (0.0, None)}
+"""Every number's range (``check_ranges``), checked before any work; an action repeat as
+the weights file holds it (``policies.mappo``)."""
+
+
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
+    """The command line's arguments, every flag and output checked before any work."""
+    defaults = TrainConfig()
+    parser = argparse.ArgumentParser(
+        description="Train the learned-mappo defenders (MAPPO with TorchRL) and write their "
+                    "actor as the weights file the registry plays.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("--out", required=True, help="the weights file to write (.npz)")
+    parser.add_argument("--report", help="write the iterations' records here (.json)")
+    parser.add_argument("--games", default=",".join("/".join(game) for game in GAMES),
+                        help="SCENARIO/ATTACKERS, comma-separated, trained in turn")
+    for name in ("iterations", "copies", "steps", "action_repeat", "epochs", "minibatch",
+                 "hidden", "seed"):
+        parser.add_argument(f"--{name.replace('_', '-')}", type=int,
+                            default=getattr(defaults, name))
+    for name in ("shaping", "lr", "entropy"):
+        parser.add_argument(f"--{name}", type=float, default=getattr(defaults, name))
+    parser.add_argument("--force", action="store_true",
+                        help="replace output files that exist (default: refuse, before any work)")
+    args = parser.parse_args(argv)
+    check_ranges(parser, args, RANGES)
+    try:
+        args.games = games_of(args.games.split(","))
+        check_outputs([("--out", args.out), ("--report", args.report)], args.force,
+                      text={"--report"})
+    except (ValueError, UsageError) as err:
+        parser.error(f"--{err}" if str(err).startswith("games:") else str(err))
+    return args
+
+
+def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
+    """The command line: parse ``argv``, train and write (``run``); the records."""
+    args = parse_args(argv)
+    try:
+        return run(args)
+    finally:
+        forget_expected()
+
+
+def run(args: argparse.Namespace) -> list[dict[str, Any]]:
+    """Train as ``args`` (checked by ``parse_args``) say; write the weights and report."""
+    options = {key: value for key, value in vars(args).items()
+               if key not in ("out", "report", "games", "force")}
+    config = TrainConfig(games=args.games, **options)
+    started = time.perf_counter()
+
+    def log(record: dict[str, Any]) -> None:
+        print(", ".join(f"{key} {value:.4g}" if isinstance(value, float) else f"{key} {value}"
+                        for key, value in record.items()), flush=True)
+
+    weights, history = train_defenders(config, log)
+    save_weights(args.out, weights)
+    wall = time.perf_counter() - started
+    print(f"wrote {args.out}: {history[-1]['cpu_s']:.0f} CPU s, {wall:.0f} wall s")
+    if args.report:
+        with atomic_write(args.report) as handle:
+            json.dump({"config": asdict(config), "wall_s": wall, "history": history},
+                      handle, indent=1)
+    return history

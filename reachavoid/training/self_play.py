@@ -7,7 +7,7 @@ a copy draws one snapshot from the pool, uniformly, and every attacker of that c
 it for the whole episode on its own observation (``reachavoid_env.observations.Observer``
 with the learner's layout ``observation``), deciding every ``action_repeat`` env steps
 and holding the action in between, as ``policies.learned.ObservationPolicy`` does. In
-``policies.training.make_attacker_vector_env`` (``teammates=``) the learner's own rows
+``reachavoid.training.views.make_attacker_vector_env`` (``teammates=``) the learner's own rows
 are its own: one attacker per copy learns, its teammates are past selves.
 """
 
