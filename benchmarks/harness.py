@@ -217,6 +217,19 @@ class Job:
             return json.loads(out.read_text())
 
 
+def training_views() -> Any:
+    """The module of the training views' factories (``make_attackers_vector_env``,
+    ``make_attackers_parallel_env``, ``attacker_factory``, ``defender_factory``) in the tree
+    first on the path: ``reachavoid.training.views``, or ``policies.training`` in a tree
+    from before they moved (2026-12-07), so that a job runs in either."""
+    import importlib
+
+    try:
+        return importlib.import_module("reachavoid.training.views")
+    except ModuleNotFoundError:
+        return importlib.import_module("policies.training")
+
+
 def side_by_side(jobs: Mapping[str, Job], rounds: int) -> dict[str, list[Any]]:
     """Every job run ``rounds`` times, in alternating rounds; results by label."""
     results: dict[str, list[Any]] = {label: [] for label in jobs}

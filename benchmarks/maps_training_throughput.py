@@ -28,16 +28,14 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from harness import ROOT, Job, checkout, side_by_side, timed
+from harness import ROOT, Job, checkout, side_by_side, timed, training_views
 from result_file import write_result
 
 
 def one_run(library: str, copies: int, copies_per_map: int, warmup: int, steps: int) -> dict:
     """Time the view (module docstring) in this process; its figures."""
-    from reachavoid.training.views import make_attackers_vector_env
-
     options = {} if copies_per_map == 1 else {"copies_per_map": copies_per_map}
-    view = make_attackers_vector_env(
+    view = training_views().make_attackers_vector_env(
         library, defenders="hj", num_envs=copies, action_repeat=5, shaping=1.0,
         timeout_reward=-1.0, defender_options={"grid1": 31, "grid2": 15},
         **options)
@@ -53,11 +51,18 @@ def one_run(library: str, copies: int, copies_per_map: int, warmup: int, steps: 
     def play() -> int:
         for t in range(warmup, warmup + steps):
             view.step(actions[t])
-            maps_live.append(len(np.unique(view.vec._core.map_of)))
+            maps_live.append(len(np.unique(map_of(view.vec))))
         return steps * copies * m
 
     return {"agent_steps_per_cpu_s": timed(play).median,
             "maps_live": float(np.mean(maps_live))}
+
+
+def map_of(vec: object) -> np.ndarray:
+    """Each copy's map in the vector env of the tree on the path (its core's since
+    2026-12-07, the env's own before)."""
+    core = getattr(vec, "_core", None)
+    return core.map_of if core is not None else vec._map_of
 
 
 def job(tree: Path, args: argparse.Namespace, copies_per_map: int) -> Job:

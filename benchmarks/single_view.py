@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import sys
 
-from harness import WALL, timed
+from harness import WALL, timed, training_views
 
 SCENARIO = "paper_8v4"
 EPISODE_STEPS = 1000
@@ -22,11 +22,9 @@ GRIDS = {"grid1": 31, "grid2": 15}      # the training recipes' tubes
 def single_view_rate(steps: int, warmup: int) -> float:
     """Game steps per second of the single-game attacker-only view with ``hj``, timed over
     ``steps`` game steps after ``warmup`` untimed ones (every name it uses exists since
-    803c18f, so an earlier checkout runs it too)."""
-    from reachavoid.training.views import make_attackers_parallel_env
-
-    env = make_attackers_parallel_env(SCENARIO, defenders="hj", defender_options=GRIDS,
-                                      max_cycles=EPISODE_STEPS)
+    803c18f, so an earlier checkout runs it too; ``harness.training_views``)."""
+    env = training_views().make_attackers_parallel_env(
+        SCENARIO, defenders="hj", defender_options=GRIDS, max_cycles=EPISODE_STEPS)
     return parallel_rate(env, steps, warmup)
 
 

@@ -42,10 +42,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from harness import CPU, WALL, once, timed
+from harness import CPU, WALL, once, timed, training_views
 
 from policies.registry import DEFENDERS
-from reachavoid.training.views import attacker_factory, defender_factory
 from reachavoid_env import ReachAvoidEnv, Scenario, load_scenario
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
 from solvers.hj.settings import TRAINING_GRIDS
@@ -210,7 +209,8 @@ def time_scenario(name: str, args: argparse.Namespace, rows: Rows) -> None:
     for _ in range(args.repeats):
         rows.time(f"{name}: game, all random", run_game, game, actions, None)
     rows.report(f"{name}: game, all random")
-    shortest = Timed(attacker_factory("shortest-path")(scenario))
+    views = training_views()
+    shortest = Timed(views.attacker_factory("shortest-path")(scenario))
     configs = [(defenders, every) for defenders in args.defenders
                for every in (args.every if defenders == "hj" else [1])]
     paired = {("greedy", 1), ("hj", 1)} <= set(configs)
@@ -218,11 +218,11 @@ def time_scenario(name: str, args: argparse.Namespace, rows: Rows) -> None:
     for defenders, every in configs:
         options = ({"grid1": args.grid1, "grid2": args.grid2, "progress": False}
                    if defenders == "hj" else {})
-        policy = Timed(defender_factory(defenders, **options)(scenario))
+        policy = Timed(views.defender_factory(defenders, **options)(scenario))
         kwargs = {"scenario": scenario, "max_cycles": EPISODE_STEPS,
                   "scripted_every": every}
         envs[defenders, every] = (policy, AttackerParallelEnv(policy, **kwargs),
-                                  SingleAttackerEnv(policy, teammates=attacker_factory()(
+                                  SingleAttackerEnv(policy, teammates=views.attacker_factory()(
                                       scenario), **kwargs))
     for kind, run in (("attackers random", run_attackers),
                       ("attackers shortest-path", run_attackers), ("single", run_single)):

@@ -39,7 +39,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from harness import WALL, Job, checkout, once, timed
+from harness import WALL, Job, checkout, once, timed, training_views
 from single_view import EPISODE_STEPS, GRIDS, SCENARIO, parallel_rate, single_view_rate
 
 import reachavoid_env
@@ -82,11 +82,9 @@ def mpe_rate(steps: int) -> float:
 
 def _view(defenders: str, copies: int, warmup: int) -> tuple[object, np.ndarray]:
     """The attacker-only vector view after ``warmup`` vector steps, and its actions."""
-    from reachavoid.training.views import make_attackers_vector_env
-
-    view = make_attackers_vector_env(SCENARIO, defenders=defenders, num_envs=copies,
-                                     defender_options=GRIDS if defenders == "hj" else None,
-                                     max_cycles=EPISODE_STEPS)
+    view = training_views().make_attackers_vector_env(
+        SCENARIO, defenders=defenders, num_envs=copies,
+        defender_options=GRIDS if defenders == "hj" else None, max_cycles=EPISODE_STEPS)
     view.reset(seed=0)
     rng = np.random.default_rng(0)
     actions = rng.uniform(-1, 1, (8, copies, len(view.learners), 2))

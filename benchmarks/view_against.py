@@ -1,8 +1,8 @@
 """The attacker-only vector view with ``hj`` (what a training run steps), this tree against
 another checkout, side by side: game steps per CPU second of
-``reachavoid.training.views.make_attackers_vector_env`` at K copies, random attacker actions drawn
-beforehand, timed after a warm-up (a training run's copies are at every stage of their
-episodes), for each scenario. Each side runs in a fresh process with its tree first on the
+``make_attackers_vector_env`` (``harness.training_views``) at K copies, random attacker
+actions drawn beforehand, timed after a warm-up (a training run's copies are at every stage
+of their episodes), for each scenario. Each side runs in a fresh process with its tree first on the
 path (``harness.Job``), in alternating rounds (``harness.side_by_side``); pin it to one
 core::
 
@@ -18,18 +18,17 @@ import statistics
 from pathlib import Path
 
 import numpy as np
-from harness import CPU, ROOT, Job, checkout, commit_of, side_by_side, spread, timed
+from harness import CPU, ROOT, Job, checkout, commit_of, side_by_side, spread, timed, training_views
 from single_view import EPISODE_STEPS, GRIDS
 
 
 def view_rate(scenario: str, copies: int, steps: int, warmup: int) -> float:
     """Game steps per CPU second of the attacker-only vector view of ``scenario`` with the
     batched ``hj`` (31^4 / 15^6 tubes) at ``copies`` copies, over ``steps`` vector steps
-    after ``warmup`` untimed ones (names that exist since 42401d9)."""
-    from reachavoid.training.views import make_attackers_vector_env
-
-    view = make_attackers_vector_env(scenario, defenders="hj", num_envs=copies,
-                                     defender_options=GRIDS, max_cycles=EPISODE_STEPS)
+    after ``warmup`` untimed ones (names that exist since 42401d9; ``harness.training_views``)."""
+    view = training_views().make_attackers_vector_env(
+        scenario, defenders="hj", num_envs=copies, defender_options=GRIDS,
+        max_cycles=EPISODE_STEPS)
     view.reset(seed=0)
     actions = np.random.default_rng(0).uniform(-1, 1, (8, copies, len(view.learners), 2))
     for i in range(warmup):
