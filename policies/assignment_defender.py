@@ -13,7 +13,7 @@ from policies.defender_copy import DefenderCopy
 from policies.intercept import Plan
 from policies.strategy import Strategy
 from reachavoid_env import Overlay
-from reachavoid_env.game_state import Single
+from reachavoid_env.policy import Single
 from solvers.assignment import Assignment, AssignmentSolver
 from solvers.hj import ValueFunction
 

@@ -56,8 +56,9 @@ from policies.strategy import CERTIFICATE_CELLS, Program, Spare, Strategy, team_
 from policies.tube_states import control_headings, team_states, team_values
 from policies.tubes import check_tube, tube_1v1, tube_2v1
 from reachavoid_env import BatchState, GameState, Overlay, Scenario
-from reachavoid_env.game_state import AttackerStatus, checked_copies
+from reachavoid_env.game_state import AttackerStatus
 from reachavoid_env.geodesic import DistanceField, distance_field
+from reachavoid_env.policy import checked_copies
 from solvers.hj import PAPER_GRIDS, ValueFunction
 
 ACTIVE = AttackerStatus.ACTIVE.code

@@ -10,8 +10,8 @@ import numpy as np
 from policies.certificate import Match
 from policies.intercept import Plan, traced_points
 from reachavoid_env import GameState, Overlay
-from reachavoid_env.game_state import EdgeKind, Route
 from reachavoid_env.geodesic import DistanceField, distance_to
+from reachavoid_env.overlay import EdgeKind, Route
 
 
 def overlay(games: list[Match], races: tuple[tuple[int, int], ...], line: str,

@@ -13,7 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from reachavoid_env import BatchState, Overlay, Scenario
-from reachavoid_env.game_state import AttackerStatus, Single, checked_copies
+from reachavoid_env.game_state import AttackerStatus
+from reachavoid_env.policy import Single, checked_copies
 
 ACTIVE = AttackerStatus.ACTIVE.code
 

@@ -29,9 +29,10 @@ import numpy as np
 from numba import njit
 
 from reachavoid_env import BatchState, GameState, Overlay, Scenario
-from reachavoid_env.game_state import AttackerStatus, Single, checked_copies
+from reachavoid_env.game_state import AttackerStatus
 from reachavoid_env.geodesic import DEFAULT_CELLS, DistanceField, distance_field
 from reachavoid_env.jit_cache import check_numba_config
+from reachavoid_env.policy import Single, checked_copies
 from reachavoid_env.rules import unit_vectors
 
 check_numba_config()   # numba loads pickled code: only from a folder of ours

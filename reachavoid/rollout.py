@@ -19,7 +19,7 @@ import numpy as np
 from tqdm import tqdm
 
 from reachavoid_env import GameState, Overlay, Policy, Scenario, checks, merged_overlay
-from reachavoid_env.game_state import outcome_line
+from reachavoid_env.overlay import outcome_line
 
 if TYPE_CHECKING:
     from pettingzoo.utils.env import ParallelEnv

@@ -27,12 +27,11 @@ from reachavoid_env import lazy
 if TYPE_CHECKING:
     from reachavoid_env.environment import ReachAvoidEnv
     from reachavoid_env.game_map import GameMap
-    from reachavoid_env.game_state import (
-        AttackerStatus,
+    from reachavoid_env.game_state import AttackerStatus, BatchState, GameState
+    from reachavoid_env.observations import ObservationConfig
+    from reachavoid_env.overlay import Overlay
+    from reachavoid_env.policy import (
         BatchPolicy,
-        BatchState,
-        GameState,
-        Overlay,
         PerCopy,
         PerMap,
         Policy,
@@ -40,7 +39,6 @@ if TYPE_CHECKING:
         Single,
         merged_overlay,
     )
-    from reachavoid_env.observations import ObservationConfig
     from reachavoid_env.reach_avoid_v1 import env, parallel_env, raw_env
     from reachavoid_env.scenario import (
         Scenario,
@@ -95,10 +93,10 @@ ENV_ID = "reachavoid/ReachAvoid-v1"
 
 __getattr__, __dir__ = lazy.attributes(__name__, {
     "GameMap": "reachavoid_env.game_map",
-    **dict.fromkeys(["AttackerStatus", "BatchPolicy", "BatchState", "GameState", "Overlay",
-                     "PerCopy", "PerMap", "Policy", "PolicyMismatch", "Single",
-                     "merged_overlay"],
-                    "reachavoid_env.game_state"),
+    **dict.fromkeys(["AttackerStatus", "BatchState", "GameState"], "reachavoid_env.game_state"),
+    "Overlay": "reachavoid_env.overlay",
+    **dict.fromkeys(["BatchPolicy", "PerCopy", "PerMap", "Policy", "PolicyMismatch", "Single",
+                     "merged_overlay"], "reachavoid_env.policy"),
     **dict.fromkeys(["Scenario", "ScenarioError", "builtin_map", "builtin_names",
                      "builtin_scenario", "load_scenario", "save_scenario"],
                     "reachavoid_env.scenario"),

@@ -105,9 +105,10 @@ from reachavoid_env.env_inputs import (
     observation_config,
     stack_actions,
 )
-from reachavoid_env.game_state import AttackerStatus, GameState, Overlay
+from reachavoid_env.game_state import AttackerStatus, GameState
 from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.observations import ObservationConfig, Observer, player_table
+from reachavoid_env.overlay import Overlay
 from reachavoid_env.scenario import MAX_STEPS, ScenarioError
 
 __all__ = ["INFO_FORMATS", "REAL_KINDS", "STARTS", "ReachAvoidEnv", "check_agent_names",

@@ -34,7 +34,8 @@ import numpy as np  # noqa: E402
 import pygame  # noqa: E402
 
 from reachavoid_env import palette as P  # noqa: E402
-from reachavoid_env.game_state import GameState, Overlay  # noqa: E402
+from reachavoid_env.game_state import GameState  # noqa: E402
+from reachavoid_env.overlay import Overlay  # noqa: E402
 from reachavoid_env.render_frame import BLOCK, Frame  # noqa: E402
 from reachavoid_env.render_legend import Legend  # noqa: E402
 from reachavoid_env.render_overlay import EDGE_STYLES, Captions, Edges, EdgeStyle  # noqa: E402

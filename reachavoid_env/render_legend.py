@@ -16,7 +16,8 @@ import numpy as np  # noqa: E402
 import pygame  # noqa: E402
 
 from reachavoid_env import palette as P  # noqa: E402
-from reachavoid_env.game_state import EdgeKind, GameState  # noqa: E402
+from reachavoid_env.game_state import GameState  # noqa: E402
+from reachavoid_env.overlay import EdgeKind  # noqa: E402
 from reachavoid_env.render_frame import Frame  # noqa: E402
 from reachavoid_env.render_overlay import EDGE_STYLES, Edges  # noqa: E402
 from reachavoid_env.render_players import Players, Trails  # noqa: E402

@@ -15,13 +15,8 @@ import numpy as np  # noqa: E402
 import pygame  # noqa: E402
 
 from reachavoid_env import palette as P  # noqa: E402
-from reachavoid_env.game_state import (  # noqa: E402
-    AttackerStatus,
-    EdgeKind,
-    GameState,
-    Overlay,
-    outcome_line,
-)
+from reachavoid_env.game_state import AttackerStatus, GameState  # noqa: E402
+from reachavoid_env.overlay import EdgeKind, Overlay, outcome_line  # noqa: E402
 from reachavoid_env.render_frame import Frame  # noqa: E402
 
 

@@ -38,7 +38,8 @@ import numpy as np
 
 from reachavoid_env import checks
 from reachavoid_env.actions import controls
-from reachavoid_env.game_state import AttackerStatus, BatchPolicy
+from reachavoid_env.game_state import AttackerStatus
+from reachavoid_env.policy import BatchPolicy
 from reachavoid_env.rewards import team_bonus, timeout
 from reachavoid_env.vector import ReachAvoidVectorEnv
 

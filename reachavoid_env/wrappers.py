@@ -38,8 +38,10 @@ from pettingzoo import ParallelEnv
 from reachavoid_env import checks
 from reachavoid_env.actions import action_space, control
 from reachavoid_env.environment import ReachAvoidEnv, check_agent_names
-from reachavoid_env.game_state import AttackerStatus, GameState, Overlay, Policy, merged_overlay
+from reachavoid_env.game_state import AttackerStatus, GameState
 from reachavoid_env.maps import ScenarioSource
+from reachavoid_env.overlay import Overlay
+from reachavoid_env.policy import Policy, merged_overlay
 from reachavoid_env.rewards import team_bonus, timeout
 from reachavoid_env.scenario import Scenario
 from reachavoid_env.video import realtime_fps

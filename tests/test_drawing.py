@@ -10,8 +10,8 @@ from policies.drawing import race_routes
 from policies.intercept import plan_intercepts, race_all
 from reachavoid_env import AttackerStatus, GameState, Overlay, merged_overlay
 from reachavoid_env import palette as P
-from reachavoid_env.game_state import EdgeKind, Route
 from reachavoid_env.geodesic import distance_field
+from reachavoid_env.overlay import EdgeKind, Route
 from reachavoid_env.render import Renderer
 
 SCENARIO = reachavoid_env.builtin_scenario("paper_2v1")

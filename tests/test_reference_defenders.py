@@ -24,7 +24,7 @@ from policies.steering import ATTACKER_MOVES, game_keepers, held_one_step, steer
 from policies.strategy import Program, Spare, Strategy
 from policies.tube_states import pair_states
 from reachavoid.rollout import run_episode
-from reachavoid_env.game_state import EdgeKind
+from reachavoid_env.overlay import EdgeKind
 from solvers import open_space
 
 

@@ -22,7 +22,7 @@ from reachavoid_env import (
 )
 from reachavoid_env import palette as R
 from reachavoid_env.environment import _live_part
-from reachavoid_env.game_state import Edge, EdgeKind, outcome_line
+from reachavoid_env.overlay import Edge, EdgeKind, outcome_line
 from reachavoid_env.render import EDGE_STYLES, Renderer
 
 ACTIVE, CAPTURED, ARRIVED = AttackerStatus.ACTIVE, AttackerStatus.CAPTURED, AttackerStatus.ARRIVED

@@ -20,7 +20,7 @@ from policies.registry import make_policy, resolve
 from policies.tube_states import team_values
 from reachavoid.cli import main
 from reachavoid.rollout import run_episode
-from reachavoid_env.game_state import EdgeKind
+from reachavoid_env.overlay import EdgeKind
 from solvers.hj import solve_1v1, solve_1v2, solve_2v1
 
 SCENARIO = "paper_6v4_equal"

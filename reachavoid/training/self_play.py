@@ -20,8 +20,8 @@ import numpy as np
 
 from policies.learned import DEFAULT_OBSERVATION, Predict
 from reachavoid_env import BatchState, ObservationConfig, Scenario, checks
-from reachavoid_env.game_state import checked_copies, map_key
 from reachavoid_env.observations import Observer
+from reachavoid_env.policy import checked_copies, map_key
 from reachavoid_env.rules import unit_vectors
 
 MAX_POOL = 10_000

@@ -49,8 +49,8 @@ from typing import Any
 
 from policies.registry import PolicySpec, make_batch_policy
 from reachavoid_env import checks
-from reachavoid_env.game_state import BatchPolicy, PerCopy, PerMap
 from reachavoid_env.maps import ScenarioSource
+from reachavoid_env.policy import BatchPolicy, PerCopy, PerMap
 from reachavoid_env.vector import ReachAvoidVectorEnv
 from reachavoid_env.vector_views import LearnerVectorEnv
 from reachavoid_env.wrappers import AttackerParallelEnv, SingleAttackerEnv
