@@ -319,10 +319,7 @@ class BatchAssignmentDefenders:
             Tempo(game.speeds, game.states.capture_radius, self._dt), actions)
         for c, copy in enumerate(game.copies):
             copy.plan = Plan(plan.targets[c], plan.aims[c])
-            keeps = set(keepers[c].tolist())
-            copy.played = copy.certified + [
-                match for match in roles_of(copy.decision.assignment).games
-                if len(match.defenders) == 1 and match.defenders[0] in keeps]
+            copy.keepers = keepers[c]
 
     def nominal_captures(self, k: int) -> int | None:
         """The paper's count in copy ``k`` at this step: the size of the assignment (the

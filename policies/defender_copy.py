@@ -14,7 +14,7 @@ from typing import NamedTuple
 import numpy as np
 
 from policies import drawing
-from policies.certificate import Match, games_of
+from policies.certificate import Match, games_of, roles_of
 from policies.intercept import Plan
 from policies.lookups import DecisionTables
 from reachavoid_env import BatchState, GameState, Overlay
@@ -50,8 +50,9 @@ def _no_games(columns: int) -> np.ndarray:
 class DefenderCopy:
     """One copy's defenders (module docstring): the program's ``solver`` and the
     ``nominal`` one (``BatchAssignmentDefenders.nominal_captures``), the ``certified``
-    games and those ``played`` (with the plan: the certified ones and the program's
-    games whose defender keeps the game's control), the attackers' ``previous``
+    games and the step's ``keepers`` (with the plan: the defenders of the program's
+    games that keep the game's control; ``played`` tells the games), the attackers'
+    ``previous``
     positions (``None`` before the first decision or after a game without attackers),
     the program's 1 vs 1 and pair games of the step (``Roles.singles``, ``doubles``:
     the plan reads them), the step's ``decision`` and ``plan`` (``None`` where none),
@@ -60,7 +61,7 @@ class DefenderCopy:
     solver: AssignmentSolver
     nominal_solver: AssignmentSolver
     certified: list[Match] = field(default_factory=list)
-    played: list[Match] = field(default_factory=list)
+    keepers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     previous: np.ndarray | None = None
     singles: np.ndarray = field(default_factory=lambda: _no_games(2))
     doubles: np.ndarray = field(default_factory=lambda: _no_games(3))
@@ -70,8 +71,20 @@ class DefenderCopy:
 
     def clear(self) -> None:
         """A step without attackers in the game: no decision, nothing certified."""
-        self.certified, self.played, self.previous = [], [], None
+        self.certified, self.previous = [], None
+        self.keepers = np.zeros(0, dtype=np.int64)
         self.decision = self.plan = self.nominal = None
+
+    @property
+    def played(self) -> list[Match]:
+        """With the plan: the certified games and the program's games whose defender is
+        one of the step's ``keepers`` (``policies.steering.game_keepers``)."""
+        if self.decision is None or not len(self.keepers):
+            return list(self.certified)
+        keepers = set(self.keepers.tolist())
+        return self.certified + [match for match in roles_of(self.decision.assignment).games
+                                 if len(match.defenders) == 1
+                                 and match.defenders[0] in keepers]
 
     def played_games(self, plans: bool) -> list[Match]:
         """The games of the last decision played by their own controls: with the intercept

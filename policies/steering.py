@@ -111,9 +111,9 @@ def held_one_step(vf11: ValueFunction, attackers: np.ndarray, defenders: np.ndar
 
 
 def game_keepers(singles: np.ndarray, doubles: np.ndarray, targets: np.ndarray,
-                 busy: np.ndarray) -> np.ndarray:
+                 busy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The defenders of the program's games that play the game's optimal control (1 vs 1
-    or 2 vs 1) rather than the plan's heading.
+    or 2 vs 1) rather than the plan's heading, in L copies at once.
 
     A game the program plays (every value of it > 0) but the tube does not certify has a
     value within the tube's error of 0. The plan races its attacker as if it kept to its
@@ -126,23 +126,25 @@ def game_keepers(singles: np.ndarray, doubles: np.ndarray, targets: np.ndarray,
     attacker, the team's plan rules (in 6 vs 2 that is what captures more).
 
     Args:
-        singles: ``(S, 2)`` int rows ``(attacker, defender)`` of the program's 1 vs 1
-            games (``policies.certificate.Roles.singles``).
-        doubles: ``(D, 3)`` int rows ``(first, second, defender)`` of its pair games
-            (``Roles.doubles``).
-        targets: ``(N,)`` the attacker the plan sends each defender after (-1 for none).
-        busy: ``(N,)`` bool, the defenders of certified games (they play those).
+        singles: ``(S, 3)`` int rows ``(copy, attacker, defender)`` of the program's 1 vs
+            1 games (``policies.certificate.Roles.singles`` of each copy).
+        doubles: ``(D, 4)`` int rows ``(copy, first, second, defender)`` of its pair
+            games (``Roles.doubles``).
+        targets: ``(L, N)`` the attacker the plan sends each defender after (-1 for none).
+        busy: ``(L, N)`` bool, the defenders of certified games (they play those).
 
     Returns:
-        The defenders (int array, singles' first, then pairs') that keep their game's
-        optimal control.
+        ``(copies, defenders)``: int arrays, one entry per defender that keeps its game's
+        optimal control (singles' first, then pairs').
     """
-    single = singles[:, 1]
-    pair = doubles[:, 2]
-    keeps_single = (targets[single] == singles[:, 0]) & ~busy[single]
-    chased = targets[pair]
-    keeps_pair = ((chased == doubles[:, 0]) | (chased == doubles[:, 1])) & ~busy[pair]
-    return np.concatenate([single[keeps_single], pair[keeps_pair]])
+    copy, single = singles[:, 0], singles[:, 2]
+    keeps_single = (targets[copy, single] == singles[:, 1]) & ~busy[copy, single]
+    pair_copy, pair = doubles[:, 0], doubles[:, 3]
+    chased = targets[pair_copy, pair]
+    keeps_pair = (((chased == doubles[:, 1]) | (chased == doubles[:, 2]))
+                  & ~busy[pair_copy, pair])
+    return (np.concatenate([copy[keeps_single], pair_copy[keeps_pair]]),
+            np.concatenate([single[keeps_single], pair[keeps_pair]]))
 
 
 class PlanGames(NamedTuple):
@@ -192,11 +194,13 @@ def play_plan(field: DistanceField, attackers: np.ndarray, defenders: np.ndarray
                        np.ones(defenders.shape[:2], dtype=bool), active)
     desired = headings(plan, defenders, attackers)
     free = np.ones(actions.shape[:2], dtype=bool)
-    keepers = []
-    for c, (certified, singles, doubles) in enumerate(games):
-        free[c, [j for match in certified for j in match.defenders]] = False
-        keepers.append(game_keepers(singles, doubles, plan.targets[c], ~free[c]))
-        free[c, keepers[-1]] = False
+    held = [(c, j) for c, copy in enumerate(games) for match in copy.certified
+            for j in match.defenders]
+    if held:
+        free[tuple(np.array(held).T)] = False
+    copies, keepers = game_keepers(_rows(games, "singles"), _rows(games, "doubles"),
+                                   plan.targets, ~free)
+    free[copies, keepers] = False
     actions[free] = desired[free]
     rows = [(c, match.attackers[0], match.defenders[0])
             for c, copy in enumerate(games) for match in copy.certified
@@ -207,4 +211,16 @@ def play_plan(field: DistanceField, attackers: np.ndarray, defenders: np.ndarray
         steered, heading = steer(vf11, attackers[c, i], defenders[c, j], desired[c, j],
                                  margin, tempo.speeds, tempo.dt)
         actions[c[steered], j[steered]] = heading[steered]
-    return plan, keepers
+    order = np.argsort(copies, kind="stable")
+    return plan, np.split(keepers[order], np.searchsorted(copies[order],
+                                                          np.arange(1, len(games))))
+
+
+def _rows(games: Sequence[PlanGames], name: str) -> np.ndarray:
+    """Every copy's ``singles`` or ``doubles`` rows, each led by its copy's index."""
+    rows = [getattr(copy, name) for copy in games]
+    stacked = np.concatenate(rows) if rows else np.zeros((0, 2 if name == "singles" else 3),
+                                                         dtype=np.int64)
+    counts = [len(r) for r in rows]
+    return np.column_stack([np.repeat(np.arange(len(rows)), counts), stacked]).astype(
+        np.int64)

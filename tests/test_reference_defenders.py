@@ -82,15 +82,26 @@ def test_worked_example_is_not_certified(coarse_tubes):
 def test_a_game_yields_to_the_plan_for_another_attacker():
     """``game_keepers``: the defender of an uncertified game keeps the game's control only
     while the plan sends it after the game's attacker (one of its pair) and no certified
-    game holds it."""
+    game holds it; copy by copy."""
     singles = np.array([[6, 3], [7, 4], [8, 5]])
     doubles = np.array([[0, 1, 0], [2, 3, 1], [4, 5, 2]])
     targets = np.array([1, 0, 4, 6, 8, 8])
     busy = np.array([False, False, True, False, False, True])
-    np.testing.assert_array_equal(game_keepers(singles, doubles, targets, busy), [3, 0])
-    none = game_keepers(np.zeros((0, 2), dtype=np.int64), np.zeros((0, 3), dtype=np.int64),
-                        targets, busy)
-    assert len(none) == 0
+    copies, keepers = game_keepers(np.column_stack([[0, 0, 0], singles]),
+                                   np.column_stack([[0, 0, 0], doubles]),
+                                   targets[None], busy[None])
+    np.testing.assert_array_equal(keepers, [3, 0])
+    np.testing.assert_array_equal(copies, [0, 0])
+    # the same games in copy 1 beside a copy 0 where the plan chases no one
+    copies, keepers = game_keepers(np.column_stack([[1, 1, 1], singles]),
+                                   np.column_stack([[1, 1, 1], doubles]),
+                                   np.stack([np.full(6, -1), targets]),
+                                   np.stack([np.zeros(6, dtype=bool), busy]))
+    np.testing.assert_array_equal(keepers, [3, 0])
+    np.testing.assert_array_equal(copies, [1, 1])
+    none = game_keepers(np.zeros((0, 3), dtype=np.int64), np.zeros((0, 4), dtype=np.int64),
+                        targets[None], busy[None])
+    assert all(len(part) == 0 for part in none)
 
 
 def _check_certificate(policy, state, previous: list[Match]) -> int:
