@@ -41,8 +41,7 @@ from policies.certificate import (
     open_games,
     roles_of,
 )
-from policies.defender_copy import Decision, DefenderCopy
-from policies.intercept import Plan
+from policies.defender_copy import Decision, DefenderCopy, StepPlan
 from policies.lookups import (
     DecisionTables,
     Matches,
@@ -312,14 +311,13 @@ class BatchAssignmentDefenders:
         """The team's intercept plan in every live copy at once
         (``policies.steering.play_plan``); each copy's games played are its certified
         games and the program's games whose defender keeps the game's control."""
-        plan, keepers = play_plan(
+        plan, copies, keepers = play_plan(
             self._field, game.attackers, game.defenders, game.active,
             [PlanGames(copy.certified, copy.singles, copy.doubles) for copy in game.copies],
             self.vf11, self.margins[0],
             Tempo(game.speeds, game.states.capture_radius, self._dt), actions)
         for c, copy in enumerate(game.copies):
-            copy.plan = Plan(plan.targets[c], plan.aims[c])
-            copy.keepers = keepers[c]
+            copy.step_plan = StepPlan(plan, copies, keepers, c)
 
     def nominal_captures(self, k: int) -> int | None:
         """The paper's count in copy ``k`` at this step: the size of the assignment (the

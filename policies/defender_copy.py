@@ -42,6 +42,17 @@ class Decision(NamedTuple):
         return self.states.game_state(self.k)
 
 
+class StepPlan(NamedTuple):
+    """The step's plan of every live copy, as ``policies.steering.play_plan`` gave it
+    (``plan`` ``(L, N)`` targets, ``(L, N, 2)`` aims; the keepers as ``copies``,
+    ``keepers`` rows), and which copy of it is this one (``index``): read when asked."""
+
+    plan: Plan
+    copies: np.ndarray
+    keepers: np.ndarray
+    index: int
+
+
 def _no_games(columns: int) -> np.ndarray:
     return np.zeros((0, columns), dtype=np.int64)
 
@@ -50,30 +61,44 @@ def _no_games(columns: int) -> np.ndarray:
 class DefenderCopy:
     """One copy's defenders (module docstring): the program's ``solver`` and the
     ``nominal`` one (``BatchAssignmentDefenders.nominal_captures``), the ``certified``
-    games and the step's ``keepers`` (with the plan: the defenders of the program's
-    games that keep the game's control; ``played`` tells the games), the attackers'
-    ``previous``
+    games, the attackers' ``previous``
     positions (``None`` before the first decision or after a game without attackers),
     the program's 1 vs 1 and pair games of the step (``Roles.singles``, ``doubles``:
-    the plan reads them), the step's ``decision`` and ``plan`` (``None`` where none),
+    the plan reads them), the step's ``decision`` and ``step_plan`` (``None`` where none:
+    its ``plan`` and ``keepers``, the defenders of the program's games that keep the game's
+    control, read from it),
     and the ``nominal`` count once asked."""
 
     solver: AssignmentSolver
     nominal_solver: AssignmentSolver
     certified: list[Match] = field(default_factory=list)
-    keepers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     previous: np.ndarray | None = None
     singles: np.ndarray = field(default_factory=lambda: _no_games(2))
     doubles: np.ndarray = field(default_factory=lambda: _no_games(3))
     decision: Decision | None = None
-    plan: Plan | None = None
+    step_plan: StepPlan | None = None
     nominal: int | None = None
 
     def clear(self) -> None:
         """A step without attackers in the game: no decision, nothing certified."""
         self.certified, self.previous = [], None
-        self.keepers = np.zeros(0, dtype=np.int64)
-        self.decision = self.plan = self.nominal = None
+        self.decision = self.step_plan = self.nominal = None
+
+    @property
+    def plan(self) -> Plan | None:
+        """The step's intercept plan of this copy (``None`` without one)."""
+        step = self.step_plan
+        if step is None:
+            return None
+        return Plan(step.plan.targets[step.index], step.plan.aims[step.index])
+
+    @property
+    def keepers(self) -> np.ndarray:
+        """The defenders of this copy that keep their game's control this step."""
+        step = self.step_plan
+        if step is None:
+            return np.zeros(0, dtype=np.int64)
+        return step.keepers[step.copies == step.index]
 
     @property
     def played(self) -> list[Match]:

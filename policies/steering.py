@@ -169,7 +169,7 @@ class Tempo(NamedTuple):
 def play_plan(field: DistanceField, attackers: np.ndarray, defenders: np.ndarray,
               active: np.ndarray, games: Sequence[PlanGames], vf11: ValueFunction,
               margin: float, tempo: Tempo,
-              actions: np.ndarray) -> tuple[Plan, list[np.ndarray]]:
+              actions: np.ndarray) -> tuple[Plan, np.ndarray, np.ndarray]:
     """The team's intercept plan in each of L copies, played: every defender outside a
     certified game takes the plan's heading, but for the ``game_keepers``; a certified
     1 vs 1 tube game's defender takes it as far as ``steer`` allows; the other certified
@@ -187,7 +187,8 @@ def play_plan(field: DistanceField, attackers: np.ndarray, defenders: np.ndarray
         actions: ``(L, N, 2)`` float32 headings, written in place.
 
     Returns:
-        The ``Plan`` (``targets (L, N)``, ``aims (L, N, 2)``) and each copy's keepers.
+        The ``Plan`` (``targets (L, N)``, ``aims (L, N, 2)``) and the keepers as
+        ``game_keepers`` gives them: ``(copies, defenders)``.
     """
     plan = plan_copies(race_copies(field, attackers, defenders, active, *tempo.speeds,
                                    tempo.capture_radius),
@@ -211,9 +212,7 @@ def play_plan(field: DistanceField, attackers: np.ndarray, defenders: np.ndarray
         steered, heading = steer(vf11, attackers[c, i], defenders[c, j], desired[c, j],
                                  margin, tempo.speeds, tempo.dt)
         actions[c[steered], j[steered]] = heading[steered]
-    order = np.argsort(copies, kind="stable")
-    return plan, np.split(keepers[order], np.searchsorted(copies[order],
-                                                          np.arange(1, len(games))))
+    return plan, copies, keepers
 
 
 def _rows(games: Sequence[PlanGames], name: str) -> np.ndarray:
