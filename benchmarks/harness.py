@@ -26,7 +26,8 @@ A function a job runs in an older tree must use only names that tree has.
 
 The speed benchmarks run on this harness; the studies (``paper_table.py``,
 ``defenders.py``, ``guarantee*.py``, ``attacker_*.py``, ``tube_library.py``,
-``hj_schemes.py``, ``bench_record.py``, ``recipe_record.py``, ``readme_frame.py``)
+``hj_schemes.py``, ``bench_record.py``, ``recipe_record.py``, ``exploit_record.py``,
+``readme_frame.py``)
 measure play, not speed, and keep their own loops (``docs/benchmarking.md``).
 """
 
