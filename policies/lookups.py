@@ -19,6 +19,7 @@ kernel arrays and the defender's two axes (plain arrays, made once per policy).
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import NamedTuple
 
@@ -301,9 +302,12 @@ class Ragged(NamedTuple):
 
     @classmethod
     def of(cls, parts: list[np.ndarray]) -> Ragged:
-        """``parts`` (one array per copy, at least one, of one dtype) joined on axis 0."""
-        offsets = np.zeros(len(parts) + 1, dtype=np.int64)
-        offsets[1:] = np.cumsum([len(part) for part in parts])
+        """``parts`` (one array per copy, at least one, of one dtype) joined on axis 0
+        (one part, the common case of a game played alone, is taken as it is where it is
+        a writeable C-contiguous array: the kernels only read it)."""
+        offsets = np.array([0, *itertools.accumulate(map(len, parts))], dtype=np.int64)
+        if len(parts) == 1 and parts[0].flags.writeable and parts[0].flags.c_contiguous:
+            return cls(parts[0], offsets)
         return cls(np.concatenate(parts), offsets)
 
 
