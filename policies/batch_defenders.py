@@ -50,7 +50,7 @@ from policies.lookups import (
     batch_decision_controls,
     batch_decision_tables,
 )
-from policies.steering import PlanGames, Tempo, play_plan
+from policies.steering import PlanGames, Tempo, copy_rows, hedge_pairs, play_plan
 from policies.strategy import CERTIFICATE_CELLS, Program, Spare, Strategy, team_table
 from policies.tube_states import control_headings, team_states, team_values
 from policies.tubes import check_tube, tube_1v1, tube_2v1
@@ -193,8 +193,11 @@ class BatchAssignmentDefenders:
         wins = _OpenWins.of(self._open, self.vf11, self.margins[0], game)
         out = actions[live]
         held = wins.held(game, self.strategy.certifies)
-        self._play_games(game, wins, self._decide(game, wins, held), out)
+        decided = self._decide(game, wins, held)
+        self._play_games(game, wins, decided, out)
         self._play_teams(game, out)
+        if self.strategy.certifies:
+            self._hedge_pairs(game, decided[0].values11, out)
         if self.strategy.plans:
             self._play_plan(game, out)
         if self._open is not None:
@@ -293,6 +296,18 @@ class BatchAssignmentDefenders:
                                                           strict=True)
                          if certain or open_]
             copy.certified = copy.certified + games
+
+    def _hedge_pairs(self, game: _Batch, values11: np.ndarray, actions: np.ndarray) -> None:
+        """The defender of every uncertified pair game keeps its better single game won
+        (``policies.steering.hedge_pairs``), all copies at once."""
+        doubles = copy_rows(game.copies, "doubles")
+        held = {(c, j) for c, copy in enumerate(game.copies) for match in copy.certified
+                for j in match.defenders}
+        open_ = [(c, j) not in held for c, j in zip(doubles[:, 0].tolist(),
+                                                    doubles[:, 3].tolist(), strict=True)]
+        hedge_pairs(self.vf11, doubles[open_], values11,
+                    [copy.hedges for copy in game.copies], game.attackers, game.defenders,
+                    sum(game.speeds) * self._dt, actions)
 
     def _play_teams(self, game: _Batch, actions: np.ndarray) -> None:
         """Both defenders of every team play the 1 vs 2 optimal controls."""

@@ -67,7 +67,8 @@ class DefenderCopy:
     the plan reads them), the step's ``decision`` and ``step_plan`` (``None`` where none:
     its ``plan`` and ``keepers``, the defenders of the program's games that keep the game's
     control, read from it),
-    and the ``nominal`` count once asked."""
+    the ``nominal`` count once asked, and the single each uncertified pair game's defender
+    keeps won (``hedges``, defender -> attacker: ``policies.steering.hedge_pairs``)."""
 
     solver: AssignmentSolver
     nominal_solver: AssignmentSolver
@@ -78,6 +79,7 @@ class DefenderCopy:
     decision: Decision | None = None
     step_plan: StepPlan | None = None
     nominal: int | None = None
+    hedges: dict[int, int] = field(default_factory=dict)
 
     def clear(self) -> None:
         """A step without attackers in the game: no decision, nothing certified."""

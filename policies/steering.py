@@ -2,7 +2,8 @@
 games filter): how far a certified 1 vs 1 game's defender may take the heading the plan
 proposes (``steer``), which defenders of the program's uncertified games keep the
 game's optimal control instead (``game_keepers``), and the plan played by the defenders
-of K copies with both rules (``play_plan``).
+of K copies with both rules (``play_plan``); and how the defender of an uncertified pair
+game keeps one of its two captures (``hedge_pairs``).
 
 Each is the one rule, over the games of K copies at once in
 ``policies.batch_defenders`` (one game being one copy).
@@ -11,20 +12,29 @@ Each is the one rule, over the games of K copies at once in
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from policies.certificate import Basis, Match
 from policies.intercept import Plan, headings, plan_copies, race_copies
 from policies.lookups import HEADING_FLOOR
+from policies.tube_states import control_headings
 from reachavoid_env.geodesic import DistanceField
 from reachavoid_env.rules import unit_vectors
 from solvers.hj import ValueFunction
 
+if TYPE_CHECKING:
+    from policies.defender_copy import DefenderCopy
+
 CONE_SLACK = 0.05
 """Added to the cosine a certified defender's heading keeps with its optimal control
 (``steer``), beyond what holds the value to first order."""
+
+HEDGE_STEPS = 2.0
+"""The 1 vs 1 value (in steps of both players' motion, ``(v_A + v_D) dt`` map units) below
+which an uncertified pair game's defender plays its better single game instead of the
+pair (``hedge_pairs``)."""
 
 _ANGLES = np.linspace(0.0, 2.0 * np.pi, 32, endpoint=False)
 ATTACKER_MOVES = np.concatenate([np.stack([np.cos(_ANGLES), np.sin(_ANGLES)], axis=1),
@@ -147,6 +157,55 @@ def game_keepers(singles: np.ndarray, doubles: np.ndarray, targets: np.ndarray,
             np.concatenate([single[keeps_single], pair[keeps_pair]]))
 
 
+def hedge_pairs(vf11: ValueFunction, doubles: np.ndarray, values11: np.ndarray,
+                hedges: Sequence[dict[int, int]], attackers: np.ndarray,
+                defenders: np.ndarray, step: float, actions: np.ndarray) -> None:
+    """The defender of each uncertified pair game keeps its better single game won: it
+    plays the pair's 2 vs 1 control while that single's 1 vs 1 value stays above
+    ``HEDGE_STEPS`` steps, else the single's 1 vs 1 optimal control.
+
+    A pair game that the 2 vs 1 tube does not certify has a value within the tube's
+    error of 0, and the 2 vs 1 game counts only both captures: where it is really lost,
+    its control is indifferent to catching one. A pair that waits on two sides of the
+    target and then runs in together meets a defender whose 2 vs 1 control flips between
+    them from step to step, and both arrive (``docs/defenders.md``, "Why hj lost both of a
+    pair"). So the defender keeps the better of its two 1 vs 1 games above a floor of
+    two steps of value (a value of 0 is the 1 vs 1 game's boundary). Which single is
+    the better one is sticky (``hedges``): the one of the last step stays while its value
+    is within one step of the other's, so two close values do not make the defender
+    flip between the singles instead.
+
+    Args:
+        vf11: the 1 vs 1 tube.
+        doubles: ``(D, 4)`` int rows ``(copy, first, second, defender)`` of the pair
+            games no certificate holds.
+        values11: ``(L, M, N)`` the step's 1 vs 1 values, copies first.
+        hedges: each copy's single of the last step, defender -> attacker (updated).
+        attackers: ``(L, M, 2)`` positions (map units).
+        defenders: ``(L, N, 2)`` positions (map units).
+        step: ``(v_A + v_D) dt``, map units.
+        actions: ``(L, N, 2)`` float32 headings holding the pairs' 2 vs 1 controls,
+            written in place.
+    """
+    if not len(doubles):
+        return
+    c, first, second, j = doubles.T
+    v_first, v_second = values11[c, first, j], values11[c, second, j]
+    before = np.array([hedges[copy].get(d, -1) for copy, d in zip(c.tolist(), j.tolist(),
+                                                                     strict=True)])
+    stays = (((before == first) & (v_first >= v_second - step))
+             | ((before == second) & (v_second >= v_first - step)))
+    single = np.where(stays, before, np.where(v_first >= v_second, first, second))
+    for copy, d, i in zip(c.tolist(), j.tolist(), single.tolist(), strict=True):
+        hedges[copy][d] = i
+    low = values11[c, single, j] <= HEDGE_STEPS * step
+    if low.any():
+        c, i, j = c[low], single[low], j[low]
+        gaps = attackers[c, i] - defenders[c, j]
+        states = np.concatenate([attackers[c, i], defenders[c, j]], axis=1)
+        actions[c, j] = control_headings(vf11.control(states, "D"), gaps)
+
+
 class PlanGames(NamedTuple):
     """One copy's games as the plan meets them: the ``certified`` games of the step and
     the program's 1 vs 1 and pair games (``Roles.singles`` ``(S, 2)``, ``Roles.doubles``
@@ -199,7 +258,7 @@ def play_plan(field: DistanceField, attackers: np.ndarray, defenders: np.ndarray
             for j in match.defenders]
     if held:
         free[tuple(np.array(held).T)] = False
-    copies, keepers = game_keepers(_rows(games, "singles"), _rows(games, "doubles"),
+    copies, keepers = game_keepers(copy_rows(games, "singles"), copy_rows(games, "doubles"),
                                    plan.targets, ~free)
     free[copies, keepers] = False
     actions[free] = desired[free]
@@ -215,11 +274,13 @@ def play_plan(field: DistanceField, attackers: np.ndarray, defenders: np.ndarray
     return plan, copies, keepers
 
 
-def _rows(games: Sequence[PlanGames], name: str) -> np.ndarray:
-    """Every copy's ``singles`` or ``doubles`` rows, each led by its copy's index."""
+def copy_rows(games: Sequence[PlanGames | DefenderCopy], name: str) -> np.ndarray:
+    """Every copy's ``singles`` or ``doubles`` rows (``Roles``' arrays, as ``PlanGames``
+    and ``DefenderCopy`` hold them), each led by its copy's index."""
     rows = [getattr(copy, name) for copy in games]
-    stacked = np.concatenate(rows) if rows else np.zeros((0, 2 if name == "singles" else 3),
-                                                         dtype=np.int64)
-    counts = [len(r) for r in rows]
-    return np.column_stack([np.repeat(np.arange(len(rows)), counts), stacked]).astype(
-        np.int64)
+    counts = np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
+    stacked = np.empty((int(counts.sum()), 3 if name == "singles" else 4), dtype=np.int64)
+    stacked[:, 0] = np.repeat(np.arange(len(rows)), counts)
+    if len(stacked):
+        stacked[:, 1:] = np.concatenate(rows)
+    return stacked

@@ -20,7 +20,14 @@ from policies import (
     ShortestPathAttacker,
 )
 from policies.certificate import Basis, Match, games_of, match_arrays, no_team_values, roles_of
-from policies.steering import ATTACKER_MOVES, game_keepers, held_one_step, steer
+from policies.steering import (
+    ATTACKER_MOVES,
+    HEDGE_STEPS,
+    game_keepers,
+    hedge_pairs,
+    held_one_step,
+    steer,
+)
 from policies.strategy import Program, Spare, Strategy
 from policies.tube_states import pair_states
 from reachavoid.rollout import run_episode
@@ -102,6 +109,39 @@ def test_a_game_yields_to_the_plan_for_another_attacker():
     none = game_keepers(np.zeros((0, 3), dtype=np.int64), np.zeros((0, 4), dtype=np.int64),
                         targets[None], busy[None])
     assert all(len(part) == 0 for part in none)
+
+
+def test_an_uncertified_pair_keeps_its_better_single_won(vf11):
+    """``hedge_pairs``: the defender of an uncertified pair game keeps the pair's control
+    while the better of its two 1 vs 1 values stays above ``HEDGE_STEPS`` steps, else
+    plays that single's 1 vs 1 optimal control (the defender's gradient ascent); the
+    better single is sticky within one step of value; copy by copy."""
+    step = 2.5 * 0.005
+    attackers = np.array([[[-0.5, 0.4], [0.2, -0.6]]] * 3)
+    defenders = np.array([[[0.3, 0.2]]] * 3)
+    doubles = np.array([[c, 0, 1, 0] for c in range(3)])
+    values11 = np.empty((3, 2, 1))
+    values11[0, :, 0] = (HEDGE_STEPS + 0.5) * step, 0.0          # first clears the floor
+    values11[1, :, 0] = (HEDGE_STEPS - 0.5) * step, -step          # first at the floor
+    values11[2, :, 0] = (HEDGE_STEPS - 0.5) * step, (HEDGE_STEPS - 1.0) * step
+    hedges = [{}, {}, {0: 1}]                                      # copy 2 held the second
+    pair = np.full((3, 1, 2), 7.0, dtype=np.float32)               # the pairs' controls
+    actions = pair.copy()
+    hedge_pairs(vf11, doubles, values11, hedges, attackers, defenders, step, actions)
+    assert hedges == [{0: 0}, {0: 0}, {0: 1}]
+    np.testing.assert_array_equal(actions[0], pair[0])
+    for c, i in ((1, 0), (2, 1)):
+        _, gradient = vf11.value_and_gradient(np.concatenate([attackers[c, i],
+                                                              defenders[c, 0]]))
+        ascent = gradient[2:] / np.linalg.norm(gradient[2:])
+        np.testing.assert_allclose(actions[c, 0], ascent, atol=1e-6)
+    # one step of value more and the other single takes over
+    values11[2, 0, 0] = values11[2, 1, 0] + 1.5 * step
+    hedge_pairs(vf11, doubles[2:], values11, hedges, attackers, defenders, step, actions)
+    assert hedges[2] == {0: 0}
+    before = actions.copy()
+    hedge_pairs(vf11, doubles[:0], values11, hedges, attackers, defenders, step, actions)
+    np.testing.assert_array_equal(actions, before)
 
 
 def _check_certificate(policy, state, previous: list[Match]) -> int:
