@@ -87,7 +87,9 @@ class BatchAssignmentDefenders:
     proposes, the certificate filters (``policies.steering.play_plan``): every defender
     outside the certified games plays the team's intercept plan, but for the defender of
     an uncertified game of the program whom the plan sends after the game's attacker (or
-    one of its pair), which keeps the game's optimal control; the defender of a
+    one of its pair), which keeps the game's optimal control (the defender of an
+    uncertified pair keeps its better single game won: ``policies.steering.hedge_pairs``,
+    with or without the plan, wherever games are certified); the defender of a
     certified 1 vs 1 game plays the plan as far as the value allows; certified pairs and
     teams keep their optimal controls. The others: every assigned defender plays its
     game's optimal control and the unassigned ones the attacker ``Spare.targets`` gives
