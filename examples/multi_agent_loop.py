@@ -21,7 +21,9 @@ against any defenders without this loop.)
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable, Mapping, Sequence
+import dataclasses
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -30,13 +32,36 @@ import pettingzoo
 import policies  # noqa: F401  (registers reachavoid/Attackers-v1)
 from policies.attackers import target_centres
 from policies.learned import load_sb3
-from reachavoid.training.flags import add_defender_arguments, defender_options
+from policies.registry import DEFENDERS
+from reachavoid.training.flags import defender_options, scenario_argument
 from reachavoid_env import AttackerStatus, Scenario, load_scenario
 from reachavoid_env.environment import STARTS
 from reachavoid_env.training_ids import PETTINGZOO_ID
 from reachavoid_env.video import RecordEpisode
+from solvers.hj.settings import TRAINING_GRIDS
 
 Hook = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass
+class Config:
+    scenario: str = field(default="paper_6v2", metadata={
+        "type": scenario_argument(), "help": "built-in name or TOML file"})
+    defenders: str = field(default="hj", metadata={
+        "choices": DEFENDERS, "help": "scripted defenders"})
+    grid1: int = field(default=TRAINING_GRIDS.grid1, metadata={"help": "hj defenders' 1v1 grid"})
+    grid2: int = field(default=TRAINING_GRIDS.grid2, metadata={"help": "hj defenders' 2v1 grid"})
+    policy: str = field(default="toward-target", metadata={
+        "help": "toward-target, random, or a Stable-Baselines3 PPO .zip"})
+    action_repeat: int | None = field(default=None, metadata={
+        "type": int, "help": "env steps per hook call (None: the model's, else 1)"})
+    starts: str = field(default="random", metadata={
+        "choices": STARTS,
+        "help": "the scenario's start positions or random ones every episode"})
+    episodes: int = field(default=3, metadata={"help": "episodes to play"})
+    seed: int = field(default=0, metadata={"help": "seed of the first episode"})
+    video: str | None = field(default=None, metadata={
+        "metavar": "OUT.mp4|OUT.gif", "help": "record the first episode (real time)"})
 
 
 def toward_target(scenario: Scenario) -> Hook:
@@ -84,54 +109,43 @@ def play(env: pettingzoo.ParallelEnv, hooks: Mapping[str, Hook], seed: int,
             "outcome": outcome}
 
 
-def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    add_defender_arguments(parser, scenario="paper_6v2")
-    parser.add_argument("--policy", default="toward-target",
-                        help="toward-target, random, or a Stable-Baselines3 PPO .zip")
-    parser.add_argument("--action-repeat", type=int, default=None,
-                        help="env steps per hook call (None: the model's, else 1)")
-    parser.add_argument("--starts", choices=STARTS, default="random",
-                        help="the scenario's start positions or random ones every episode")
-    parser.add_argument("--episodes", type=int, default=3, help="episodes to play")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the first episode")
-    parser.add_argument("--video", default=None, metavar="OUT.mp4|OUT.gif",
-                        help="record the first episode (real time)")
-    args = parser.parse_args(argv)
-
-    repeat = args.action_repeat
-    if args.policy == "toward-target":
-        shared = toward_target(load_scenario(args.scenario))
-    elif args.policy == "random":
-        shared = uniform_random(args.seed)
-    elif args.policy.endswith(".zip"):
-        shared, trained_repeat = sb3_model(args.policy)
+def main(config: Config) -> None:
+    repeat = config.action_repeat
+    if config.policy == "toward-target":
+        shared = toward_target(load_scenario(config.scenario))
+    elif config.policy == "random":
+        shared = uniform_random(config.seed)
+    else:   # a .zip (checked with the flags)
+        shared, trained_repeat = sb3_model(config.policy)
         repeat = repeat or trained_repeat
-    else:
-        parser.error(f"--policy: expected toward-target, random or a .zip file, "
-                     f"got {args.policy!r}")
-    env = pettingzoo.make("parallel", PETTINGZOO_ID, scenario=args.scenario,
-                          defenders=args.defenders, defender_options=defender_options(args),
-                          action_repeat=repeat or 1, starts=args.starts,
-                          render_mode=None if args.video is None else "rgb_array")
+    env = pettingzoo.make("parallel", PETTINGZOO_ID, scenario=config.scenario,
+                          defenders=config.defenders, defender_options=defender_options(config),
+                          action_repeat=repeat or 1, starts=config.starts,
+                          render_mode=None if config.video is None else "rgb_array")
     hooks = dict.fromkeys(env.possible_agents, shared)
-    results = []
-    for episode in range(args.episodes):
-        if episode == 0 and args.video is not None:
-            with RecordEpisode(env, args.video) as recorded:
-                result = play(recorded, hooks, seed=args.seed)
-            print(f"video: {args.video} ({recorded.frames} frames)")
+    for episode in range(config.episodes):
+        if episode == 0 and config.video is not None:
+            with RecordEpisode(env, config.video) as recorded:
+                result = play(recorded, hooks, seed=config.seed)
+            print(f"video: {config.video} ({recorded.frames} frames)")
         else:
-            result = play(env, hooks, seed=args.seed + episode)
+            result = play(env, hooks, seed=config.seed + episode)
         outcomes = list(result["outcome"].values())
         print(f"episode {episode}: {result['steps']} steps, arrived "
               f"{outcomes.count('arrived')}, captured {outcomes.count('captured')}, "
               f"timed out {outcomes.count('timeout')}")
-        results.append(result)
     env.close()
-    return results
 
 
 if __name__ == "__main__":
-    main()
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    for option in dataclasses.fields(Config):
+        kwargs = {"default": option.default, **option.metadata}
+        kwargs.setdefault("type", str if option.default is None else type(option.default))
+        parser.add_argument(f"--{option.name.replace('_', '-')}", **kwargs)
+    config = Config(**vars(parser.parse_args()))
+    if config.policy not in ("toward-target", "random") and not config.policy.endswith(".zip"):
+        parser.error(f"--policy: expected toward-target, random or a .zip file, "
+                     f"got {config.policy!r}")
+    main(config)

@@ -3,19 +3,30 @@
 1. ``run_episode``: the library's episode loop (what ``reachavoid play`` runs).
 2. A hand-written PettingZoo loop wrapped in ``RecordEpisode``, for any policy or trainer.
 
-Run: ``python examples/play_and_record.py [OUT_FOLDER]`` (default: the current folder).
-Writes ``paper_6v2_greedy.mp4`` and ``paper_6v2_loop.gif``; works without a display.
+    python examples/play_and_record.py [OUT_FOLDER]
+
+Writes ``paper_6v2_greedy.mp4`` and ``paper_6v2_loop.gif`` into ``OUT_FOLDER`` (default: the
+current folder); works without a display.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import reachavoid_env
 from policies import GreedyDefender, StraightAttacker
 from reachavoid.rollout import run_episode
 from reachavoid_env.video import RecordEpisode
+
+
+@dataclass
+class Config:
+    # the folder for the videos, a positional argument (nargs "?"): the current one if left out
+    out: Path = field(default=Path.cwd(), metadata={
+        "nargs": "?", "help": "folder for the two videos"})
 
 
 def with_run_episode(folder: Path) -> None:
@@ -44,12 +55,17 @@ def with_own_loop(folder: Path) -> None:
     print(f"own loop: {steps} steps, every 4th one (and the last) in the GIF")
 
 
+def main(config: Config) -> None:
+    with_run_episode(config.out)
+    with_own_loop(config.out)
+
+
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("out", nargs="?", type=Path, default=Path.cwd(),
-                        help="folder for the two videos")
-    out = parser.parse_args().out
-    if not out.is_dir():
-        parser.error(f"out: folder {str(out)!r} does not exist")
-    with_run_episode(out)
-    with_own_loop(out)
+    for option in dataclasses.fields(Config):   # positional: no dashes
+        parser.add_argument(option.name, type=type(option.default), default=option.default,
+                            **option.metadata)
+    config = Config(**vars(parser.parse_args()))
+    if not config.out.is_dir():
+        parser.error(f"out: folder {str(config.out)!r} does not exist")
+    main(config)

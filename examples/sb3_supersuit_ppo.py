@@ -13,21 +13,40 @@ attacker and game copy; ``black_death_v3`` keeps the slots of attackers that hav
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
-from collections.abc import Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.logger import KVWriter, Logger
-from stable_baselines3.common.vec_env import VecEnv
 
-from reachavoid.training.flags import (
-    add_defender_arguments,
-    add_reward_arguments,
-    attackers_from_args,
-)
+from policies.registry import DEFENDERS
+from reachavoid.training.flags import attackers_from_args, scenario_argument
 from reachavoid_env.integrations.supersuit import sb3_vec_env
+from solvers.hj.settings import TRAINING_GRIDS
+
+
+@dataclass
+class Config:
+    scenario: str = field(default="paper_6v2", metadata={
+        "type": scenario_argument(), "help": "built-in name or TOML file"})
+    defenders: str = field(default="hj", metadata={
+        "choices": DEFENDERS, "help": "scripted defenders"})
+    grid1: int = field(default=TRAINING_GRIDS.grid1, metadata={"help": "hj defenders' 1v1 grid"})
+    grid2: int = field(default=TRAINING_GRIDS.grid2, metadata={"help": "hj defenders' 2v1 grid"})
+    copies: int = field(default=2, metadata={"help": "game copies in the vector env"})
+    timesteps: int = field(default=100_000, metadata={"help": "agent steps"})
+    n_steps: int = field(default=256, metadata={"help": "PPO rollout per slot"})
+    action_repeat: int = field(default=10, metadata={"help": "game steps per agent step"})
+    shaping: float = field(default=1.0, metadata={"help": "weight of the progress reward"})
+    timeout_reward: float = field(default=-1.0, metadata={
+        "help": "reward for still being in play at the time limit"})
+    team_reward: float = field(default=0.0, metadata={
+        "help": "weight of the teammates' arrivals (+1) and captures (-1) in each attacker's "
+                "reward"})
+    seed: int = 0               # PPO's seed (torch, numpy, the games' resets)
 
 
 class Records(KVWriter):
@@ -41,41 +60,29 @@ class Records(KVWriter):
         self.rows.append(dict(key_values))
 
 
-def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    add_defender_arguments(parser, scenario="paper_6v2")
-    parser.add_argument("--copies", type=int, default=2, help="game copies in the vector env")
-    parser.add_argument("--timesteps", type=int, default=100_000, help="agent steps")
-    parser.add_argument("--n-steps", type=int, default=256, help="PPO rollout per slot")
-    add_reward_arguments(parser, team=True)
-    parser.add_argument("--seed", type=int, default=0)
-    return parser.parse_args(argv)
-
-
-def make_vec_env(args: argparse.Namespace) -> VecEnv:
-    """The vector env, with SB3's episode statistics (one episode per slot and game)."""
-    return sb3_vec_env(attackers_from_args(args), copies=args.copies)
-
-
-def main(argv: Sequence[str] | None = None) -> tuple[PPO, list[dict[str, Any]]]:
-    """Trains; returns the model and SB3's log rows (``train/loss``, ``rollout/ep_rew_mean``,
-    ...), one per rollout."""
-    args = parse_args(argv)
+def main(config: Config) -> None:
+    """Trains; prints SB3's log rows (``train/loss``, ``rollout/ep_rew_mean``, ...), one per
+    rollout, then the timesteps and slots."""
     torch.set_num_threads(1)    # small networks: more threads only contend for the cores
-    envs = make_vec_env(args)
-    model = PPO("MlpPolicy", envs, n_steps=args.n_steps, batch_size=args.n_steps,
-                seed=args.seed, device="cpu", verbose=0)
+    # the vector env, with SB3's episode statistics (one episode per slot and game); the
+    # flags' helper reads the defender and reward fields of the config
+    envs = sb3_vec_env(attackers_from_args(config), copies=config.copies)
+    model = PPO("MlpPolicy", envs, n_steps=config.n_steps, batch_size=config.n_steps,
+                seed=config.seed, device="cpu", verbose=0)
     records = Records()
     model.set_logger(Logger(None, [records]))
-    model.learn(args.timesteps, progress_bar=sys.stderr.isatty())
+    model.learn(config.timesteps, progress_bar=sys.stderr.isatty())
     envs.close()
     for row in records.rows:
         print(", ".join(f"{key} {value:.4g}" for key, value in row.items()
                         if isinstance(value, float)), flush=True)
     print(f"timesteps {model.num_timesteps}, slots {model.n_envs}")
-    return model, records.rows
 
 
 if __name__ == "__main__":
-    main()
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    for option in dataclasses.fields(Config):
+        kwargs = {"default": option.default, "type": type(option.default), **option.metadata}
+        parser.add_argument(f"--{option.name.replace('_', '-')}", **kwargs)
+    main(Config(**vars(parser.parse_args())))

@@ -16,9 +16,9 @@ and reward, and ``done`` True; its steps are left out of the loss
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
-from collections.abc import Sequence
-from typing import Any
+from dataclasses import dataclass, field
 
 import torch
 from tensordict import TensorDictBase
@@ -28,35 +28,37 @@ from torchrl.collectors import Collector
 from torchrl.envs import EnvBase
 from torchrl.modules import MultiAgentMLP, ProbabilisticActor, TanhNormal
 
-from reachavoid.training.flags import (
-    add_defender_arguments,
-    add_reward_arguments,
-    attackers_from_args,
-)
+from policies.registry import DEFENDERS
+from reachavoid.training.flags import attackers_from_args, scenario_argument
 from reachavoid.training.mappo import LOSSES, ppo_epochs, ppo_loss
 from reachavoid_env import AttackerStatus
 from reachavoid_env.integrations.torchrl import torchrl_env
+from solvers.hj.settings import TRAINING_GRIDS
 
 GROUP = "attacker"
 
 
-def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    add_defender_arguments(parser, scenario="paper_2v1")
-    parser.add_argument("--iterations", type=int, default=20)
-    parser.add_argument("--frames", type=int, default=2000, help="env steps per iteration")
-    parser.add_argument("--epochs", type=int, default=4)
-    parser.add_argument("--minibatch", type=int, default=500)
-    parser.add_argument("--lr", type=float, default=3e-4)
-    add_reward_arguments(parser, team=True)
-    parser.add_argument("--seed", type=int, default=0)
-    return parser.parse_args(argv)
-
-
-def make_env(args: argparse.Namespace) -> EnvBase:
-    game = attackers_from_args(args)
-    return torchrl_env(game, seed=args.seed)
+@dataclass
+class Config:
+    scenario: str = field(default="paper_2v1", metadata={
+        "type": scenario_argument(), "help": "built-in name or TOML file"})
+    defenders: str = field(default="hj", metadata={
+        "choices": DEFENDERS, "help": "scripted defenders"})
+    grid1: int = field(default=TRAINING_GRIDS.grid1, metadata={"help": "hj defenders' 1v1 grid"})
+    grid2: int = field(default=TRAINING_GRIDS.grid2, metadata={"help": "hj defenders' 2v1 grid"})
+    iterations: int = 20        # collections, each followed by PPO epochs
+    frames: int = field(default=2000, metadata={"help": "env steps per iteration"})
+    epochs: int = 4             # passes over each iteration's batch
+    minibatch: int = 500        # env steps per gradient step
+    lr: float = 3e-4            # Adam's learning rate
+    action_repeat: int = field(default=10, metadata={"help": "game steps per agent step"})
+    shaping: float = field(default=1.0, metadata={"help": "weight of the progress reward"})
+    timeout_reward: float = field(default=-1.0, metadata={
+        "help": "reward for still being in play at the time limit"})
+    team_reward: float = field(default=0.0, metadata={
+        "help": "weight of the teammates' arrivals (+1) and captures (-1) in each attacker's "
+                "reward"})
+    seed: int = 0               # torch's and the env's seed
 
 
 def build_modules(env: EnvBase) -> tuple[ProbabilisticActor, TensorDictModule]:
@@ -90,22 +92,23 @@ def outcomes(batch: TensorDictBase) -> dict[str, int]:
             "captured": int((status == AttackerStatus.CAPTURED.code).sum())}
 
 
-def train(args: argparse.Namespace) -> list[dict[str, Any]]:
-    """``args.iterations`` MAPPO iterations; one record per iteration (mean losses over the
-    live agents' steps, the batch's live-agent reward sum, arrivals and captures)."""
-    torch.manual_seed(args.seed)
+def main(config: Config) -> None:
+    """``config.iterations`` MAPPO iterations; prints a record per iteration (mean losses
+    over the live agents' steps, the batch's live-agent reward sum, arrivals and captures)."""
+    torch.manual_seed(config.seed)
     torch.set_num_threads(1)    # tiny networks: more threads only contend for the cores
-    env = make_env(args)
+    # the flags' helper reads the defender and reward fields of the config
+    env = torchrl_env(attackers_from_args(config), seed=config.seed)
     actor, critic = build_modules(env)
     loss_module = ppo_loss(actor, critic, GROUP, entropy=1e-3)
-    optimiser = torch.optim.Adam(loss_module.parameters(), lr=args.lr)
-    collector = Collector(env, actor, frames_per_batch=args.frames,
-                          total_frames=args.frames * args.iterations)
+    optimiser = torch.optim.Adam(loss_module.parameters(), lr=config.lr)
+    collector = Collector(env, actor, frames_per_batch=config.frames,
+                          total_frames=config.frames * config.iterations)
     history = []
     try:
         for iteration, batch in enumerate(collector):
-            losses = ppo_epochs(loss_module, optimiser, batch, GROUP, args.epochs,
-                                args.minibatch)
+            losses = ppo_epochs(loss_module, optimiser, batch, GROUP, config.epochs,
+                                config.minibatch)
             live_reward = batch["next", GROUP, "reward"][batch[GROUP, "mask"]]
             record = {"iteration": iteration, "frames": batch.numel(),
                       "reward_sum": float(live_reward.sum())}
@@ -117,12 +120,12 @@ def train(args: argparse.Namespace) -> list[dict[str, Any]]:
         collector.shutdown()
         env.close()
     assert all(math.isfinite(record[key]) for record in history for key in LOSSES)
-    return history
-
-
-def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
-    return train(parse_args(argv))
 
 
 if __name__ == "__main__":
-    main()
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    for option in dataclasses.fields(Config):
+        kwargs = {"default": option.default, "type": type(option.default), **option.metadata}
+        parser.add_argument(f"--{option.name.replace('_', '-')}", **kwargs)
+    main(Config(**vars(parser.parse_args())))
