@@ -303,11 +303,14 @@ class BatchAssignmentDefenders:
         """The defender of every uncertified pair game keeps its better single game won
         (``policies.steering.hedge_pairs``), all copies at once."""
         doubles = copy_rows(game.copies, "doubles")
-        held = {(c, j) for c, copy in enumerate(game.copies) for match in copy.certified
-                for j in match.defenders}
-        open_ = [(c, j) not in held for c, j in zip(doubles[:, 0].tolist(),
-                                                    doubles[:, 3].tolist(), strict=True)]
-        hedge_pairs(self.vf11, doubles[open_], values11,
+        if not len(doubles):
+            return
+        busy = np.zeros(game.defenders.shape[:2], dtype=bool)
+        held = [(c, j) for c, copy in enumerate(game.copies) for match in copy.certified
+                for j in match.defenders]
+        if held:
+            busy[tuple(np.array(held).T)] = True
+        hedge_pairs(self.vf11, doubles[~busy[doubles[:, 0], doubles[:, 3]]], values11,
                     [copy.hedges for copy in game.copies], game.attackers, game.defenders,
                     sum(game.speeds) * self._dt, actions)
 

@@ -278,6 +278,8 @@ def copy_rows(games: Sequence[PlanGames | DefenderCopy], name: str) -> np.ndarra
     """Every copy's ``singles`` or ``doubles`` rows (``Roles``' arrays, as ``PlanGames``
     and ``DefenderCopy`` hold them), each led by its copy's index."""
     rows = [getattr(copy, name) for copy in games]
+    if len(rows) == 1:   # a game played alone: no stacking
+        return np.concatenate([np.zeros((len(rows[0]), 1), dtype=np.int64), rows[0]], axis=1)
     counts = np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
     stacked = np.empty((int(counts.sum()), 3 if name == "singles" else 4), dtype=np.int64)
     stacked[:, 0] = np.repeat(np.arange(len(rows)), counts)
