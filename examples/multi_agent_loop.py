@@ -20,8 +20,6 @@ against any defenders without this loop.)
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -32,25 +30,17 @@ import pettingzoo
 import policies  # noqa: F401  (registers reachavoid/Attackers-v1)
 from policies.attackers import target_centres
 from policies.learned import load_sb3
-from policies.registry import DEFENDERS
-from reachavoid.training.flags import defender_options, scenario_argument
+from reachavoid.training.flags import DefenderFields, config_parser, defender_options
 from reachavoid_env import AttackerStatus, Scenario, load_scenario
 from reachavoid_env.environment import STARTS
 from reachavoid_env.training_ids import PETTINGZOO_ID
 from reachavoid_env.video import RecordEpisode
-from solvers.hj.settings import TRAINING_GRIDS
 
 Hook = Callable[[np.ndarray], np.ndarray]
 
 
 @dataclass
-class Config:
-    scenario: str = field(default="paper_6v2", metadata={
-        "type": scenario_argument(), "help": "built-in name or TOML file"})
-    defenders: str = field(default="hj", metadata={
-        "choices": DEFENDERS, "help": "scripted defenders"})
-    grid1: int = field(default=TRAINING_GRIDS.grid1, metadata={"help": "hj defenders' 1v1 grid"})
-    grid2: int = field(default=TRAINING_GRIDS.grid2, metadata={"help": "hj defenders' 2v1 grid"})
+class Config(DefenderFields):
     policy: str = field(default="toward-target", metadata={
         "help": "toward-target, random, or a Stable-Baselines3 PPO .zip"})
     action_repeat: int | None = field(default=None, metadata={
@@ -138,12 +128,7 @@ def main(config: Config) -> None:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    for option in dataclasses.fields(Config):
-        kwargs = {"default": option.default, **option.metadata}
-        kwargs.setdefault("type", str if option.default is None else type(option.default))
-        parser.add_argument(f"--{option.name.replace('_', '-')}", **kwargs)
+    parser = config_parser(Config, __doc__.split("\n\n")[0])
     config = Config(**vars(parser.parse_args()))
     if config.policy not in ("toward-target", "random") and not config.policy.endswith(".zip"):
         parser.error(f"--policy: expected toward-target, random or a .zip file, "

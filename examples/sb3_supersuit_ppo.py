@@ -12,8 +12,6 @@ attacker and game copy; ``black_death_v3`` keeps the slots of attackers that hav
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
 import sys
 from dataclasses import dataclass, field
 from typing import Any
@@ -22,30 +20,20 @@ import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.logger import KVWriter, Logger
 
-from policies.registry import DEFENDERS
-from reachavoid.training.flags import attackers_from_args, scenario_argument
+from reachavoid.training.flags import (
+    DefenderFields,
+    RewardFields,
+    attackers_from_args,
+    config_parser,
+)
 from reachavoid_env.integrations.supersuit import sb3_vec_env
-from solvers.hj.settings import TRAINING_GRIDS
 
 
 @dataclass
-class Config:
-    scenario: str = field(default="paper_6v2", metadata={
-        "type": scenario_argument(), "help": "built-in name or TOML file"})
-    defenders: str = field(default="hj", metadata={
-        "choices": DEFENDERS, "help": "scripted defenders"})
-    grid1: int = field(default=TRAINING_GRIDS.grid1, metadata={"help": "hj defenders' 1v1 grid"})
-    grid2: int = field(default=TRAINING_GRIDS.grid2, metadata={"help": "hj defenders' 2v1 grid"})
+class Config(RewardFields, DefenderFields):
     copies: int = field(default=2, metadata={"help": "game copies in the vector env"})
     timesteps: int = field(default=100_000, metadata={"help": "agent steps"})
     n_steps: int = field(default=256, metadata={"help": "PPO rollout per slot"})
-    action_repeat: int = field(default=10, metadata={"help": "game steps per agent step"})
-    shaping: float = field(default=1.0, metadata={"help": "weight of the progress reward"})
-    timeout_reward: float = field(default=-1.0, metadata={
-        "help": "reward for still being in play at the time limit"})
-    team_reward: float = field(default=0.0, metadata={
-        "help": "weight of the teammates' arrivals (+1) and captures (-1) in each attacker's "
-                "reward"})
     seed: int = 0               # PPO's seed (torch, numpy, the games' resets)
 
 
@@ -80,9 +68,5 @@ def main(config: Config) -> None:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    for option in dataclasses.fields(Config):
-        kwargs = {"default": option.default, "type": type(option.default), **option.metadata}
-        parser.add_argument(f"--{option.name.replace('_', '-')}", **kwargs)
+    parser = config_parser(Config, __doc__.split("\n\n")[0])
     main(Config(**vars(parser.parse_args())))

@@ -15,8 +15,6 @@ and reward, and ``done`` True; its steps are left out of the loss
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -28,36 +26,28 @@ from torchrl.collectors import Collector
 from torchrl.envs import EnvBase
 from torchrl.modules import MultiAgentMLP, ProbabilisticActor, TanhNormal
 
-from policies.registry import DEFENDERS
-from reachavoid.training.flags import attackers_from_args, scenario_argument
+from reachavoid.training.flags import (
+    DefenderFields,
+    RewardFields,
+    attackers_from_args,
+    config_parser,
+    scenario_field,
+)
 from reachavoid.training.mappo import LOSSES, ppo_epochs, ppo_loss
 from reachavoid_env import AttackerStatus
 from reachavoid_env.integrations.torchrl import torchrl_env
-from solvers.hj.settings import TRAINING_GRIDS
 
 GROUP = "attacker"
 
 
 @dataclass
-class Config:
-    scenario: str = field(default="paper_2v1", metadata={
-        "type": scenario_argument(), "help": "built-in name or TOML file"})
-    defenders: str = field(default="hj", metadata={
-        "choices": DEFENDERS, "help": "scripted defenders"})
-    grid1: int = field(default=TRAINING_GRIDS.grid1, metadata={"help": "hj defenders' 1v1 grid"})
-    grid2: int = field(default=TRAINING_GRIDS.grid2, metadata={"help": "hj defenders' 2v1 grid"})
+class Config(RewardFields, DefenderFields):
+    scenario: str = scenario_field("paper_2v1")
     iterations: int = 20        # collections, each followed by PPO epochs
     frames: int = field(default=2000, metadata={"help": "env steps per iteration"})
     epochs: int = 4             # passes over each iteration's batch
     minibatch: int = 500        # env steps per gradient step
     lr: float = 3e-4            # Adam's learning rate
-    action_repeat: int = field(default=10, metadata={"help": "game steps per agent step"})
-    shaping: float = field(default=1.0, metadata={"help": "weight of the progress reward"})
-    timeout_reward: float = field(default=-1.0, metadata={
-        "help": "reward for still being in play at the time limit"})
-    team_reward: float = field(default=0.0, metadata={
-        "help": "weight of the teammates' arrivals (+1) and captures (-1) in each attacker's "
-                "reward"})
     seed: int = 0               # torch's and the env's seed
 
 
@@ -123,9 +113,5 @@ def main(config: Config) -> None:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    for option in dataclasses.fields(Config):
-        kwargs = {"default": option.default, "type": type(option.default), **option.metadata}
-        parser.add_argument(f"--{option.name.replace('_', '-')}", **kwargs)
+    parser = config_parser(Config, __doc__.split("\n\n")[0])
     main(Config(**vars(parser.parse_args())))

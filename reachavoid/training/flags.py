@@ -1,13 +1,16 @@
-"""The training scripts' shared flags: the scripted defenders (``add_defender_arguments``,
-``defender_options``), the rewards (``add_reward_arguments``, ``reward_options``), the
-attacker-only env they make (``attackers_from_args``), and every number of a script checked
-before any work (``check_ranges``); each bad value is argparse's one-line error naming the
-flag, exit status 2."""
+"""The training scripts' shared flags: the scripted defenders (``DefenderFields``,
+``add_defender_arguments``, ``defender_options``), the rewards (``RewardFields``,
+``add_reward_arguments``, ``reward_options``), the attacker-only env they make
+(``attackers_from_args``), a script's config dataclass as its flags (``config_parser``),
+and every number of a script checked before any work (``check_ranges``); each bad value is
+argparse's one-line error naming the flag, exit status 2."""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 from policies.registry import DEFENDERS
@@ -54,20 +57,73 @@ def check_ranges(parser: argparse.ArgumentParser, args: argparse.Namespace,
             parser.error(str(err))
 
 
+def scenario_field(default: str) -> Any:
+    """The config field ``--scenario`` (checked to load) with this default."""
+    return field(default=default, metadata={"type": scenario_argument(),
+                                            "help": "built-in name or TOML file"})
+
+
+@dataclass
+class DefenderFields:
+    """The scripted defenders a training script plays against, as fields of its config
+    dataclass (a subclass may give other defaults): ``--scenario`` (checked to load),
+    ``--defenders``, ``--grid1`` and ``--grid2`` (coarse tubes by default, so a run starts
+    in seconds; ``defender_options`` reads them)."""
+
+    scenario: str = scenario_field("paper_6v2")
+    defenders: str = field(default="hj", metadata={
+        "choices": DEFENDERS, "help": "scripted defenders"})
+    grid1: int = field(default=TRAINING_GRIDS.grid1, metadata={"help": "hj defenders' 1v1 grid"})
+    grid2: int = field(default=TRAINING_GRIDS.grid2, metadata={"help": "hj defenders' 2v1 grid"})
+
+
+@dataclass
+class RewardFields:
+    """The attackers' rewards, as fields of a training script's config dataclass:
+    ``--action-repeat`` (10 game steps per agent step), ``--shaping`` (1),
+    ``--timeout-reward`` (-1: in the game only arrival wins, so hiding until the time limit
+    scores as a loss) and ``--team-reward`` (0: the views' ``team_reward``, each attacker's
+    share of its teammates' arrivals and captures); ``reward_options`` reads them."""
+
+    action_repeat: int = field(default=10, metadata={"help": "game steps per agent step"})
+    shaping: float = field(default=1.0, metadata={"help": "weight of the progress reward"})
+    timeout_reward: float = field(default=-1.0, metadata={
+        "help": "reward for still being in play at the time limit"})
+    team_reward: float = field(default=0.0, metadata={
+        "help": "weight of the teammates' arrivals (+1) and captures (-1) in each attacker's "
+                "reward"})
+
+
+def _add_field(parser: argparse.ArgumentParser, option: dataclasses.Field, default: Any,
+               **changes: Any) -> None:
+    """``option`` as a ``--flag`` (``_`` as ``-``) with ``default``: its metadata (help,
+    choices, type...) over ``type(default)`` (``str`` where the default is ``None``)."""
+    kwargs = {"default": default, **option.metadata, **changes}
+    kwargs.setdefault("type", str if default is None else type(default))
+    parser.add_argument(f"--{option.name.replace('_', '-')}", **kwargs)
+
+
+def config_parser(config: type, description: str) -> argparse.ArgumentParser:
+    """The parser of a script's config dataclass ``config``: one ``--flag`` per field, its
+    default shown in the help; ``config(**vars(parser.parse_args()))`` is the config."""
+    parser = argparse.ArgumentParser(description=description,
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    for option in dataclasses.fields(config):
+        _add_field(parser, option, option.default)
+    return parser
+
+
 def add_defender_arguments(parser: argparse.ArgumentParser, scenario: str = "paper_6v2",
                            defenders: str = "hj", library: bool = False) -> None:
-    """The training scripts' ``--scenario`` (a map library too when the script takes one:
-    ``library``; checked to load), ``--defenders``, ``--grid1`` and ``--grid2`` (coarse tubes
-    by default, so a run starts in seconds; ``defender_options`` reads them)."""
-    parser.add_argument("--scenario", default=scenario, type=scenario_argument(library),
-                        help="built-in name, TOML file or map library (folder or index.toml)"
-                        if library else "built-in name or TOML file")
-    parser.add_argument("--defenders", default=defenders, choices=DEFENDERS,
-                        help="scripted defenders (default: %(default)s)")
-    parser.add_argument("--grid1", type=int, default=TRAINING_GRIDS.grid1,
-                        help="hj defenders' 1v1 grid")
-    parser.add_argument("--grid2", type=int, default=TRAINING_GRIDS.grid2,
-                        help="hj defenders' 2v1 grid")
+    """``DefenderFields``' flags with these defaults (a map library too where the script
+    takes one: ``library``)."""
+    defaults = {"scenario": scenario, "defenders": defenders}
+    for option in dataclasses.fields(DefenderFields):
+        changes = {"help": option.metadata["help"] + " (default: %(default)s)"}
+        if option.name == "scenario" and library:
+            changes = {"type": scenario_argument(library),
+                       "help": "built-in name, TOML file or map library (folder or index.toml)"}
+        _add_field(parser, option, defaults.get(option.name, option.default), **changes)
 
 
 def defender_options(args: argparse.Namespace) -> dict[str, Any] | None:
@@ -78,22 +134,12 @@ def defender_options(args: argparse.Namespace) -> dict[str, Any] | None:
 
 
 def add_reward_arguments(parser: argparse.ArgumentParser, team: bool = False) -> None:
-    """The training scripts' ``--action-repeat`` (10 game steps per agent step),
-    ``--shaping`` (1) and ``--timeout-reward`` (-1: in the game only arrival wins, so hiding
-    until the time limit scores as a loss), and with ``team`` (scripts where several
-    attackers learn) ``--team-reward`` (0: the views' ``team_reward``, each attacker's
-    share of its teammates' arrivals and captures); ``reward_options`` reads them."""
-    parser.add_argument("--action-repeat", type=int, default=10,
-                        help="game steps per agent step (default: %(default)s)")
-    parser.add_argument("--shaping", type=float, default=1.0,
-                        help="weight of the progress reward (default: %(default)s)")
-    parser.add_argument("--timeout-reward", type=float, default=-1.0,
-                        help="reward for still being in play at the time limit "
-                             "(default: %(default)s)")
-    if team:
-        parser.add_argument("--team-reward", type=float, default=0.0,
-                            help="weight of the teammates' arrivals (+1) and captures (-1) "
-                                 "in each attacker's reward (default: %(default)s)")
+    """``RewardFields``' flags, ``--team-reward`` only with ``team`` (scripts where several
+    attackers learn)."""
+    for option in dataclasses.fields(RewardFields):
+        if option.name != "team_reward" or team:
+            _add_field(parser, option, option.default,
+                       help=option.metadata["help"] + " (default: %(default)s)")
 
 
 def reward_options(args: argparse.Namespace) -> dict[str, Any]:
