@@ -326,6 +326,11 @@ def _exploit_command(subparsers: Any) -> None:
                             help=f"{item.metadata['help']} (default: %(default)s)")
     _backend_options(parser, "where the runs go", "processes of the pool, or CPUs of a local "
                      "Ray instance (default: all cores)")
+    parser.add_argument("--transfer", action="store_true",
+                        help="after the runs, play every trained team in --out against "
+                        "every named defender it was not trained against, and the "
+                        "defender's best scripted team, on the same fresh starts (each "
+                        "cell kept in --out)")
     parser.add_argument("--out", required=True, metavar="DIR",
                         help="a folder per run, and exploitability.json")
     _plot_option(parser, "draw the exploitability per defender with its intervals")

@@ -231,6 +231,7 @@ def exploit(args: argparse.Namespace) -> int:
     then ``exploitability.json``, the plot and a line per defender."""
     from policies.registry import DEFENDERS
     from reachavoid.training import exploit as best_response
+    from reachavoid.training import transfer
     from reachavoid.training.budget import Budget, check_budget
 
     methods = defender_methods(args.defenders)
@@ -259,11 +260,19 @@ def exploit(args: argparse.Namespace) -> int:
         raise reported(err) from None
     result = best_response.exploit(game, budget, methods, args.seeds, out, args.backend,
                                    args.workers, args.address)
+    if args.transfer:
+        transfer.transfer(game, {method: entry["best_scripted"]
+                                 for method, entry in result["defenders"].items()},
+                          budget.episodes, out, args.backend, args.workers, args.address)
+    result["defenders"] = {method: transfer.defender_entry(entry, method, out)
+                           for method, entry in result["defenders"].items()}
     write_json(result_path, result, indent=1)
     if args.plot:
         best_response.plot(result, args.plot)
     for method, entry in result["defenders"].items():
         print(f"{method}: exploitability {entry['mean_exploitability']:+.3f} over "
-              f"{len(entry['runs'])} seed(s) (best scripted team: {entry['best_scripted']})")
+              f"{len(entry['runs'])} seed(s) (best scripted team: {entry['best_scripted']})"
+              + (f"; strongest attack known {entry['strongest_arrival_rate']:.3f} "
+                 f"({entry['strongest_team']})" if "strongest_team" in entry else ""))
     print(f"JSON: {result_path}" + (f"\nplot: {args.plot}" if args.plot else ""))
     return 0
