@@ -12,107 +12,60 @@ attackers of ``--envs`` copies stepped together learning against ``--defenders``
     python examples/benchmarl_mappo.py --task attackers --scenario paper_6v2 --envs 16 \
         --frames 200000 --out runs/benchmarl_attackers
 
-BenchMARL writes its logs (CSV) and JSON results under ``--out``.
+BenchMARL writes its logs (CSV) and JSON results under ``--out``; the script prints each
+group's mean losses of every iteration (``group, loss_objective x, loss_critic y, ...``).
+``--batch`` must be a multiple of ``--envs`` with ``--task attackers``. The experiment is
+``reachavoid.training.benchmarl_experiment`` (``MappoSettings``, ``run``).
 """
 
 from __future__ import annotations
 
-import argparse
-from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
-import torch
-from benchmarl.algorithms import MappoConfig
-from benchmarl.environments.common import TaskClass
-from benchmarl.experiment import Callback, Experiment, ExperimentConfig
-from benchmarl.models import MlpConfig
-from tensordict import TensorDictBase
-
-from reachavoid.training.benchmarl_task import ScriptedDefendersTask
-from reachavoid.training.flags import add_defender_arguments, defender_options
-from reachavoid_env.integrations.benchmarl import ReachAvoidTask
+from reachavoid.training.benchmarl_experiment import TASKS, MappoSettings, run
+from reachavoid.training.flags import (
+    DefenderFields,
+    config_parser,
+    defender_options,
+    scenario_field,
+)
 
 
-class Losses(Callback):
-    """Keeps each group's mean losses of every training iteration."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.rows: list[dict[str, Any]] = []
-
-    def on_train_end(self, training_td: TensorDictBase, group: str) -> None:
-        self.rows.append({"group": group} | {
-            key: training_td[key].mean().item() for key in training_td.keys()
-            if key.startswith("loss_")})
-
-
-def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--task", choices=("game", "attackers"), default="game",
-                        help="game: both teams learn; attackers: the attackers learn against "
-                             "scripted --defenders")
-    add_defender_arguments(parser, scenario="paper_2v1")
-    parser.add_argument("--envs", type=int, default=16,
-                        help="copies stepped together (--task attackers)")
-    parser.add_argument("--max-cycles", type=int, default=300, help="steps per episode")
-    parser.add_argument("--frames", type=int, default=60_000,
-                        help="total env steps (a batched step counts one per copy)")
-    parser.add_argument("--batch", type=int, default=1000, help="env steps per iteration")
-    parser.add_argument("--shaping", type=float, default=1.0)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", type=Path, default=Path("runs/benchmarl"))
-    args = parser.parse_args(argv)
-    if args.envs < 1:
-        parser.error(f"--envs: expected at least 1, got {args.envs}")
-    if args.task == "attackers" and args.batch % args.envs:
-        parser.error(f"--batch: a batched step is --envs ({args.envs}) env steps, so "
-                     f"--batch must be a multiple of it, got {args.batch}")
-    return args
+@dataclass
+class Config(DefenderFields):
+    scenario: str = scenario_field("paper_2v1")
+    task: str = field(default="game", metadata={
+        "choices": TASKS, "help": "game: both teams learn; attackers: the attackers learn "
+                                  "against scripted --defenders"})
+    envs: int = field(default=16, metadata={"help": "copies stepped together (--task attackers)"})
+    max_cycles: int = field(default=300, metadata={"help": "steps per episode"})
+    frames: int = field(default=60_000, metadata={
+        "help": "total env steps (a batched step counts one per copy)"})
+    batch: int = field(default=1000, metadata={"help": "env steps per iteration"})
+    shaping: float = 1.0        # weight of the progress reward
+    seed: int = 0               # BenchMARL's seed
+    out: Path = Path("runs/benchmarl")  # BenchMARL's logs and results
 
 
-def build_task(args: argparse.Namespace) -> TaskClass:
-    """The BenchMARL task of ``--task``."""
-    game = {"scenario": args.scenario, "max_cycles": args.max_cycles, "shaping": args.shaping}
-    if args.task == "game":
-        return ReachAvoidTask.REACH_AVOID.get_task(game)
-    return ScriptedDefendersTask.ATTACKERS.get_task(
-        game | {"defenders": args.defenders, "defender_options": defender_options(args)})
-
-
-def build_experiment(args: argparse.Namespace, callbacks: list[Callback]) -> Experiment:
-    task = build_task(args)
-    config = ExperimentConfig.get_from_yaml()
-    config.max_n_frames = args.frames
-    config.on_policy_collected_frames_per_batch = args.batch
-    config.on_policy_n_envs_per_worker = args.envs if args.task == "attackers" else 1
-    config.on_policy_minibatch_size = min(400, args.batch)
-    config.on_policy_n_minibatch_iters = 4
-    config.evaluation = False
-    config.render = False
-    config.loggers = ["csv"]
-    config.save_folder = args.out
-    config.checkpoint_at_end = False
-    return Experiment(task=task, algorithm_config=MappoConfig.get_from_yaml(),
-                      model_config=MlpConfig.get_from_yaml(),
-                      critic_model_config=MlpConfig.get_from_yaml(), seed=args.seed,
-                      config=config, callbacks=callbacks)
-
-
-def main(argv: Sequence[str] | None = None) -> tuple[Experiment, list[dict[str, Any]]]:
-    """Runs the experiment; returns it and the per-iteration losses of each group."""
-    args = parse_args(argv)
-    torch.set_num_threads(1)    # small networks: more threads only contend for the cores
-    args.out.mkdir(parents=True, exist_ok=True)
-    losses = Losses()
-    experiment = build_experiment(args, [losses])
-    experiment.run()
-    for row in losses.rows:
+def main(config: Config) -> None:
+    """Runs the experiment; prints the per-iteration losses of each group."""
+    _, rows = run(MappoSettings(
+        task=config.task, scenario=config.scenario, defenders=config.defenders,
+        defender_options=defender_options(config), envs=config.envs,
+        max_cycles=config.max_cycles, frames=config.frames, batch=config.batch,
+        shaping=config.shaping, seed=config.seed, out=config.out))
+    for row in rows:
         print(", ".join(f"{key} {value:.4g}" if isinstance(value, float) else str(value)
                         for key, value in row.items()), flush=True)
-    return experiment, losses.rows
 
 
 if __name__ == "__main__":
-    main()
+    parser = config_parser(Config, __doc__.split("\n\n")[0])
+    config = Config(**vars(parser.parse_args()))
+    if config.envs < 1:
+        parser.error(f"--envs: expected at least 1, got {config.envs}")
+    if config.task == "attackers" and config.batch % config.envs:
+        parser.error(f"--batch: a batched step is --envs ({config.envs}) env steps, so "
+                     f"--batch must be a multiple of it, got {config.batch}")
+    main(config)

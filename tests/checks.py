@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import subprocess
 import sys
 import warnings
 from pathlib import Path
-from types import ModuleType
 
 import pytest
 
@@ -86,13 +84,3 @@ def records(lines: list[str]) -> list[dict[str, float]]:
             continue
     return rows
 
-
-def example(name: str) -> ModuleType:
-    """Import ``examples/<name>.py`` as the module ``example_<name>`` (in ``sys.modules``,
-    so that its classes pickle)."""
-    spec = importlib.util.spec_from_file_location(f"example_{name}",
-                                                  ROOT / "examples" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module

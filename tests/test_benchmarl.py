@@ -1,5 +1,5 @@
 """BenchMARL (benchmarl extra, its own virtual environment: it pins torchrl < 0.12): the task
-class and a MAPPO experiment of a few thousand frames."""
+classes, MAPPO experiments of a few thousand frames and the example as a command."""
 
 from __future__ import annotations
 
@@ -12,8 +12,9 @@ import pytest
 
 pytest.importorskip("benchmarl")
 
-from checks import ENV, ROOT, example  # noqa: E402
+from checks import ENV, ROOT, run_example  # noqa: E402
 
+from reachavoid.training.benchmarl_experiment import MappoSettings, run  # noqa: E402
 from reachavoid_env.integrations.benchmarl import ReachAvoidTask  # noqa: E402
 
 
@@ -30,9 +31,7 @@ def test_task_makes_the_game_with_role_groups_and_state():
 
 
 def test_mappo_experiment_runs_a_few_thousand_frames(tmp_path):
-    mappo = example("benchmarl_mappo")
-    experiment, rows = mappo.main(["--frames", "2000", "--batch", "1000", "--out",
-                                   str(tmp_path)])
+    experiment, rows = run(MappoSettings(frames=2000, batch=1000, out=tmp_path))
     assert experiment.total_frames == 2000 and experiment.n_iters_performed == 2
     assert sorted(row["group"] for row in rows) == ["attacker", "attacker", "defender",
                                                     "defender"]
@@ -68,17 +67,12 @@ def test_attackers_task_refuses_an_unknown_key_when_made():
         ScriptedDefendersTask.ATTACKERS.get_task({"scenario": "paper_6v2", "defender": "hj"})
 
 
-def attackers_run(tmp_path, defenders: str, *grids: str):
-    mappo = example("benchmarl_mappo")
-    return mappo.main(["--task", "attackers", "--scenario", "paper_6v2", "--defenders",
-                       defenders, *grids, "--envs", "8", "--max-cycles", "100", "--frames",
-                       "320", "--batch", "160", "--out", str(tmp_path)])
-
-
-@pytest.mark.parametrize("defenders, grids", [("greedy", []),
-                                               ("hj", ["--grid1", "11", "--grid2", "8"])])
-def test_mappo_trains_the_attackers_against_scripted_defenders(tmp_path, defenders, grids):
-    experiment, rows = attackers_run(tmp_path, defenders, *grids)
+@pytest.mark.parametrize("defenders, options", [
+    ("greedy", None), ("hj", {"grid1": 11, "grid2": 8, "progress": False})])
+def test_mappo_trains_the_attackers_against_scripted_defenders(tmp_path, defenders, options):
+    experiment, rows = run(MappoSettings(
+        task="attackers", scenario="paper_6v2", defenders=defenders, defender_options=options,
+        envs=8, max_cycles=100, frames=320, batch=160, out=tmp_path))
     assert experiment.total_frames == 320 and experiment.n_iters_performed == 2
     assert list(experiment.group_map) == ["attacker"]          # the defenders do not learn
     assert list(experiment.losses) == ["attacker"]
@@ -91,12 +85,31 @@ def test_mappo_trains_the_attackers_against_scripted_defenders(tmp_path, defende
                                        "hj": "BatchHJDefenders"}[defenders]
 
 
-def test_the_example_refuses_a_batch_that_is_not_whole_copies(capsys):
-    mappo = example("benchmarl_mappo")
-    with pytest.raises(SystemExit) as ended:
-        mappo.parse_args(["--task", "attackers", "--envs", "16", "--batch", "1000"])
-    assert ended.value.code == 2
-    assert "--batch: a batched step is --envs (16) env steps" in capsys.readouterr().err
+def test_the_example_trains_the_attackers_and_prints_their_losses(tmp_path):
+    lines = run_example("benchmarl_mappo", "--task", "attackers", "--scenario", "paper_6v2",
+                        "--defenders", "greedy", "--envs", "8", "--max-cycles", "100",
+                        "--frames", "320", "--batch", "160", "--out", str(tmp_path))
+    printed = [line.split(", ") for line in lines
+               if line.startswith(("attacker, ", "defender, "))]
+    assert [items[0] for items in printed] == ["attacker", "attacker"]   # group, iteration
+    for items in printed:
+        row = dict(item.rsplit(" ", 1) for item in items[1:])
+        for key in ("loss_objective", "loss_critic"):
+            assert math.isfinite(float(row[key]))
+    assert any(tmp_path.iterdir())        # BenchMARL's logs
+
+
+@pytest.mark.parametrize("envs, message", [
+    ("16", "--batch: a batched step is --envs (16) env steps"),
+    ("0", "--envs: expected at least 1, got 0")])
+def test_the_example_refuses_no_copies_or_a_batch_that_is_not_whole_copies(envs, message):
+    done = subprocess.run([sys.executable, str(ROOT / "examples" / "benchmarl_mappo.py"),
+                           "--task", "attackers", "--envs", envs, "--batch", "1000"],
+                          capture_output=True, text=True, timeout=300, cwd=ROOT,
+                          env={**ENV, "PYTHONPATH": str(ROOT)})
+    assert done.returncode == 2 and done.stdout == ""
+    last = done.stderr.splitlines()[-1]
+    assert last.startswith("benchmarl_mappo.py: error: ") and message in last, done.stderr
 
 
 def test_v2_task_takes_discrete_actions():
