@@ -34,18 +34,22 @@ from reachavoid.training.flags import (
 
 @dataclass
 class Config(DefenderFields):
-    scenario: str = scenario_field("paper_2v1")
-    task: str = field(default="game", metadata={
+    scenario: str = scenario_field(MappoSettings.scenario)
+    task: str = field(default=MappoSettings.task, metadata={
         "choices": TASKS, "help": "game: both teams learn; attackers: the attackers learn "
                                   "against scripted --defenders"})
-    envs: int = field(default=16, metadata={"help": "copies stepped together (--task attackers)"})
-    max_cycles: int = field(default=300, metadata={"help": "steps per episode"})
-    frames: int = field(default=60_000, metadata={
+    envs: int = field(default=MappoSettings.envs, metadata={
+        "help": "copies stepped together (--task attackers)"})
+    max_cycles: int = field(default=MappoSettings.max_cycles, metadata={
+        "help": "steps per episode"})
+    frames: int = field(default=MappoSettings.frames, metadata={
         "help": "total env steps (a batched step counts one per copy)"})
-    batch: int = field(default=1000, metadata={"help": "env steps per iteration"})
-    shaping: float = 1.0        # weight of the progress reward
-    seed: int = 0               # BenchMARL's seed
-    out: Path = Path("runs/benchmarl")  # BenchMARL's logs and results
+    batch: int = field(default=MappoSettings.batch, metadata={"help": "env steps per iteration"})
+    shaping: float = field(default=MappoSettings.shaping, metadata={
+        "help": "weight of the progress reward"})
+    seed: int = field(default=MappoSettings.seed, metadata={"help": "BenchMARL's seed"})
+    out: Path = field(default=MappoSettings.out, metadata={
+        "help": "BenchMARL's logs and results"})
 
 
 def main(config: Config) -> None:
