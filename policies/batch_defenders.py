@@ -52,7 +52,7 @@ from policies.lookups import (
 )
 from policies.steering import PlanGames, Tempo, copy_rows, hedge_pairs, play_plan
 from policies.strategy import CERTIFICATE_CELLS, Program, Spare, Strategy, team_table
-from policies.tube_states import control_headings, team_states, team_values
+from policies.tube_states import play_teams, team_values
 from policies.tubes import check_tube, tube_1v1, tube_2v1
 from reachavoid_env import BatchState, GameState, Overlay, Scenario
 from reachavoid_env.game_state import AttackerStatus
@@ -197,7 +197,9 @@ class BatchAssignmentDefenders:
         held = wins.held(game, self.strategy.certifies)
         decided = self._decide(game, wins, held)
         self._play_games(game, wins, decided, out)
-        self._play_teams(game, out)
+        for c, copy in enumerate(game.copies):
+            play_teams(self.vf12, copy.decision.assignment.shared, game.attackers[c],
+                       game.defenders[c], out[c])
         if self.strategy.certifies:
             self._hedge_pairs(game, decided[0].values11, out)
         if self.strategy.plans:
@@ -313,19 +315,6 @@ class BatchAssignmentDefenders:
         hedge_pairs(self.vf11, doubles[~busy[doubles[:, 0], doubles[:, 3]]], values11,
                     [copy.hedges for copy in game.copies], game.attackers, game.defenders,
                     sum(game.speeds) * self._dt, actions)
-
-    def _play_teams(self, game: _Batch, actions: np.ndarray) -> None:
-        """Both defenders of every team play the 1 vs 2 optimal controls."""
-        for c, copy in enumerate(game.copies):
-            if not copy.decision.assignment.shared:
-                continue
-            attackers, defenders = game.attackers[c], game.defenders[c]
-            teams = np.array(copy.decision.assignment.shared)
-            states = team_states(attackers, defenders, teams)
-            for column, player in ((1, "D1"), (2, "D2")):
-                j = teams[:, column]
-                actions[c, j] = control_headings(self.vf12.control(states, player),
-                                                 attackers[teams[:, 0]] - defenders[j])
 
     def _play_plan(self, game: _Batch, actions: np.ndarray) -> None:
         """The team's intercept plan in every live copy at once

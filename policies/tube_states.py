@@ -1,11 +1,13 @@
-"""The states at which the defenders read their tubes, and the heading a vanished control
-falls back to.
+"""The states at which the defenders read their tubes, the heading a vanished control
+falls back to, and the teams' 1 vs 2 controls.
 
 Index pairs here, as everywhere in the defenders, are ``(attacker, defender)``: the axes
 ``(M, N)`` of the step's tables (``solvers.assignment`` states the order).
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -63,3 +65,18 @@ def team_values(vf12: ValueFunction | None, state: GameState, games: Matches) ->
         state.attacker_positions, state.defender_positions,
         np.column_stack([games.attackers[teams, 0], games.defenders[teams]])))
     return values
+
+
+def play_teams(vf12: ValueFunction | None, teams: Sequence[tuple[int, int, int]],
+               attackers: np.ndarray, defenders: np.ndarray, actions: np.ndarray) -> None:
+    """Both defenders of every team ``(attacker, defender 1, defender 2)`` of one copy play
+    the 1 vs 2 optimal controls: written into ``actions`` ``(N, 2)`` (headings, fractions
+    of the defenders' speed); nothing without teams."""
+    if not teams:
+        return
+    shared = np.array(teams)
+    states = team_states(attackers, defenders, shared)
+    for column, player in ((1, "D1"), (2, "D2")):
+        j = shared[:, column]
+        actions[j] = control_headings(vf12.control(states, player),
+                                      attackers[shared[:, 0]] - defenders[j])
