@@ -1,5 +1,6 @@
 """The floor plan: dependencies point one way, reachavoid -> policies -> solvers ->
-reachavoid_env, and docs/design.md names every module of the tree."""
+reachavoid_env, docs/design.md names every module of the tree, and no module or class is
+over the house's sizes."""
 
 from __future__ import annotations
 
@@ -37,6 +38,36 @@ def test_imports_point_down(package):
     upward = {str(path.relative_to(ROOT)): sorted(imported_packages(path) & forbidden)
               for path in modules(package)}
     assert {path: names for path, names in upward.items() if names} == {}
+
+
+MAX_MODULE_LINES = 600
+MAX_CLASS_LINES = 300
+"""The house's sizes: a module (a room) of at most 600 lines, a class of at most 300."""
+
+
+def oversized(path: Path) -> list[str]:
+    """What in ``path`` is over the house's sizes: the module, or a class, with its lines."""
+    text = path.read_text()
+    lines = len(text.splitlines())
+    found = [f"module {lines}"] if lines > MAX_MODULE_LINES else []
+    found += [f"class {node.name} {node.end_lineno - node.lineno + 1}"
+              for node in ast.walk(ast.parse(text, filename=str(path)))
+              if isinstance(node, ast.ClassDef)
+              and node.end_lineno - node.lineno + 1 > MAX_CLASS_LINES]
+    return found
+
+
+def test_rooms_and_classes_keep_the_house_sizes():
+    paths = [path for folder in (*LAYERS, "benchmarks", "examples")
+             for path in sorted((ROOT / folder).rglob("*.py"))]
+    big = {str(path.relative_to(ROOT)): oversized(path) for path in paths}
+    assert {path: found for path, found in big.items() if found} == {}
+
+
+def test_the_size_check_sees_a_big_class(tmp_path):
+    body = "\n".join(f"    x{k} = {k}" for k in range(MAX_CLASS_LINES))
+    (tmp_path / "big.py").write_text(f"class Big:\n{body}\n")
+    assert oversized(tmp_path / "big.py") == [f"class Big {MAX_CLASS_LINES + 1}"]
 
 
 def test_the_check_sees_imports():
