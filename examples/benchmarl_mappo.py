@@ -30,6 +30,7 @@ from reachavoid.training.flags import (
     defender_options,
     scenario_field,
 )
+from reachavoid_env.checks import FieldError
 
 
 @dataclass
@@ -52,13 +53,18 @@ class Config(DefenderFields):
         "help": "BenchMARL's logs and results"})
 
 
-def main(config: Config) -> None:
-    """Runs the experiment; prints the per-iteration losses of each group."""
-    _, rows = run(MappoSettings(
+def settings(config: Config) -> MappoSettings:
+    """The experiment's settings (``checks.FieldError`` naming a bad field)."""
+    return MappoSettings(
         task=config.task, scenario=config.scenario, defenders=config.defenders,
         defender_options=defender_options(config), envs=config.envs,
         max_cycles=config.max_cycles, frames=config.frames, batch=config.batch,
-        shaping=config.shaping, seed=config.seed, out=config.out))
+        shaping=config.shaping, seed=config.seed, out=config.out)
+
+
+def main(config: Config) -> None:
+    """Runs the experiment; prints the per-iteration losses of each group."""
+    _, rows = run(settings(config))
     for row in rows:
         print(", ".join(f"{key} {value:.4g}" if isinstance(value, float) else str(value)
                         for key, value in row.items()), flush=True)
@@ -67,9 +73,8 @@ def main(config: Config) -> None:
 if __name__ == "__main__":
     parser = config_parser(Config, __doc__.split("\n\n")[0])
     config = Config(**vars(parser.parse_args()))
-    if config.envs < 1:
-        parser.error(f"--envs: expected at least 1, got {config.envs}")
-    if config.task == "attackers" and config.batch % config.envs:
-        parser.error(f"--batch: a batched step is --envs ({config.envs}) env steps, so "
-                     f"--batch must be a multiple of it, got {config.batch}")
+    try:
+        settings(config)
+    except FieldError as error:
+        parser.error(error.renamed("--" + error.field.replace("_", "-")))
     main(config)

@@ -15,6 +15,7 @@ pytest.importorskip("benchmarl")
 from checks import ENV, ROOT, run_example  # noqa: E402
 
 from reachavoid.training.benchmarl_experiment import MappoSettings, run  # noqa: E402
+from reachavoid_env.checks import FieldError  # noqa: E402
 from reachavoid_env.integrations.benchmarl import ReachAvoidTask  # noqa: E402
 
 
@@ -100,8 +101,8 @@ def test_the_example_trains_the_attackers_and_prints_their_losses(tmp_path):
 
 
 @pytest.mark.parametrize("envs, message", [
-    ("16", "--batch: a batched step is --envs (16) env steps"),
-    ("0", "--envs: expected at least 1, got 0")])
+    ("16", "--batch: a batched step is envs (16) env steps"),
+    ("0", "--envs: must be an integer >= 1, got 0")])
 def test_the_example_refuses_no_copies_or_a_batch_that_is_not_whole_copies(envs, message):
     done = subprocess.run([sys.executable, str(ROOT / "examples" / "benchmarl_mappo.py"),
                            "--task", "attackers", "--envs", envs, "--batch", "1000"],
@@ -110,6 +111,15 @@ def test_the_example_refuses_no_copies_or_a_batch_that_is_not_whole_copies(envs,
     assert done.returncode == 2 and done.stdout == ""
     last = done.stderr.splitlines()[-1]
     assert last.startswith("benchmarl_mappo.py: error: ") and message in last, done.stderr
+
+
+@pytest.mark.parametrize("change, field", [
+    ({"envs": 16, "batch": 1000}, "batch"), ({"envs": 0}, "envs"), ({"task": "both"}, "task"),
+    ({"frames": 0}, "frames")])
+def test_settings_refuse_a_bad_field_when_made(change, field):
+    with pytest.raises(FieldError) as raised:
+        MappoSettings(**{"task": "attackers", "envs": 10, "batch": 1000} | change)
+    assert raised.value.field == field and str(raised.value).startswith(f"{field}: ")
 
 
 def test_v2_task_takes_discrete_actions():

@@ -28,6 +28,7 @@ from benchmarl.models import MlpConfig
 from tensordict import TensorDictBase
 
 from reachavoid.training.benchmarl_task import ScriptedDefendersTask
+from reachavoid_env import checks
 from reachavoid_env.integrations.benchmarl import ReachAvoidTask
 
 TASKS = ("game", "attackers")
@@ -40,7 +41,8 @@ class MappoSettings:
     steps per episode and progress reward weight ``shaping``; for ``"attackers"`` the
     scripted ``defenders`` (with their ``defender_options``) and the ``envs`` copies stepped
     together (``batch`` a multiple of it). ``frames`` env steps in all (a batched step
-    counts one per copy), ``batch`` per iteration; ``seed``; logs under ``out``."""
+    counts one per copy), ``batch`` per iteration; ``seed``; logs under ``out``. A bad
+    value is a ``checks.FieldError`` naming its field, raised on construction."""
 
     task: str = "game"
     scenario: str = "paper_2v1"
@@ -53,6 +55,20 @@ class MappoSettings:
     shaping: float = 1.0
     seed: int = 0
     out: Path = Path("runs/benchmarl")
+
+    def __post_init__(self) -> None:
+        if self.task not in TASKS:
+            raise checks.FieldError(f"task: expected one of {', '.join(TASKS)}, got "
+                                    f"{self.task!r}", "task")
+        checks.integer(self.envs, "envs", 1)
+        checks.integer(self.max_cycles, "max_cycles", 1)
+        checks.integer(self.frames, "frames", 1)
+        checks.integer(self.batch, "batch", 1)
+        checks.real(self.shaping, "shaping")
+        if self.task == "attackers" and self.batch % self.envs:
+            raise checks.FieldError(f"batch: a batched step is envs ({self.envs}) env steps, "
+                                    f"so batch must be a multiple of it, got {self.batch}",
+                                    "batch")
 
 
 class Losses(Callback):
