@@ -45,7 +45,7 @@ def play(args: argparse.Namespace) -> int:
             attackers = attacker_spec(scenario, seed=args.seed, progress=args.progress)
             defenders = defender_spec(scenario, seed=args.seed, progress=args.progress)
         else:   # a library: the seed draws the map; the policies are built for it
-            from reachavoid_env.wrappers import PerMapPolicy
+            from reachavoid_env import PerMapPolicy
 
             attackers, defenders = (
                 PerMapPolicy(functools.partial(spec, seed=args.seed, progress=args.progress),

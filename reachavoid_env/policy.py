@@ -1,8 +1,9 @@
 """The policy protocols: ``Policy`` (one side of one game) and ``BatchPolicy`` (one side of
-K copies in one call), and the adapters between them: ``PerCopy`` (a batched policy made
-of one ``Policy`` per copy), ``PerMap`` (one batched policy per map of a library) and
-``Single`` (a batched policy played as one ``Policy``); the union of several policies'
-overlays (``merged_overlay``)."""
+K copies in one call), and the adapters between them: ``PerMapPolicy`` (one ``Policy``
+per map of a library), ``PerCopy`` (a batched policy made of one ``PerMapPolicy`` per
+copy), ``PerMap`` (one batched policy per map) and ``Single`` (a batched policy played as
+one ``Policy``); ``build_policy`` (a policy or a factory of one, checked); the union of
+several policies' overlays (``merged_overlay``)."""
 
 from __future__ import annotations
 
@@ -92,11 +93,62 @@ def map_key(scenario: Scenario) -> Scenario:
     return dataclasses.replace(scenario, attackers=None, defenders=None)
 
 
+def build_policy(source: Any, scenario: Scenario, field: str) -> Policy:
+    """A policy from ``source``: a policy object as it is, or a factory called with
+    ``scenario``. ``TypeError`` naming ``field`` otherwise."""
+    if isinstance(source, type):
+        raise TypeError(f"{field}: got the class {source.__name__}; pass an instance or a "
+                        f"factory taking the scenario")
+    if isinstance(source, Policy):
+        return source
+    if callable(source):
+        policy = source(scenario)
+        if not isinstance(policy, Policy):
+            raise TypeError(f"{field}: the factory returned {type(policy).__name__}, which has "
+                            f"no reset(scenario) and act(state)")
+        return policy
+    raise TypeError(f"{field}: expected a policy (reset(scenario), act(state)) or a factory "
+                    f"scenario -> policy, got {type(source).__name__}")
+
+
+class PerMapPolicy:
+    """A ``Policy`` per map of a library, built by ``factory`` the first time its map is
+    played (``first``, if given, at once, so that a bad factory fails early) and kept for
+    later episodes on that map. ``reset(scenario)`` picks the map's policy; ``act`` and
+    ``overlay`` are its. ``field`` names the factory in ``build_policy``'s errors."""
+
+    def __init__(self, factory: Callable[[Scenario], Policy], field: str,
+                 first: Scenario | None = None) -> None:
+        self.factory, self.field = factory, field
+        self.built: dict[Scenario, Policy] = {}
+        self.current = self._for(first) if first is not None else None
+
+    def _for(self, scenario: Scenario) -> Policy:
+        key = map_key(scenario)
+        if key not in self.built:
+            self.built[key] = build_policy(self.factory, key, self.field)
+        return self.built[key]
+
+    def reset(self, scenario: Scenario) -> None:
+        self.current = self._for(scenario)
+        self.current.reset(scenario)
+
+    def act(self, state: GameState) -> dict[str, np.ndarray]:
+        if self.current is None:
+            raise RuntimeError("act: call reset(scenario) first")
+        return self.current.act(state)
+
+    def overlay(self) -> Overlay | None:
+        overlay = getattr(self.current, "overlay", None)
+        return overlay() if overlay is not None else None
+
+
 class PerCopy:
-    """A ``BatchPolicy`` made of one ordinary ``Policy`` per copy: ``factory(scenario)``
-    builds copy ``k``'s policy for each map it plays (kept for later episodes on that
-    map), and ``act_batch`` loops ``act(states.game_state(k))``. The fallback for policies
-    without a batched class, and the reference the batched ones are tested against.
+    """A ``BatchPolicy`` made of one ordinary ``Policy`` per copy and map: copy ``k`` plays
+    a ``PerMapPolicy`` of ``factory`` (a map's policy built the first time the copy plays
+    it, kept for later episodes on that map), and ``act_batch`` loops
+    ``act(states.game_state(k))``. The fallback for policies without a batched class, and
+    the reference the batched ones are tested against.
 
     ``side`` (``"defenders"`` or ``"attackers"``) says which players' rows ``act_batch``
     returns; a player the policy gives no action (one out of the game) gets zeros.
@@ -107,33 +159,33 @@ class PerCopy:
             raise ValueError(f"side: expected 'defenders' or 'attackers', got {side!r}")
         self.factory = factory
         self.side = side
-        self.policies: list[Policy | None] = []
-        self._built: list[dict[Any, Policy]] = []
+        self._per_copy: list[PerMapPolicy | None] = []
+
+    @property
+    def policies(self) -> list[Policy | None]:
+        """Each copy's policy of its current map (``None``: a copy not reset yet)."""
+        return [None if per_map is None else per_map.current for per_map in self._per_copy]
 
     def reset_copies(self, copies: np.ndarray, scenarios: Sequence[Scenario]) -> None:
         copies = checked_copies(copies, scenarios)
         if len(copies):
-            grow = int(copies.max()) + 1 - len(self.policies)
-            self.policies += [None] * max(grow, 0)
-            self._built += [{} for _ in range(max(grow, 0))]
+            self._per_copy += [None] * max(int(copies.max()) + 1 - len(self._per_copy), 0)
         for k, scenario in zip(copies.tolist(), scenarios, strict=True):
-            key = map_key(scenario)
-            built = self._built[k]
-            if key not in built:
-                built[key] = self.factory(key)
-            self.policies[k] = built[key]
-            built[key].reset(scenario)
+            if self._per_copy[k] is None:
+                self._per_copy[k] = PerMapPolicy(self.factory, self.side)
+            self._per_copy[k].reset(scenario)
 
     def act_batch(self, states: BatchState) -> np.ndarray:
         players = states.defender_positions if self.side == "defenders" else \
             states.attacker_positions
         count, n = players.shape[:2]
-        if len(self.policies) < count or any(p is None for p in self.policies[:count]):
+        per_copy = self._per_copy[:count]
+        if len(per_copy) < count or any(p is None for p in per_copy):
             raise RuntimeError("act_batch: call reset_copies for every copy first")
         prefix = "defender_" if self.side == "defenders" else "attacker_"
         actions = np.zeros((count, n, 2), dtype=np.float32)
-        for k in range(count):
-            for name, action in self.policies[k].act(states.game_state(k)).items():
+        for k, policy in enumerate(per_copy):
+            for name, action in policy.act(states.game_state(k)).items():
                 actions[k, int(name.removeprefix(prefix))] = action
         return actions
 

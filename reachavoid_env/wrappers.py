@@ -27,7 +27,6 @@ training throughput with expensive policies; ``benchmarks/training_throughput.py
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import replace
 from typing import Any
 
 import gymnasium
@@ -40,63 +39,12 @@ from reachavoid_env.actions import action_space, control
 from reachavoid_env.environment import ReachAvoidEnv, check_agent_names
 from reachavoid_env.game_state import AttackerStatus, GameState
 from reachavoid_env.maps import ScenarioSource
-from reachavoid_env.overlay import Overlay
-from reachavoid_env.policy import Policy, merged_overlay
+from reachavoid_env.policy import PerMapPolicy, Policy, build_policy, merged_overlay
 from reachavoid_env.rewards import team_bonus, timeout
 from reachavoid_env.scenario import Scenario
 from reachavoid_env.video import realtime_fps
 
 PolicySource = Policy | Callable[[Scenario], Policy]
-
-
-def build_policy(source: Any, scenario: Scenario, field: str) -> Policy:
-    """A policy from ``source``: a policy object as it is, or a factory called with
-    ``scenario``. ``TypeError`` naming ``field`` otherwise."""
-    if isinstance(source, type):
-        raise TypeError(f"{field}: got the class {source.__name__}; pass an instance or a "
-                        f"factory taking the scenario")
-    if isinstance(source, Policy):
-        return source
-    if callable(source):
-        policy = source(scenario)
-        if not isinstance(policy, Policy):
-            raise TypeError(f"{field}: the factory returned {type(policy).__name__}, which has "
-                            f"no reset(scenario) and act(state)")
-        return policy
-    raise TypeError(f"{field}: expected a policy (reset(scenario), act(state)) or a factory "
-                    f"scenario -> policy, got {type(source).__name__}")
-
-
-class PerMapPolicy:
-    """A policy per map of a library, built by ``factory`` the first time its map is played
-    (``first``, if given, at once, so that a bad factory fails early) and kept for later
-    episodes on that map. ``reset(scenario)`` picks the map's policy; ``act`` and
-    ``overlay`` are its."""
-
-    def __init__(self, factory: Callable[[Scenario], Policy], field: str,
-                 first: Scenario | None = None) -> None:
-        self.factory, self.field = factory, field
-        self.built: dict[Scenario, Policy] = {}
-        self.current = self._for(first) if first is not None else None
-
-    def _for(self, scenario: Scenario) -> Policy:
-        key = replace(scenario, attackers=None, defenders=None)
-        if key not in self.built:
-            self.built[key] = build_policy(self.factory, key, self.field)
-        return self.built[key]
-
-    def reset(self, scenario: Scenario) -> None:
-        self.current = self._for(scenario)
-        self.current.reset(scenario)
-
-    def act(self, state: GameState) -> dict[str, np.ndarray]:
-        if self.current is None:
-            raise RuntimeError("act: call reset(scenario) first")
-        return self.current.act(state)
-
-    def overlay(self) -> Overlay | None:
-        overlay = getattr(self.current, "overlay", None)
-        return overlay() if overlay is not None else None
 
 
 def scripted_policy(source: Any, game: ReachAvoidEnv, field: str) -> Policy:

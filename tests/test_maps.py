@@ -221,7 +221,7 @@ def test_play_names_the_map_the_env_draws_without_building_one(tmp_path):
 def test_attacker_envs_over_a_library_build_defenders_per_map_once(tmp_path):
     from policies import tubes
     from reachavoid.training.views import make_attackers_parallel_env
-    from reachavoid_env.wrappers import PerMapPolicy
+    from reachavoid_env import PerMapPolicy
 
     write_library(tmp_path, SMALL, 1, 2)
     options = {"grid1": 11, "progress": False}

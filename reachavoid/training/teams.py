@@ -18,10 +18,10 @@ from policies.learned import ObservationPolicy
 from policies.registry import PolicySpec
 from reachavoid.evaluation import bootstrap_interval
 from reachavoid.training.config import Maps, game
-from reachavoid_env import AttackerStatus, Policy
+from reachavoid_env import AttackerStatus, PerMapPolicy, Policy
 from reachavoid_env.observations import ObservationConfig
 from reachavoid_env.video import RecordEpisode
-from reachavoid_env.wrappers import AttackerParallelEnv, PerMapPolicy
+from reachavoid_env.wrappers import AttackerParallelEnv
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
