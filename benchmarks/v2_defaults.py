@@ -10,10 +10,11 @@ In one run, on ``--scenario`` (``paper_2v1``) with v2's defaults unless told oth
   the first arrival (mean and largest);
 - **throughput** on one core: random-action parallel ``step`` calls per second of v2 and
   of v1 (``paper_2v1``, both egocentric), and the physics steps per second of v2
-  (decisions times ``decision_steps``), each the best of ``--repeats`` rounds (the envs
-  interleaved in every round) of ``--steps`` decisions (v1 and MPE: as many physics
-  steps); with ``mpe2`` installed also MPE2 ``simple_tag_v3`` (its default 1 good agent,
-  3 adversaries, 2 obstacles, continuous actions) in the same rounds.
+  (decisions times ``decision_steps``), each the best of ``--repeats`` wall-clock rounds
+  (the envs interleaved in every round, ``harness.alternate``) of ``--steps`` decisions
+  (v1 and MPE: as many physics steps); with ``mpe2`` installed also MPE2
+  ``simple_tag_v3`` (its default 1 good agent, 3 adversaries, 2 obstacles, continuous
+  actions) in the same rounds.
 
     taskset -c 0 python benchmarks/v2_defaults.py --json benchmarks/results/v2_defaults.json
 """
@@ -23,11 +24,11 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from harness import WALL, alternate
 from result_file import write_result
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
@@ -90,34 +91,23 @@ def shortest_path(env_kwargs: dict[str, Any], episodes: int) -> dict[str, Any]:
             "first_arrival_max": float(np.max(firsts))}
 
 
-def timer(make: Callable[[], Any], steps: int) -> Callable[[], float]:
-    """A function that runs ``steps`` parallel steps of one env (made once) with random
-    actions drawn beforehand (resets included) and returns the steps per second."""
+def stepper(make: Callable[[], Any], steps: int) -> Callable[[], int]:
+    """A harness work: ``steps`` parallel steps of one env (made once) with random actions
+    drawn beforehand (resets included); returns ``steps``."""
     env = make()
     env.reset(seed=0)
     rng = np.random.default_rng(0)
     samples = {a: [env.action_space(a).sample() for _ in range(64)]
                for a in env.possible_agents}
 
-    def run() -> float:
-        start = time.perf_counter()
+    def run() -> int:
         for i in range(steps):
             if not env.agents:
                 env.reset(seed=int(rng.integers(1 << 30)))
             env.step({a: samples[a][i % 64] for a in env.agents})
-        return steps / (time.perf_counter() - start)
+        return steps
 
     return run
-
-
-def best_rates(timers: dict[str, Callable[[], float]], repeats: int) -> dict[str, float]:
-    """The best rate of each timer over ``repeats`` rounds, the timers interleaved within
-    each round (so a burst of load on the shared machine hits all of them alike)."""
-    best = dict.fromkeys(timers, 0.0)
-    for _ in range(repeats):
-        for name, run in timers.items():
-            best[name] = max(best[name], run())
-    return best
 
 
 def main() -> None:
@@ -137,19 +127,21 @@ def main() -> None:
         figures[f"random.{key}"] = value
     for key, value in shortest_path(kwargs, args.episodes).items():
         figures[f"shortest_path.{key}"] = value
-    timers = {
-        "v2_decisions_per_s": timer(lambda: reach_avoid_v2.parallel_env(**kwargs), args.steps),
-        "v1_steps_per_s": timer(lambda: reach_avoid_v1.parallel_env(scenario=args.scenario),
-                                args.steps * args.decision_steps)}
+    works = {
+        "v2_decisions_per_s": stepper(lambda: reach_avoid_v2.parallel_env(**kwargs),
+                                      args.steps),
+        "v1_steps_per_s": stepper(lambda: reach_avoid_v1.parallel_env(scenario=args.scenario),
+                                  args.steps * args.decision_steps)}
     try:
         from mpe2 import simple_tag_v3
     except ImportError:
         print("mpe2 is not installed: no MPE2 figure")
     else:
-        timers["mpe2_simple_tag_steps_per_s"] = timer(
+        works["mpe2_simple_tag_steps_per_s"] = stepper(
             lambda: simple_tag_v3.parallel_env(continuous_actions=True, max_cycles=1000),
             args.steps * args.decision_steps)
-    rates = best_rates(timers, args.repeats)
+    rates = {name: timing.best
+             for name, timing in alternate(works, args.repeats, clock=WALL).items()}
     rates["v2_physics_steps_per_s"] = rates["v2_decisions_per_s"] * args.decision_steps
     figures.update({f"throughput.{key}": value for key, value in rates.items()})
     for key, value in figures.items():
