@@ -184,8 +184,8 @@ class PerCopy:
             raise RuntimeError("act_batch: call reset_copies for every copy first")
         prefix = "defender_" if self.side == "defenders" else "attacker_"
         actions = np.zeros((count, n, 2), dtype=np.float32)
-        for k, policy in enumerate(per_copy):
-            for name, action in policy.act(states.game_state(k)).items():
+        for k, per_map in enumerate(per_copy):   # its map's policy, without the hop
+            for name, action in per_map.current.act(states.game_state(k)).items():
                 actions[k, int(name.removeprefix(prefix))] = action
         return actions
 
