@@ -12,14 +12,21 @@ from solvers.hj.cache import cache_dir
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
-# Tubes that tests solve through the cache go to a throwaway folder, never ~/.cache.
-_CACHE = tempfile.mkdtemp(prefix="reachavoid-test-cache-")
-# The kernels compiled before (by this user) are copied in: numba finds them by file stamp.
-_KERNELS = cache_dir() / "kernels"
-if _KERNELS.is_dir() and not _KERNELS.is_symlink() and _KERNELS.stat().st_uid == os.geteuid():
-    shutil.copytree(_KERNELS, Path(_CACHE, "kernels"), symlinks=True)
-os.environ["REACHAVOID_CACHE_DIR"] = _CACHE
-atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
+# Tubes that tests solve through the cache go to a throwaway folder, never ~/.cache: one per
+# test session, made by the first process (pytest-xdist's controller) and shared by its
+# workers, so that a kernel one worker compiled the others load.
+_SHARED = "REACHAVOID_TEST_SESSION_CACHE"
+if os.environ.get("PYTEST_XDIST_WORKER") and os.environ.get(_SHARED):
+    SESSION_CACHE = Path(os.environ[_SHARED])
+else:
+    SESSION_CACHE = Path(tempfile.mkdtemp(prefix="reachavoid-test-cache-"))
+    # The kernels compiled before (by this user) are copied in: numba finds them by file stamp.
+    _KERNELS = cache_dir() / "kernels"
+    if _KERNELS.is_dir() and not _KERNELS.is_symlink() and _KERNELS.stat().st_uid == os.geteuid():
+        shutil.copytree(_KERNELS, SESSION_CACHE / "kernels", symlinks=True)
+    os.environ[_SHARED] = str(SESSION_CACHE)
+    atexit.register(shutil.rmtree, SESSION_CACHE, ignore_errors=True)
+os.environ["REACHAVOID_CACHE_DIR"] = str(SESSION_CACHE)
 
 
 @pytest.fixture
@@ -28,6 +35,31 @@ def cache_in_tmp(tmp_path, monkeypatch):
     yet made)."""
     monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(tmp_path / "cache"))
     return tmp_path / "cache"
+
+
+def _copy_present(source: str, destination: str) -> None:
+    """``shutil.copy2`` that skips a file gone meanwhile (a worker's temporary)."""
+    try:
+        shutil.copy2(source, destination)
+    except FileNotFoundError:
+        pass
+
+
+@pytest.fixture
+def new_cache(monkeypatch):
+    """A function that makes a folder this test's cache (``$REACHAVOID_CACHE_DIR``, mode 0700)
+    holding a copy of the kernels this session compiled, so that solving there does not
+    compile them again (numba finds them by file stamp, which the copy keeps)."""
+    def make(folder: Path) -> Path:
+        folder.mkdir(mode=0o700, parents=True)
+        kernels = SESSION_CACHE / "kernels"
+        if kernels.is_dir():
+            shutil.copytree(kernels, folder / "kernels", symlinks=True,
+                            copy_function=_copy_present)
+        monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(folder))
+        return folder
+
+    return make
 
 
 @pytest.fixture(scope="session")

@@ -151,8 +151,9 @@ def test_unreadable_scenario_file_is_status_2(capsys, tmp_path, monkeypatch, com
     assert err.count("\n") == 1 and f"scenario: cannot read {path!r}: Permission denied" in err
 
 
-def test_solve_2v1_fills_the_cache_of_its_grid1(cache_in_tmp, capsys):
+def test_solve_2v1_fills_the_cache_of_its_grid1(tmp_path, new_cache, capsys):
     """``solve --grid1`` sets the 1 vs 1 tube under a 2 vs 1 game, as ``play --grid1``."""
+    cache_in_tmp = new_cache(tmp_path / "cache")
     assert main(["solve", "--game", "2v1", "--grid", "8", "--grid1", "8"]) == 0
     solved = {tuple(path.name.split("-")[:2]) for path in cache_in_tmp.glob("*.vf")}
     assert solved == {("1v1", "8"), ("2v1", "8")}

@@ -226,7 +226,7 @@ def test_train_attacker_example_beats_random(tmp_path):
 
     from reachavoid.training import single as train
     report = train.main(["--defenders", "idle", "--timesteps", "8192", "--envs", "2",
-                         "--timeout-reward", "0", "--episodes", "20", "--seed", "0",
+                         "--timeout-reward", "0", "--episodes", "10", "--seed", "0",
                          "--out", str(tmp_path)])
     assert report["trained"]["arrived_rate"] > report["random"]["arrived_rate"]
     assert json.loads((tmp_path / "report.json").read_text()) == report

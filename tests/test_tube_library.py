@@ -26,31 +26,35 @@ def _values(rows):
     return {(row.map, row.game): np.load(row.path / "value.npy") for row in rows}
 
 
-def _solve_in(cache, monkeypatch, library, backend, **kwargs):
-    monkeypatch.setenv("REACHAVOID_CACHE_DIR", str(cache))
+def _solve(library, backend, **kwargs):
+    """``solve_library`` into the cache of the moment (``new_cache``)."""
     return solve_library(library, ["hj"], GRID1, GRID2, backend=backend, **kwargs)
 
 
-def test_a_library_solves_the_same_on_the_process_pool_as_serially(tmp_path, monkeypatch,
+def test_a_library_solves_the_same_on_the_process_pool_as_serially(tmp_path, new_cache,
                                                                    library):
-    serial = _solve_in(tmp_path / "serial", monkeypatch, library, "serial")
+    new_cache(tmp_path / "serial")
+    serial = _solve(library, "serial")
     assert [(row.map, row.game, row.grid) for row in serial] == [
         (sc.name, game, grid) for sc in library for game, grid in (("1v1", GRID1),
                                                                   ("2v1", GRID2))]
     assert all(row.seconds is not None and row.peak_bytes > 0 for row in serial)
-    pooled = _solve_in(tmp_path / "pool", monkeypatch, library, "process", workers=2)
+    new_cache(tmp_path / "pool")
+    pooled = _solve(library, "process", workers=2)
     assert [(row.map, row.game) for row in pooled] == [(row.map, row.game) for row in serial]
     expected, got = _values(serial), _values(pooled)
     assert all(np.array_equal(expected[key], got[key]) for key in expected)
     # Resumes: what the cache holds is loaded, not solved again.
-    again = _solve_in(tmp_path / "pool", monkeypatch, library, "serial")
+    again = _solve(library, "serial")
     assert [row.seconds for row in again] == [None] * len(serial)
 
 
-def test_a_library_solves_the_same_on_ray(tmp_path, monkeypatch, library):
+def test_a_library_solves_the_same_on_ray(tmp_path, new_cache, library):
     pytest.importorskip("ray")
-    serial = _values(_solve_in(tmp_path / "serial", monkeypatch, library, "serial"))
-    on_ray = _values(_solve_in(tmp_path / "ray", monkeypatch, library, "ray", workers=2))
+    new_cache(tmp_path / "serial")
+    serial = _values(_solve(library, "serial"))
+    new_cache(tmp_path / "ray")
+    on_ray = _values(_solve(library, "ray", workers=2))
     assert serial.keys() == on_ray.keys()
     assert all(np.array_equal(serial[key], on_ray[key]) for key in serial)
 
