@@ -19,7 +19,7 @@ from pettingzoo import ParallelEnv
 
 from reachavoid_env import checks
 from reachavoid_env.actions import action_space, control
-from reachavoid_env.environment import ReachAvoidEnv, check_agent_names
+from reachavoid_env.environment import GameView, ReachAvoidEnv, check_agent_names
 from reachavoid_env.game_state import AttackerStatus, GameState
 from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.observations import ObservationConfig
@@ -36,7 +36,7 @@ GAMMA = 0.99
 _CAPTURED, _ARRIVED = AttackerStatus.CAPTURED.code, AttackerStatus.ARRIVED.code
 
 
-class DecisionEnv(ParallelEnv, EzPickle):
+class DecisionEnv(GameView, ParallelEnv, EzPickle):
     """The reach-avoid game of ``ReachAvoidEnv`` in decisions of ``decision_steps`` physics
     steps (``reach_avoid_v2``'s docstring has the rules of v2 and its defaults).
 
@@ -271,12 +271,3 @@ class DecisionEnv(ParallelEnv, EzPickle):
         """The global state (``ReachAvoidEnv.state``)."""
         return self.game.state()
 
-    def game_state(self) -> GameState:
-        """The current ``GameState`` (``ReachAvoidEnv.game_state``)."""
-        return self.game.game_state()
-
-    def render(self) -> np.ndarray | None:
-        return self.game.render()
-
-    def close(self) -> None:
-        self.game.close()

@@ -418,3 +418,20 @@ def raw_env(**kwargs: Any) -> AECEnv:
 def env(**kwargs: Any) -> AECEnv:
     """The AEC env with PettingZoo's standard wrappers (clip actions, enforce call order)."""
     return OrderEnforcingWrapper(ClipOutOfBoundsWrapper(raw_env(**kwargs)))
+
+
+class GameView:
+    """What a view over a ``ReachAvoidEnv`` (its ``game``: the training views, v2's
+    decisions) passes straight to the game."""
+
+    game: ReachAvoidEnv
+
+    def game_state(self) -> GameState:
+        """The current ``GameState`` (``ReachAvoidEnv.game_state``)."""
+        return self.game.game_state()
+
+    def render(self) -> np.ndarray | None:
+        return self.game.render()
+
+    def close(self) -> None:
+        self.game.close()

@@ -36,8 +36,8 @@ from pettingzoo import ParallelEnv
 
 from reachavoid_env import checks
 from reachavoid_env.actions import action_space, control
-from reachavoid_env.environment import ReachAvoidEnv, check_agent_names
-from reachavoid_env.game_state import AttackerStatus, GameState
+from reachavoid_env.environment import GameView, ReachAvoidEnv, check_agent_names
+from reachavoid_env.game_state import AttackerStatus
 from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.policy import PerMapPolicy, Policy, build_policy, merged_overlay
 from reachavoid_env.rewards import team_bonus, timeout
@@ -116,10 +116,9 @@ def _metadata(metadata: dict[str, Any], game: ReachAvoidEnv, action_repeat: int,
     return {**metadata, "render_fps": realtime_fps(game.base_scenario.dt, action_repeat)}
 
 
-class _OnGame:
-    """What a training view passes straight to its ``game`` (a ``ReachAvoidEnv``)."""
+class _OnGame(GameView):
+    """What the training views share: their own options, checked, and the game they open."""
 
-    game: ReachAvoidEnv
     metadata: dict[str, Any]
 
     def _open_game(self, scenario: ScenarioSource, max_cycles: int | None,
@@ -146,14 +145,6 @@ class _OnGame:
         ``actions.TABLE``)."""
         return action if self.continuous_actions else control(agent, action)
 
-    def game_state(self) -> GameState:
-        return self.game.game_state()
-
-    def render(self) -> np.ndarray | None:
-        return self.game.render()
-
-    def close(self) -> None:
-        self.game.close()
 
 
 class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):

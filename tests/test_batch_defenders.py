@@ -87,13 +87,13 @@ def play_side_by_side(scenario, count, steps, reference, batched, watch=None):
 
 
 @pytest.mark.parametrize(("name", "count", "steps", "margin", "kinds"), [
-    ("paper_8v4", 16, 300, 1.0, {(Basis.TUBE, 1), (Basis.OPEN, 1), "solved", "pair",
+    ("paper_8v4", 16, 200, 1.0, {(Basis.TUBE, 1), (Basis.OPEN, 1), "solved", "pair",
                                  "pair kept", "single kept"}),
-    ("paper_6v2", 8, 300, 1.0, {(Basis.TUBE, 1), "solved", "pair", "pair kept",
+    ("paper_6v2", 8, 200, 1.0, {(Basis.TUBE, 1), "solved", "pair", "pair kept",
                                 "single kept"}),
     ("paper_8v4", 64, 100, 1.0, {(Basis.TUBE, 1), (Basis.OPEN, 1), "solved", "pair"}),
     # no certificate: every game of the program is played, none kept
-    ("paper_8v4", 8, 300, 0.0, {(Basis.TUBE, 1), (Basis.TUBE, 2), "solved", "pair"}),
+    ("paper_8v4", 8, 200, 0.0, {(Basis.TUBE, 1), (Basis.TUBE, 2), "solved", "pair"}),
 ])
 def test_batched_hj_plays_as_one_policy_per_copy(coarse_tubes, name, count, steps, margin,
                                                  kinds):
