@@ -52,6 +52,15 @@ def forget_expected() -> None:
     _EXPECTED_NEW.clear()
 
 
+@contextmanager
+def one_command() -> Iterator[None]:
+    """A command's run: the ``expect_new`` notes made within are dropped at its end."""
+    try:
+        yield
+    finally:
+        forget_expected()
+
+
 def _appeared(path: str | os.PathLike[str]) -> FileExistsError:
     return FileExistsError(errno.EEXIST, "a file appeared there while this ran and was kept "
                            "(pass --force to replace it)", str(path))

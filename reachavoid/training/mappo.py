@@ -51,7 +51,7 @@ from reachavoid.paths import UsageError, check_outputs
 from reachavoid.training.flags import Bounds, check_ranges
 from reachavoid.training.views import make_defenders_vector_env
 from reachavoid_env import PolicyMismatch, builtin_names, builtin_scenario
-from reachavoid_env.files import atomic_write, forget_expected
+from reachavoid_env.files import atomic_write, one_command
 from reachavoid_env.integrations.torchrl import VectorGroupEnv
 from reachavoid_env.observations import ObservationConfig
 from reachavoid_env.vector import MAX_COPIES
@@ -432,11 +432,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
 
 def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
     """The command line: parse ``argv``, train and write (``run``); the records."""
-    args = parse_args(argv)
-    try:
-        return run(args)
-    finally:
-        forget_expected()
+    with one_command():
+        return run(parse_args(argv))
 
 
 def run(args: argparse.Namespace) -> list[dict[str, Any]]:

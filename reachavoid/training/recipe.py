@@ -142,7 +142,7 @@ from reachavoid.training.views import (
     make_attacker_vector_env,
     make_attackers_vector_env,
 )
-from reachavoid_env.files import atomic_write, forget_expected, write_json
+from reachavoid_env.files import atomic_write, one_command, write_json
 from reachavoid_env.integrations.supersuit import sb3_vec_env as supersuit_vec_env
 from reachavoid_env.integrations.vector import sb3_vec_env
 
@@ -214,11 +214,8 @@ def train(args: argparse.Namespace, maps: Maps,
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     """The recipe on ``argv`` (default: the command line's arguments); returns its report
     (report.json's content)."""
-    args = parse_args(argv)
-    try:
-        return run(args)
-    finally:
-        forget_expected()
+    with one_command():
+        return run(parse_args(argv))
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:

@@ -71,7 +71,7 @@ from reachavoid.training.views import (
     make_attacker_vector_env,
 )
 from reachavoid_env import AttackerStatus, Scenario, load_scenario
-from reachavoid_env.files import atomic_write, forget_expected, write_json
+from reachavoid_env.files import atomic_write, one_command, write_json
 from reachavoid_env.integrations.vector import sb3_vec_env
 from reachavoid_env.vector import MAX_COPIES
 from reachavoid_env.video import VideoWriter
@@ -311,11 +311,8 @@ def print_table(report: dict[str, Any]) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
-    args = parse_args(argv)
-    try:
-        return run(args)
-    finally:
-        forget_expected()
+    with one_command():
+        return run(parse_args(argv))
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
