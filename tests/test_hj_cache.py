@@ -81,6 +81,7 @@ def test_an_unsafe_kernel_folder_is_refused(cache_in_tmp, tmp_path, kind):
 
 def test_no_shared_fallback_when_home_is_unusable(tmp_path, monkeypatch, capsys):
     monkeypatch.delenv("REACHAVOID_CACHE_DIR")
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)   # else the cache is there, not in HOME
     monkeypatch.setenv("HOME", "/proc/nonexistent")
     monkeypatch.setenv("TMPDIR", str(tmp_path))
     with pytest.raises(CacheLocationError, match="REACHAVOID_CACHE_DIR"):
