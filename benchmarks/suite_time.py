@@ -2,11 +2,13 @@
 earlier commit's suite as its CI ran it.
 
 Each tree (``harness.checkout``: unpacked fresh, so no compiled numba cache comes with it)
-runs its own ``tests/`` with this environment's Python, an empty ``$XDG_CACHE_HOME`` (no
-kernels compiled before) and its own pytest flags, one after the other (``--rounds``
-alternates them); the figure is the wall time of the pytest process (``harness.once``)
-and how many tests passed. By default the base is 42401d9, serial (its CI), and this
-checkout runs with ``-n auto`` (pytest-xdist, one worker per core: CI now):
+runs its own ``tests/`` with this environment's Python, an empty home folder (no kernels
+compiled before, no ``$XDG_CACHE_HOME``) and its own pytest flags, one after the other
+(``--rounds`` alternates them); the figures are the wall time of the pytest process
+(``harness.once``) and how many tests passed and failed (a failure of the earlier
+commit's is reported, not fatal; this checkout's must all pass). By default the base is
+42401d9, serial (its CI), and this checkout runs with ``-n auto`` (pytest-xdist, one
+worker per core: CI now):
 
     python benchmarks/suite_time.py --json benchmarks/results/suite_time.json
 """
@@ -21,27 +23,37 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+from typing import NamedTuple
 
 from harness import WALL, checkout, commit_of, once
 from result_file import write_result
 
 
-def suite_wall(tree: Path, flags: list[str]) -> tuple[float, int]:
-    """Wall seconds of ``pytest -q -p no:cacheprovider FLAGS`` in ``tree`` with an empty
-    cache and that tree first on the path, and the number of tests that passed; exits
-    naming the tree where the suite fails."""
-    with tempfile.TemporaryDirectory(prefix="reachavoid-suite-cache-") as cache:
-        env = dict(os.environ, PYTHONPATH=str(tree), XDG_CACHE_HOME=cache,
+class Run(NamedTuple):
+    """One pytest run: its wall seconds and the tests that passed and failed."""
+
+    seconds: float
+    passed: int
+    failed: int
+
+
+def suite_wall(tree: Path, flags: list[str]) -> Run:
+    """``pytest -q -p no:cacheprovider FLAGS`` in ``tree``, that tree first on the path and
+    an empty home folder; exits with pytest's last lines where nothing passed."""
+    with tempfile.TemporaryDirectory(prefix="reachavoid-suite-home-") as home:
+        env = dict(os.environ, PYTHONPATH=str(tree), HOME=home,
                    SDL_VIDEODRIVER="dummy", SDL_AUDIODRIVER="dummy")
-        env.pop("REACHAVOID_CACHE_DIR", None)
+        for name in ("XDG_CACHE_HOME", "REACHAVOID_CACHE_DIR", "NUMBA_CACHE_DIR"):
+            env.pop(name, None)
         done, seconds = once(lambda: subprocess.run(
             [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *flags],
             cwd=tree, env=env, capture_output=True, text=True), clock=WALL)
     summary = done.stdout.strip().splitlines()[-1] if done.stdout.strip() else ""
-    if done.returncode != 0:
-        sys.exit(f"suite_time: the suite failed in {tree}: {summary or done.stderr[-500:]}")
-    passed = re.search(r"(\d+) passed", summary)
-    return seconds, int(passed.group(1)) if passed else 0
+    counts = {word: int(number) for number, word in re.findall(r"(\d+) (passed|failed)",
+                                                                summary)}
+    if not counts.get("passed"):
+        sys.exit(f"suite_time: nothing passed in {tree}: {summary or done.stderr[-500:]}")
+    return Run(seconds, counts["passed"], counts.get("failed", 0))
 
 
 def main() -> None:
@@ -56,18 +68,21 @@ def main() -> None:
                         "(default: %(default)s)")
     parser.add_argument("--json", help="write the result record here")
     args = parser.parse_args()
-    runs: dict[str, list[tuple[float, int]]] = {"base": [], "head": []}
+    runs: dict[str, list[Run]] = {"base": [], "head": []}
     with checkout(args.base) as base, checkout("HEAD") as head:
         for round_ in range(args.rounds):
             for label, tree, flags in (("base", base, args.base_flags),
                                        ("head", head, args.flags)):
-                runs[label].append(suite_wall(tree, shlex.split(flags)))
-                seconds, passed = runs[label][-1]
-                print(f"round {round_ + 1} {label}: {passed} passed in {seconds:.0f} s",
-                      flush=True)
-    wall = {label: min(seconds for seconds, _ in kept) for label, kept in runs.items()}
+                run = suite_wall(tree, shlex.split(flags))
+                runs[label].append(run)
+                print(f"round {round_ + 1} {label}: {run.passed} passed, {run.failed} failed "
+                      f"in {run.seconds:.0f} s", flush=True)
+    if any(run.failed for run in runs["head"]):
+        sys.exit("suite_time: this checkout's suite failed (above)")
+    wall = {label: min(run.seconds for run in kept) for label, kept in runs.items()}
     figures = {"wall_s.base": round(wall["base"], 1), "wall_s.head": round(wall["head"], 1),
-               "passed.base": runs["base"][0][1], "passed.head": runs["head"][0][1],
+               "passed.base": runs["base"][0].passed, "failed.base": runs["base"][0].failed,
+               "passed.head": runs["head"][0].passed,
                "shorter_percent": round(100 * (1 - wall["head"] / wall["base"]), 1)}
     print(f"{commit_of(args.base)} ({args.base_flags or 'serial'}) {wall['base']:.0f} s, "
           f"{commit_of('HEAD')} ({args.flags}) {wall['head']:.0f} s: "
@@ -75,7 +90,7 @@ def main() -> None:
     if args.json:
         write_result(args.json, "suite_time", figures, {
             "wall_s": "wall seconds of the whole pytest run with cold caches, the best round",
-            "passed": "tests that passed",
+            "passed": "tests that passed", "failed": "tests that failed",
             "shorter_percent": "how much shorter this checkout's suite is than the base's, "
                                "percent of the base's wall time"})
 
