@@ -1,12 +1,14 @@
 """The test suite's wall time as CI runs it on a fresh machine, side by side with an
 earlier commit's suite as its CI ran it.
 
-Each tree (``harness.checkout``: unpacked fresh, so no compiled numba cache comes with it)
-runs its own ``tests/`` with this environment's Python, an empty home folder (no kernels
-compiled before, no ``$XDG_CACHE_HOME``) and its own pytest flags, one after the other
+Each commit is cloned fresh from this repository, as CI clones it (``clean_clone``: no
+compiled numba cache comes with it, and the tests that need a git checkout have one), and
+runs its own ``tests/`` with this environment's Python, an empty ``$XDG_CACHE_HOME`` (no
+kernels compiled before) and its own pytest flags, one after the other
 (``--rounds`` alternates them); the figures are the wall time of the pytest process
 (``harness.once``) and how many tests passed and failed (a failure of the earlier
-commit's is reported, not fatal; this checkout's must all pass). By default the base is
+commit's is reported, not fatal: 42401d9's no-fallback cache test fails wherever
+``$XDG_CACHE_HOME`` is set; this checkout's must all pass). By default the base is
 42401d9, serial (its CI), and this checkout runs with ``-n auto`` (pytest-xdist, one
 worker per core: CI now):
 
@@ -16,16 +18,18 @@ worker per core: CI now):
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import re
 import shlex
 import subprocess
 import sys
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
 
-from harness import WALL, checkout, commit_of, once
+from harness import ROOT, WALL, commit_of, once
 from result_file import write_result
 
 
@@ -37,18 +41,37 @@ class Run(NamedTuple):
     failed: int
 
 
+@contextlib.contextmanager
+def clean_clone(rev: str) -> Iterator[Path]:
+    """A fresh ``git clone`` of this repository at ``rev`` (detached) in a temporary folder,
+    removed on exit."""
+    with tempfile.TemporaryDirectory(prefix="reachavoid-suite-") as folder:
+        tree = Path(folder, "tree")
+        commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", rev], check=True,
+                                capture_output=True, text=True).stdout.strip()
+        subprocess.run(["git", "clone", "--quiet", str(ROOT), str(tree)], check=True)
+        subprocess.run(["git", "-C", str(tree), "checkout", "--quiet", "--detach", commit],
+                       check=True)
+        yield tree
+
+
 def suite_wall(tree: Path, flags: list[str]) -> Run:
     """``pytest -q -p no:cacheprovider FLAGS`` in ``tree``, that tree first on the path and
-    an empty home folder; exits with pytest's last lines where nothing passed."""
-    with tempfile.TemporaryDirectory(prefix="reachavoid-suite-home-") as home:
-        env = dict(os.environ, PYTHONPATH=str(tree), HOME=home,
+    an empty ``$XDG_CACHE_HOME`` (its failures printed); exits with pytest's last lines
+    where nothing passed."""
+    with tempfile.TemporaryDirectory(prefix="reachavoid-suite-cache-") as cache:
+        env = dict(os.environ, PYTHONPATH=str(tree), XDG_CACHE_HOME=cache,
                    SDL_VIDEODRIVER="dummy", SDL_AUDIODRIVER="dummy")
-        for name in ("XDG_CACHE_HOME", "REACHAVOID_CACHE_DIR", "NUMBA_CACHE_DIR"):
+        for name in ("REACHAVOID_CACHE_DIR", "NUMBA_CACHE_DIR"):
             env.pop(name, None)
         done, seconds = once(lambda: subprocess.run(
             [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *flags],
             cwd=tree, env=env, capture_output=True, text=True), clock=WALL)
-    summary = done.stdout.strip().splitlines()[-1] if done.stdout.strip() else ""
+    lines = done.stdout.strip().splitlines()
+    for line in lines:
+        if line.startswith(("FAILED", "ERROR")):
+            print(f"{tree.name}: {line}", file=sys.stderr)
+    summary = lines[-1] if lines else ""
     counts = {word: int(number) for number, word in re.findall(r"(\d+) (passed|failed)",
                                                                 summary)}
     if not counts.get("passed"):
@@ -69,7 +92,7 @@ def main() -> None:
     parser.add_argument("--json", help="write the result record here")
     args = parser.parse_args()
     runs: dict[str, list[Run]] = {"base": [], "head": []}
-    with checkout(args.base) as base, checkout("HEAD") as head:
+    with clean_clone(args.base) as base, clean_clone("HEAD") as head:
         for round_ in range(args.rounds):
             for label, tree, flags in (("base", base, args.base_flags),
                                        ("head", head, args.flags)):

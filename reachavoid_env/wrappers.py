@@ -146,7 +146,6 @@ class _OnGame(GameView):
         return action if self.continuous_actions else control(agent, action)
 
 
-
 class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
     """The attackers of a reach-avoid game as a PettingZoo ``ParallelEnv``; ``defenders``
     (a policy or a factory ``scenario -> policy``) moves the defenders every step.
