@@ -12,14 +12,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-import gymnasium
 import numpy as np
 from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 
 from reachavoid_env import checks
 from reachavoid_env.actions import action_space, control
-from reachavoid_env.environment import GameView, ReachAvoidEnv, check_agent_names
+from reachavoid_env.environment import ParallelView, ReachAvoidEnv, check_agent_names
 from reachavoid_env.game_state import AttackerStatus, GameState
 from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.observations import ObservationConfig
@@ -36,7 +35,7 @@ GAMMA = 0.99
 _CAPTURED, _ARRIVED = AttackerStatus.CAPTURED.code, AttackerStatus.ARRIVED.code
 
 
-class DecisionEnv(GameView, ParallelEnv, EzPickle):
+class DecisionEnv(ParallelView, ParallelEnv, EzPickle):
     """The reach-avoid game of ``ReachAvoidEnv`` in decisions of ``decision_steps`` physics
     steps (``reach_avoid_v2``'s docstring has the rules of v2 and its defaults).
 
@@ -107,13 +106,7 @@ class DecisionEnv(GameView, ParallelEnv, EzPickle):
         self._phi = np.zeros(self._m)
         self._last_infos: dict[str, dict[str, Any]] = {}
 
-    # ----------------------------------------------------------------- spaces
-    def observation_space(self, agent: str) -> gymnasium.spaces.Box:
-        return self.game.observation_space(agent)
-
-    def action_space(self, agent: str) -> gymnasium.spaces.Space:
-        return self._action_spaces[agent]
-
+    # --------------------------------------------------------------- settings
     @property
     def max_cycles(self) -> int:
         """Decisions before truncation (``pettingzoo.test.parallel_api_test`` sets it)."""
@@ -123,11 +116,6 @@ class DecisionEnv(GameView, ParallelEnv, EzPickle):
     def max_cycles(self, value: int) -> None:
         checks.integer(value, "max_cycles", 1, MAX_STEPS // self.decision_steps)
         self.game.max_cycles = value * self.decision_steps
-
-    @property
-    def info_format(self) -> str:
-        """``"numeric"`` or ``"readable"`` (``ReachAvoidEnv``)."""
-        return self.game.info_format
 
     @property
     def scenario(self) -> Scenario:

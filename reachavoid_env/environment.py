@@ -435,3 +435,21 @@ class GameView:
 
     def close(self) -> None:
         self.game.close()
+
+
+class ParallelView(GameView):
+    """A PettingZoo view over a ``ReachAvoidEnv``: its agents' observation spaces are the
+    game's, their action spaces the view's own ``_action_spaces``, its infos the game's."""
+
+    _action_spaces: dict[str, gymnasium.spaces.Space]
+
+    def observation_space(self, agent: str) -> gymnasium.spaces.Box:
+        return self.game.observation_space(agent)
+
+    def action_space(self, agent: str) -> gymnasium.spaces.Space:
+        return self._action_spaces[agent]
+
+    @property
+    def info_format(self) -> str:
+        """``"numeric"`` or ``"readable"`` (``ReachAvoidEnv``)."""
+        return self.game.info_format

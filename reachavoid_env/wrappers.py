@@ -36,7 +36,7 @@ from pettingzoo import ParallelEnv
 
 from reachavoid_env import checks
 from reachavoid_env.actions import action_space, control
-from reachavoid_env.environment import GameView, ReachAvoidEnv, check_agent_names
+from reachavoid_env.environment import GameView, ParallelView, ReachAvoidEnv, check_agent_names
 from reachavoid_env.game_state import AttackerStatus
 from reachavoid_env.maps import ScenarioSource
 from reachavoid_env.policy import PerMapPolicy, Policy, build_policy, merged_overlay
@@ -146,7 +146,7 @@ class _OnGame(GameView):
         return action if self.continuous_actions else control(agent, action)
 
 
-class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
+class AttackerParallelEnv(_OnGame, ParallelView, ParallelEnv, EzPickle):
     """The attackers of a reach-avoid game as a PettingZoo ``ParallelEnv``; ``defenders``
     (a policy or a factory ``scenario -> policy``) moves the defenders every step.
 
@@ -204,12 +204,6 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
         self.agents: list[str] = []
         self.state_space = game.state_space
 
-    def observation_space(self, agent: str) -> gymnasium.spaces.Box:
-        return self.game.observation_space(agent)
-
-    def action_space(self, agent: str) -> gymnasium.spaces.Space:
-        return self._action_spaces[agent]
-
     @property
     def max_cycles(self) -> int:
         """Env steps before truncation (``parallel_api_test`` sets it)."""
@@ -218,11 +212,6 @@ class AttackerParallelEnv(_OnGame, ParallelEnv, EzPickle):
     @max_cycles.setter
     def max_cycles(self, value: int) -> None:
         self.game.max_cycles = value
-
-    @property
-    def info_format(self) -> str:
-        """``"numeric"`` or ``"readable"`` (``ReachAvoidEnv``)."""
-        return self.game.info_format
 
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None,
               ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:

@@ -153,9 +153,9 @@ def test_unreadable_scenario_file_is_status_2(capsys, tmp_path, monkeypatch, com
 
 def test_solve_2v1_fills_the_cache_of_its_grid1(tmp_path, new_cache, capsys):
     """``solve --grid1`` sets the 1 vs 1 tube under a 2 vs 1 game, as ``play --grid1``."""
-    cache_in_tmp = new_cache(tmp_path / "cache")
+    cache = new_cache(tmp_path / "cache")
     assert main(["solve", "--game", "2v1", "--grid", "8", "--grid1", "8"]) == 0
-    solved = {tuple(path.name.split("-")[:2]) for path in cache_in_tmp.glob("*.vf")}
+    solved = {tuple(path.name.split("-")[:2]) for path in cache.glob("*.vf")}
     assert solved == {("1v1", "8"), ("2v1", "8")}
     assert main(["solve", "--game", "1v1", "--grid1", "8"]) == 0
     assert "1v1 value 8x8x8x8" in capsys.readouterr().out
